@@ -1,0 +1,1 @@
+"""Two-line elements and OMM: parse, validate, look up, cache and fetch."""

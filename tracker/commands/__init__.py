@@ -1,0 +1,1 @@
+"""Subcommands of ``tracker``; each module has ``register(subparsers)``."""

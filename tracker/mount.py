@@ -1,0 +1,304 @@
+"""Rotator model: the mechanical frame, rotator specs and presets, and the one motor model.
+
+Frames (see DESIGN.md): the planner works in the *mechanical* frame ``m`` in
+``[0, az_span_deg]`` counted clockwise from the CCW stop at ``stop_bearing_deg``; the true
+bearing is ``(m + stop_bearing_deg) mod 360``. Elevation above 90 means over the top (flip).
+
+The motor model (:class:`AxisMotor`, :class:`MotorModel`) is used by the planner to predict
+where the antenna will be and by the emulator to move the simulated antenna: one
+implementation, so predictions and the emulator's read-back agree by construction.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from tracker.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class RotatorSpec:
+    """What the planner and the emulator need to know about one rotator + controller.
+
+    Rates are the motor's slew rates in degrees per second at the default speed.
+    ``az_speed_rates_deg_s`` lists the azimuth rate for each speed step X1..X4 (slowest
+    first) when the controller has them. ``el_max_deg`` is ``None`` for azimuth-only rotators.
+    ``controller_maps_south`` is True when the controller takes true bearings and maps a
+    south-centred scale itself (GS-232B ``Z``); otherwise it expects mechanical degrees.
+    """
+
+    name: str
+    az_span_deg: float = 450.0
+    stop_bearing_deg: float = 0.0
+    el_min_deg: float = 0.0
+    el_max_deg: float | None = 180.0
+    az_rate_deg_s: float = 6.0
+    el_rate_deg_s: float | None = 2.7
+    az_speed_rates_deg_s: tuple[float, ...] = ()
+    start_delay_s: float = 0.0
+    resolution_deg: float = 1.0
+    park_az_deg: float = 0.0
+    park_el_deg: float = 0.0
+    controller_maps_south: bool = False
+    deadband_deg: float = 4.0
+    description: str = ""
+    extra: dict = field(default_factory=dict, compare=False)
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    @property
+    def has_elevation(self) -> bool:
+        return self.el_max_deg is not None
+
+    def validate(self) -> None:
+        def bad(key: str, value, allowed: str) -> ConfigError:
+            return ConfigError(f"rotator {self.name!r}: {key} = {value!r} is invalid; "
+                               f"allowed: {allowed}")
+
+        if not (360.0 <= self.az_span_deg <= 450.0):
+            raise bad("az_span_deg", self.az_span_deg, "360 to 450 degrees")
+        if not (0.0 <= self.stop_bearing_deg < 360.0):
+            raise bad("stop_bearing_deg", self.stop_bearing_deg,
+                      "0 to <360 (0 = north stop, 180 = south stop)")
+        if not (self.az_rate_deg_s > 0 and math.isfinite(self.az_rate_deg_s)):
+            raise bad("az_rate_deg_s", self.az_rate_deg_s, "a finite number > 0")
+        for i, r in enumerate(self.az_speed_rates_deg_s):
+            if not (r > 0 and math.isfinite(r)):
+                raise bad(f"az_speed_rates_deg_s[{i}]", r, "finite numbers > 0")
+        if self.has_elevation:
+            if not (0.0 <= self.el_min_deg < self.el_max_deg <= 180.0):
+                raise bad("el_min_deg/el_max_deg", (self.el_min_deg, self.el_max_deg),
+                          "0 <= el_min_deg < el_max_deg <= 180")
+            if self.el_rate_deg_s is None or not (
+                    self.el_rate_deg_s > 0 and math.isfinite(self.el_rate_deg_s)):
+                raise bad("el_rate_deg_s", self.el_rate_deg_s, "a finite number > 0")
+        if not (0.0 <= self.start_delay_s <= 10.0):
+            raise bad("start_delay_s", self.start_delay_s, "0 to 10 seconds")
+        if not (0.0 < self.resolution_deg <= 5.0):
+            raise bad("resolution_deg", self.resolution_deg, "> 0 and <= 5 degrees")
+        if not (0.0 <= self.deadband_deg <= 30.0):
+            raise bad("deadband_deg", self.deadband_deg, "0 to 30 degrees")
+
+    def with_(self, **changes) -> RotatorSpec:
+        return replace(self, **changes)
+
+    # Frames ---------------------------------------------------------------------------------
+
+    def bearing_of(self, m_deg):
+        """True bearing in [0, 360) of a mechanical azimuth (scalar or array)."""
+        return np.mod(np.asarray(m_deg, dtype=float) + self.stop_bearing_deg, 360.0)
+
+    def mech_of(self, bearing_deg):
+        """The lowest mechanical azimuth in [0, 360) for a true bearing (scalar or array)."""
+        return np.mod(np.asarray(bearing_deg, dtype=float) - self.stop_bearing_deg, 360.0)
+
+    def mech_candidates(self, bearing_deg: float) -> list[float]:
+        """Every mechanical azimuth within the span that points at ``bearing_deg``."""
+        m0 = float(self.mech_of(bearing_deg))
+        return [m for m in (m0, m0 + 360.0) if m <= self.az_span_deg + 1e-9]
+
+    def axis_limits(self) -> tuple[tuple[float, float], tuple[float, float] | None]:
+        el = (self.el_min_deg, self.el_max_deg) if self.has_elevation else None
+        return (0.0, self.az_span_deg), el
+
+
+def _rate(seconds: float, degrees: float) -> float:
+    return degrees / seconds
+
+
+# Published figures: Yaesu catalogue rotation times ("az 360 deg in about 58 s at 60 Hz").
+# At 50 Hz the AC motors turn 5/6 as fast.
+PRESETS: dict[str, RotatorSpec] = {
+    "G-5500": RotatorSpec(
+        name="G-5500", az_span_deg=450, stop_bearing_deg=0, el_max_deg=180,
+        az_rate_deg_s=_rate(58, 360), el_rate_deg_s=_rate(67, 180), start_delay_s=0.5,
+        deadband_deg=4.0,
+        description="Yaesu G-5500 az/el, 450 deg azimuth, 0-180 elevation (60 Hz rates)"),
+    "generic-k3ng": RotatorSpec(
+        name="generic-k3ng", az_span_deg=360, stop_bearing_deg=180, el_max_deg=90,
+        az_rate_deg_s=6.0, el_rate_deg_s=3.0, deadband_deg=3.0,
+        description="Generic K3NG Arduino controller, 360 deg south-stop, 0-90 elevation"),
+}
+
+
+def preset(name: str, mains_hz: int = 60) -> RotatorSpec:
+    """A preset rotator by case-insensitive name; ``mains_hz=50`` slows AC motors by 5/6."""
+    table = {k.lower(): v for k, v in PRESETS.items()}
+    spec = table.get(name.lower())
+    if spec is None:
+        raise ConfigError(f"unknown rotator {name!r}; known presets: {', '.join(PRESETS)} "
+                          f"(or define [rotator.{name}] in the config file)")
+    if mains_hz == 50:
+        f = 50.0 / 60.0
+        spec = spec.with_(
+            az_rate_deg_s=spec.az_rate_deg_s * f,
+            el_rate_deg_s=None if spec.el_rate_deg_s is None else spec.el_rate_deg_s * f,
+            az_speed_rates_deg_s=tuple(r * f for r in spec.az_speed_rates_deg_s),
+            name=f"{spec.name}@50Hz")
+    elif mains_hz != 60:
+        raise ConfigError(f"mains_hz = {mains_hz!r} is invalid; allowed: 50 or 60")
+    return spec
+
+
+# Motor model ----------------------------------------------------------------------------------
+
+
+class AxisMotor:
+    """One rate-limited axis, in its own degrees (mechanical azimuth or elevation).
+
+    A command is quantised to ``resolution_deg`` and clamped to ``[min_deg, max_deg]``; the
+    motor waits ``start_delay_s`` when it starts from rest or reverses, then moves at
+    ``rate_deg_s`` until it reaches the target. A command in the direction the motor is
+    already running takes effect without a new start delay. Positions are piecewise linear in
+    time, so :meth:`position` is exact and vectorised over ``t_s``.
+    """
+
+    def __init__(self, min_deg: float, max_deg: float, rate_deg_s: float,
+                 start_delay_s: float = 0.0, resolution_deg: float = 1.0,
+                 position_deg: float = 0.0, t_s: float = 0.0):
+        self.min_deg = float(min_deg)
+        self.max_deg = float(max_deg)
+        self.rate_deg_s = float(rate_deg_s)
+        self.start_delay_s = float(start_delay_s)
+        self.resolution_deg = float(resolution_deg)
+        self.jammed = False
+        self._t0 = float(t_s)          # start of the current segment
+        self._p0 = float(position_deg)  # position at _t0
+        self._target = float(position_deg)
+        self._delay = 0.0
+
+    def quantise(self, target_deg: float) -> float:
+        q = round(float(target_deg) / self.resolution_deg) * self.resolution_deg
+        return min(max(q, self.min_deg), self.max_deg)
+
+    @property
+    def target_deg(self) -> float:
+        return self._target
+
+    def position(self, t_s):
+        """Position at time(s) ``t_s`` >= the last command (scalar or array)."""
+        t = np.asarray(t_s, dtype=float)
+        if self.jammed:
+            return np.full(t.shape, self._p0) if t.ndim else float(self._p0)
+        dist = self._target - self._p0
+        travelled = np.clip((t - self._t0 - self._delay) * self.rate_deg_s, 0.0, abs(dist))
+        pos = self._p0 + math.copysign(1.0, dist) * travelled
+        return pos if t.ndim else float(pos)
+
+    def direction(self, t_s: float) -> int:
+        """+1 / -1 while moving at ``t_s``, 0 at rest."""
+        if self.jammed:
+            return 0
+        p = self.position(t_s)
+        if abs(self._target - p) < 1e-9:
+            return 0
+        return 1 if self._target > p else -1
+
+    def moving(self, t_s: float) -> bool:
+        return self.direction(t_s) != 0
+
+    def arrival_s(self) -> float:
+        """Time at which the current target is (or was) reached."""
+        return self._t0 + self._delay + abs(self._target - self._p0) / self.rate_deg_s
+
+    def command(self, target_deg: float, t_s: float) -> float:
+        """Start moving to ``target_deg`` at ``t_s``; returns the quantised, clamped target."""
+        p = self.position(t_s)
+        target = self.quantise(target_deg)
+        was = self.direction(t_s)
+        new = 0 if abs(target - p) < 1e-9 else (1 if target > p else -1)
+        if was != 0 and new == was:
+            # Relay already closed in this direction: no new start delay, but a motor that
+            # is still inside its start delay keeps waiting the rest of it.
+            delay = max(0.0, self._t0 + self._delay - t_s)
+        else:
+            delay = self.start_delay_s if new != 0 else 0.0
+        self._t0, self._p0, self._target, self._delay = float(t_s), float(p), target, delay
+        return target
+
+    def stop(self, t_s: float) -> None:
+        p = self.position(t_s)
+        self._t0, self._p0, self._target, self._delay = float(t_s), float(p), float(p), 0.0
+
+    def set_rate(self, rate_deg_s: float, t_s: float) -> None:
+        """Change speed now (GS-232 X1..X4 takes effect even during rotation)."""
+        if rate_deg_s <= 0:
+            raise ValueError("rate_deg_s must be > 0")
+        target = self._target
+        remaining_delay = max(0.0, self._t0 + self._delay - t_s)
+        p = self.position(t_s)
+        self.rate_deg_s = float(rate_deg_s)
+        self._t0, self._p0, self._target, self._delay = float(t_s), float(p), target, \
+            remaining_delay
+
+    def jam(self, t_s: float, jammed: bool = True) -> None:
+        """Fault injection: the axis stops turning (motor stalled, brake stuck)."""
+        p = self.position(t_s)
+        self._t0, self._p0 = float(t_s), float(p)
+        if not jammed:
+            self._target, self._delay = float(p), 0.0
+        self.jammed = jammed
+
+
+class MotorModel:
+    """The two axes of one rotator (elevation absent for azimuth-only rotators)."""
+
+    def __init__(self, spec: RotatorSpec, az_deg: float | None = None,
+                 el_deg: float | None = None, t_s: float = 0.0):
+        self.spec = spec
+        (az_min, az_max), el_lim = spec.axis_limits()
+        self.az = AxisMotor(az_min, az_max, spec.az_rate_deg_s, spec.start_delay_s,
+                            spec.resolution_deg,
+                            spec.park_az_deg if az_deg is None else az_deg, t_s)
+        self.el: AxisMotor | None = None
+        if el_lim is not None:
+            self.el = AxisMotor(el_lim[0], el_lim[1], spec.el_rate_deg_s, spec.start_delay_s,
+                                spec.resolution_deg,
+                                spec.park_el_deg if el_deg is None else el_deg, t_s)
+
+    def position(self, t_s: float) -> tuple[float, float]:
+        el = self.el.position(t_s) if self.el is not None else 0.0
+        return self.az.position(t_s), el
+
+    def command(self, az_deg: float, el_deg: float | None, t_s: float) -> tuple[float, float]:
+        a = self.az.command(az_deg, t_s)
+        e = 0.0
+        if self.el is not None and el_deg is not None:
+            e = self.el.command(el_deg, t_s)
+        return a, e
+
+    def stop(self, t_s: float) -> None:
+        self.az.stop(t_s)
+        if self.el is not None:
+            self.el.stop(t_s)
+
+    def moving(self, t_s: float) -> bool:
+        return self.az.moving(t_s) or (self.el is not None and self.el.moving(t_s))
+
+
+def simulate_commands(axis: AxisMotor, cmd_t_s, cmd_deg, t_eval_s) -> np.ndarray:
+    """Positions of ``axis`` at ``t_eval_s`` when it receives ``cmd_deg`` at ``cmd_t_s``.
+
+    Loops over commands (tens to hundreds per pass), vectorised over the evaluation samples
+    between them. ``axis`` is advanced (mutated) through every command. Samples before the
+    first command get the axis's current position.
+    """
+    cmd_t_s = np.asarray(cmd_t_s, dtype=float)
+    cmd_deg = np.asarray(cmd_deg, dtype=float)
+    t_eval_s = np.asarray(t_eval_s, dtype=float)
+    out = np.empty(t_eval_s.shape)
+    first = np.searchsorted(t_eval_s, cmd_t_s[0], side="left") if len(cmd_t_s) else len(
+        t_eval_s)
+    out[:first] = axis.position(t_eval_s[:first]) if first else out[:first]
+    bounds = np.searchsorted(t_eval_s, cmd_t_s, side="left")
+    for i, (tc, target) in enumerate(zip(cmd_t_s, cmd_deg)):
+        axis.command(target, tc)
+        lo = bounds[i]
+        hi = bounds[i + 1] if i + 1 < len(bounds) else len(t_eval_s)
+        if hi > lo:
+            out[lo:hi] = axis.position(t_eval_s[lo:hi])
+    return out

@@ -1,0 +1,102 @@
+"""SkyTrack: where a target is in the sky, sampled over time (plain numpy arrays)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class SkyTrack:
+    """Topocentric samples of one target as seen from one station.
+
+    All arrays have the same shape ``(n,)``. ``t_s`` is UTC POSIX seconds, strictly
+    increasing; ``az_deg`` is the true bearing in [0, 360); ``el_deg`` the elevation above the
+    horizontal (not the mask). ``range_km``, ``range_rate_km_s`` and ``sunlit`` may be NaN /
+    False for targets where they mean nothing (a schedule file, a radio source).
+    """
+
+    t_s: np.ndarray
+    az_deg: np.ndarray
+    el_deg: np.ndarray
+    range_km: np.ndarray
+    range_rate_km_s: np.ndarray
+    sunlit: np.ndarray
+    name: str = ""
+    meta: dict = field(default_factory=dict, compare=False)
+
+    def __post_init__(self) -> None:
+        n = np.shape(self.t_s)
+        for key in ("az_deg", "el_deg", "range_km", "range_rate_km_s", "sunlit"):
+            if np.shape(getattr(self, key)) != n:
+                raise ValueError(f"SkyTrack.{key} has shape {np.shape(getattr(self, key))}, "
+                                 f"expected {n}")
+        if len(self.t_s) > 1 and not np.all(np.diff(self.t_s) > 0):
+            raise ValueError("SkyTrack.t_s must be strictly increasing")
+
+    def __len__(self) -> int:
+        return len(self.t_s)
+
+    @classmethod
+    def from_azel(cls, t_s, az_deg, el_deg, name: str = "", **meta) -> SkyTrack:
+        """A track with only direction information (range and sunlit unknown)."""
+        t_s = np.asarray(t_s, dtype=float)
+        nan = np.full(t_s.shape, np.nan)
+        return cls(t_s, np.mod(np.asarray(az_deg, dtype=float), 360.0),
+                   np.asarray(el_deg, dtype=float), nan, nan.copy(),
+                   np.zeros(t_s.shape, dtype=bool), name, dict(meta))
+
+    @property
+    def start(self) -> datetime:
+        return datetime.fromtimestamp(float(self.t_s[0]), timezone.utc)
+
+    @property
+    def end(self) -> datetime:
+        return datetime.fromtimestamp(float(self.t_s[-1]), timezone.utc)
+
+    def unit_vectors(self) -> np.ndarray:
+        """East-north-up unit vectors, shape ``(n, 3)``."""
+        return azel_to_enu(self.az_deg, self.el_deg)
+
+    def direction_at(self, t_s) -> tuple[np.ndarray, np.ndarray]:
+        """Az/el at arbitrary times, interpolated on the unit sphere (safe across 0/360)."""
+        t_s = np.asarray(t_s, dtype=float)
+        v = self.unit_vectors()
+        enu = np.stack([np.interp(t_s, self.t_s, v[:, i]) for i in range(3)], axis=-1)
+        return enu_to_azel(enu)
+
+    def slice_time(self, t0_s: float, t1_s: float) -> SkyTrack:
+        keep = (self.t_s >= t0_s) & (self.t_s <= t1_s)
+        return SkyTrack(self.t_s[keep], self.az_deg[keep], self.el_deg[keep],
+                        self.range_km[keep], self.range_rate_km_s[keep], self.sunlit[keep],
+                        self.name, dict(self.meta))
+
+
+def azel_to_enu(az_deg, el_deg) -> np.ndarray:
+    """Unit vectors (east, north, up) for bearings/elevations in degrees; shape ``(..., 3)``.
+
+    Elevations above 90° (a flipped mount) are handled: they point over the top.
+    """
+    az = np.radians(np.asarray(az_deg, dtype=float))
+    el = np.radians(np.asarray(el_deg, dtype=float))
+    ce = np.cos(el)
+    return np.stack([ce * np.sin(az), ce * np.cos(az), np.sin(el)], axis=-1)
+
+
+def enu_to_azel(enu) -> tuple[np.ndarray, np.ndarray]:
+    enu = np.asarray(enu, dtype=float)
+    e, n, u = enu[..., 0], enu[..., 1], enu[..., 2]
+    az = np.mod(np.degrees(np.arctan2(e, n)), 360.0)
+    el = np.degrees(np.arctan2(u, np.hypot(e, n)))
+    return az, el
+
+
+def angular_separation_deg(az1_deg, el1_deg, az2_deg, el2_deg) -> np.ndarray:
+    """Great-circle angle between two directions (el may exceed 90 for flipped pointing)."""
+    a = azel_to_enu(az1_deg, el1_deg)
+    b = azel_to_enu(az2_deg, el2_deg)
+    cross = np.linalg.norm(np.cross(a, b), axis=-1)
+    dot = np.sum(a * b, axis=-1)
+    return np.degrees(np.arctan2(cross, dot))

@@ -1,0 +1,105 @@
+"""Ground station: position, minimum elevation and an optional horizon mask."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from tracker.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class HorizonMask:
+    """Piecewise-linear minimum elevation as a function of true bearing (wraps at 360).
+
+    ``az_deg`` is sorted in [0, 360); ``min_el_deg`` the obstruction elevation there.
+    """
+
+    az_deg: tuple[float, ...]
+    min_el_deg: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        if len(self.az_deg) != len(self.min_el_deg) or not self.az_deg:
+            raise ConfigError("horizon mask needs at least one 'azimuth elevation' point")
+        if any(not (0.0 <= a < 360.0) for a in self.az_deg):
+            raise ConfigError("horizon mask azimuths must be in 0 to <360 degrees")
+        if any(not (-5.0 <= e <= 90.0) for e in self.min_el_deg):
+            raise ConfigError("horizon mask elevations must be in -5 to 90 degrees")
+        if list(self.az_deg) != sorted(self.az_deg) or len(set(self.az_deg)) != len(
+                self.az_deg):
+            raise ConfigError("horizon mask azimuths must be strictly increasing")
+
+    def min_el_at(self, az_deg):
+        """Mask elevation at bearing(s) ``az_deg`` (scalar or array), linear between points."""
+        az = np.mod(np.asarray(az_deg, dtype=float), 360.0)
+        xp = np.asarray(self.az_deg)
+        fp = np.asarray(self.min_el_deg)
+        return np.interp(az, xp, fp, period=360.0)
+
+    @classmethod
+    def load(cls, path: str | Path) -> HorizonMask:
+        """Read ``azimuth elevation`` pairs (space, tab or comma separated; ``#`` comments)."""
+        path = Path(path)
+        try:
+            text = path.read_text()
+        except OSError as e:
+            raise ConfigError(f"cannot read horizon mask {path}: {e.strerror}") from e
+        points: dict[float, float] = {}
+        for line_no, raw in enumerate(text.splitlines(), 1):
+            line = raw.split("#", 1)[0].strip()
+            if not line:
+                continue
+            parts = line.replace(",", " ").split()
+            try:
+                if len(parts) != 2:
+                    raise ValueError
+                az, el = float(parts[0]), float(parts[1])
+            except ValueError:
+                raise ConfigError(f"{path}:{line_no}: expected 'azimuth_deg elevation_deg', "
+                                  f"got {raw.strip()!r}") from None
+            if not (0.0 <= az <= 360.0) or not (-5.0 <= el <= 90.0):
+                raise ConfigError(f"{path}:{line_no}: azimuth must be 0-360 and elevation "
+                                  f"-5-90, got {raw.strip()!r}")
+            points[az % 360.0] = el
+        if not points:
+            raise ConfigError(f"{path}: horizon mask file has no points")
+        az_sorted = sorted(points)
+        return cls(tuple(az_sorted), tuple(points[a] for a in az_sorted))
+
+
+@dataclass(frozen=True)
+class Station:
+    """A ground station. ``min_el_deg`` applies everywhere; the mask adds to it per bearing."""
+
+    name: str = "station"
+    lat_deg: float = 0.0
+    lon_deg: float = 0.0
+    alt_m: float = 0.0
+    min_el_deg: float = 0.0
+    mask: HorizonMask | None = field(default=None)
+
+    def __post_init__(self) -> None:
+        checks = (("lat_deg", self.lat_deg, -90, 90), ("lon_deg", self.lon_deg, -180, 180),
+                  ("alt_m", self.alt_m, -500, 9000), ("min_el_deg", self.min_el_deg, -5, 90))
+        for key, value, lo, hi in checks:
+            if not (isinstance(value, (int, float)) and math.isfinite(value)
+                    and lo <= value <= hi):
+                raise ConfigError(f"station.{key} = {value!r} is out of range; allowed: "
+                                  f"{lo} to {hi}")
+
+    def horizon_at(self, az_deg):
+        """The elevation below which the target counts as not visible, at bearing(s) az_deg."""
+        base = np.full(np.shape(az_deg), float(self.min_el_deg))
+        if self.mask is None:
+            return base if np.ndim(az_deg) else float(base)
+        out = np.maximum(base, self.mask.min_el_at(az_deg))
+        return out if np.ndim(az_deg) else float(out)
+
+    def topos(self):
+        """The skyfield geographic position of the station (WGS84)."""
+        from skyfield.api import wgs84
+
+        return wgs84.latlon(self.lat_deg, self.lon_deg, elevation_m=self.alt_m)
