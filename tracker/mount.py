@@ -295,7 +295,7 @@ def simulate_commands(axis: AxisMotor, cmd_t_s, cmd_deg, t_eval_s) -> np.ndarray
         t_eval_s)
     out[:first] = axis.position(t_eval_s[:first]) if first else out[:first]
     bounds = np.searchsorted(t_eval_s, cmd_t_s, side="left")
-    for i, (tc, target) in enumerate(zip(cmd_t_s, cmd_deg)):
+    for i, (tc, target) in enumerate(zip(cmd_t_s, cmd_deg, strict=True)):
         axis.command(target, tc)
         lo = bounds[i]
         hi = bounds[i + 1] if i + 1 < len(bounds) else len(t_eval_s)
