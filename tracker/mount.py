@@ -59,6 +59,16 @@ class RotatorSpec:
             return ConfigError(f"rotator {self.name!r}: {key} = {value!r} is invalid; "
                                f"allowed: {allowed}")
 
+        numeric = ("az_span_deg", "stop_bearing_deg", "el_min_deg", "az_rate_deg_s",
+                   "start_delay_s", "resolution_deg", "park_az_deg", "park_el_deg",
+                   "deadband_deg")
+        for key in numeric + ("el_max_deg", "el_rate_deg_s"):
+            value = getattr(self, key)
+            if value is None and key in ("el_max_deg", "el_rate_deg_s"):
+                continue
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or (
+                    not math.isfinite(value)):
+                raise bad(key, value, "a finite number")
         if not (360.0 <= self.az_span_deg <= 450.0):
             raise bad("az_span_deg", self.az_span_deg, "360 to 450 degrees")
         if not (0.0 <= self.stop_bearing_deg < 360.0):
@@ -82,6 +92,11 @@ class RotatorSpec:
             raise bad("resolution_deg", self.resolution_deg, "> 0 and <= 5 degrees")
         if not (0.0 <= self.deadband_deg <= 30.0):
             raise bad("deadband_deg", self.deadband_deg, "0 to 30 degrees")
+        if not (0.0 <= self.park_az_deg <= self.az_span_deg):
+            raise bad("park_az_deg", self.park_az_deg, f"0 to az_span_deg ({self.az_span_deg})")
+        if self.has_elevation and not (self.el_min_deg <= self.park_el_deg <= self.el_max_deg):
+            raise bad("park_el_deg", self.park_el_deg,
+                      f"el_min_deg to el_max_deg ({self.el_min_deg}-{self.el_max_deg})")
 
     def with_(self, **changes) -> RotatorSpec:
         return replace(self, **changes)
@@ -110,19 +125,68 @@ def _rate(seconds: float, degrees: float) -> float:
     return degrees / seconds
 
 
-# Published figures: Yaesu catalogue rotation times ("az 360 deg in about 58 s at 60 Hz").
-# At 50 Hz the AC motors turn 5/6 as fast.
+# Rotation times are Yaesu's catalogue / manual specification figures ("approx."), quoted at
+# 60 Hz mains for the AC-motor models: G-5500 az 360 deg in ~58 s, el 180 deg in ~67 s;
+# G-5400B / G-5600B use the same az/el motor drive family (same figures used here);
+# G-400 az 360 deg in ~51 s (G-450A class). The DXA series run DC motors with a speed
+# control: G-800DXA 43-99 s, G-1000DXA 40-100 s, G-2800DXA 50-110 s per 360 deg, which the
+# GS-232 maps to X1 (slowest) .. X4 (fastest). These figures were taken from the published
+# spec tables as recalled; they were NOT re-verified against a stored copy of the catalogue in
+# this repository, so measure your own rotator (time a full turn) and override the rate in
+# [rotator.NAME] when it matters.
+# AC motors turn in proportion to mains frequency: at 50 Hz they take 6/5 as long.
+
+
+def _four_speeds(fastest_s: float, slowest_s: float) -> tuple[float, ...]:
+    """X1..X4 rates for a DXA speed range, evenly spread in rotation time."""
+    times = np.linspace(slowest_s, fastest_s, 4)
+    return tuple(round(360.0 / float(t), 3) for t in times)
+
+
 PRESETS: dict[str, RotatorSpec] = {
     "G-5500": RotatorSpec(
         name="G-5500", az_span_deg=450, stop_bearing_deg=0, el_max_deg=180,
         az_rate_deg_s=_rate(58, 360), el_rate_deg_s=_rate(67, 180), start_delay_s=0.5,
         deadband_deg=4.0,
-        description="Yaesu G-5500 az/el, 450 deg azimuth, 0-180 elevation (60 Hz rates)"),
+        description="Yaesu G-5500 az/el, 450 deg azimuth (north stop), 0-180 elevation"),
+    "G-5400B": RotatorSpec(
+        name="G-5400B", az_span_deg=360, stop_bearing_deg=180, el_max_deg=180,
+        az_rate_deg_s=_rate(58, 360), el_rate_deg_s=_rate(67, 180), start_delay_s=0.5,
+        deadband_deg=4.0,
+        description="Yaesu G-5400B az/el, 360 deg azimuth (south stop), 0-180 elevation"),
+    "G-5600B": RotatorSpec(
+        name="G-5600B", az_span_deg=360, stop_bearing_deg=180, el_max_deg=180,
+        az_rate_deg_s=_rate(58, 360), el_rate_deg_s=_rate(67, 180), start_delay_s=0.5,
+        deadband_deg=4.0,
+        description="Yaesu G-5600B az/el, 360 deg azimuth (south stop), 0-180 elevation"),
+    "G-800DXA": RotatorSpec(
+        name="G-800DXA", az_span_deg=450, stop_bearing_deg=0, el_max_deg=None,
+        el_rate_deg_s=None, az_rate_deg_s=_rate(43, 360),
+        az_speed_rates_deg_s=_four_speeds(43, 99), start_delay_s=0.5, deadband_deg=3.0,
+        description="Yaesu G-800DXA azimuth-only, 450 deg, four speeds (X1-X4)"),
+    "G-1000DXA": RotatorSpec(
+        name="G-1000DXA", az_span_deg=450, stop_bearing_deg=0, el_max_deg=None,
+        el_rate_deg_s=None, az_rate_deg_s=_rate(40, 360),
+        az_speed_rates_deg_s=_four_speeds(40, 100), start_delay_s=0.5, deadband_deg=3.0,
+        description="Yaesu G-1000DXA azimuth-only, 450 deg, four speeds (X1-X4)"),
+    "G-2800DXA": RotatorSpec(
+        name="G-2800DXA", az_span_deg=450, stop_bearing_deg=0, el_max_deg=None,
+        el_rate_deg_s=None, az_rate_deg_s=_rate(50, 360),
+        az_speed_rates_deg_s=_four_speeds(50, 110), start_delay_s=0.5, deadband_deg=3.0,
+        description="Yaesu G-2800DXA azimuth-only, 450 deg, four speeds (X1-X4)"),
+    "G-400": RotatorSpec(
+        name="G-400", az_span_deg=360, stop_bearing_deg=180, el_max_deg=None,
+        el_rate_deg_s=None, az_rate_deg_s=_rate(51, 360), start_delay_s=0.5,
+        deadband_deg=4.0,
+        description="Yaesu G-400 azimuth-only, 360 deg (south stop)"),
     "generic-k3ng": RotatorSpec(
         name="generic-k3ng", az_span_deg=360, stop_bearing_deg=180, el_max_deg=90,
         az_rate_deg_s=6.0, el_rate_deg_s=3.0, deadband_deg=3.0,
         description="Generic K3NG Arduino controller, 360 deg south-stop, 0-90 elevation"),
 }
+
+# DC-motor drives (speed set by the controller): mains frequency does not change their rates.
+_MAINS_INDEPENDENT = {"g-800dxa", "g-1000dxa", "g-2800dxa", "generic-k3ng"}
 
 
 def preset(name: str, mains_hz: int = 60) -> RotatorSpec:
@@ -133,6 +197,8 @@ def preset(name: str, mains_hz: int = 60) -> RotatorSpec:
         raise ConfigError(f"unknown rotator {name!r}; known presets: {', '.join(PRESETS)} "
                           f"(or define [rotator.{name}] in the config file)")
     if mains_hz == 50:
+        if name.lower() in _MAINS_INDEPENDENT:
+            return spec
         f = 50.0 / 60.0
         spec = spec.with_(
             az_rate_deg_s=spec.az_rate_deg_s * f,
@@ -142,6 +208,37 @@ def preset(name: str, mains_hz: int = 60) -> RotatorSpec:
     elif mains_hz != 60:
         raise ConfigError(f"mains_hz = {mains_hz!r} is invalid; allowed: 50 or 60")
     return spec
+
+
+_SPEC_KEYS = tuple(f for f in RotatorSpec.__dataclass_fields__ if f not in ("name", "extra"))
+
+
+def rotator_from_config(name: str, table: dict) -> RotatorSpec:
+    """A rotator from a ``[rotator.NAME]`` table: ``preset`` (+ ``mains_hz``) and overrides.
+
+    ``el_max_deg = "none"`` (or ``az_only = true``) makes an azimuth-only rotator. Unknown
+    keys and bad values raise :class:`ConfigError` naming the key.
+    """
+    table = dict(table)
+    base_name = table.pop("preset", None)
+    mains_hz = table.pop("mains_hz", 60)
+    if table.pop("az_only", False) is True:
+        table["el_max_deg"] = None
+        table["el_rate_deg_s"] = None
+    for key, value in list(table.items()):
+        if key not in _SPEC_KEYS:
+            raise ConfigError(f"[rotator.{name}] unknown key {key!r}; allowed keys: preset, "
+                              f"mains_hz, az_only, {', '.join(_SPEC_KEYS)}")
+        if key in ("el_max_deg", "el_rate_deg_s") and value in ("none", False):
+            table[key] = None
+        elif key == "az_speed_rates_deg_s" and isinstance(value, list):
+            table[key] = tuple(value)
+    try:
+        if base_name is not None:
+            return preset(str(base_name), mains_hz).with_(name=name, **table)
+        return RotatorSpec(name=name, **table)
+    except ConfigError as e:
+        raise ConfigError(f"[rotator.{name}] {e}") from None
 
 
 # Motor model ----------------------------------------------------------------------------------
@@ -302,3 +399,81 @@ def simulate_commands(axis: AxisMotor, cmd_t_s, cmd_deg, t_eval_s) -> np.ndarray
         if hi > lo:
             out[lo:hi] = axis.position(t_eval_s[lo:hi])
     return out
+
+
+def predict_axis(axis: AxisMotor, cmd_t_s, cmd_deg, t_eval_s) -> tuple[np.ndarray, int]:
+    """Fast, exact :func:`simulate_commands` for a dense command stream; also counts starts.
+
+    Returns ``(positions at t_eval_s, motor starts)``. ``axis`` must be at rest at its
+    position before the first command and is advanced through every command, as in
+    :func:`simulate_commands`. While each move ends before the next command (the normal case
+    when tracking with small steps) every command is a start from rest, so positions follow
+    in closed form for all samples at once; only the stretches where the motor is still
+    running when the next command arrives (a long slew, an unwind) are stepped through
+    :meth:`AxisMotor.command` itself, so both paths are the one motor model.
+    """
+    cmd_t = np.asarray(cmd_t_s, dtype=float)
+    cmd = np.asarray(cmd_deg, dtype=float)
+    t_eval = np.asarray(t_eval_s, dtype=float)
+    out = np.empty(t_eval.shape)
+    n = len(cmd_t)
+    p0 = float(axis.position(cmd_t[0] if n else 0.0))
+    if n == 0:
+        out[:] = p0
+        return out, 0
+    res = axis.resolution_deg
+    cmd = np.clip(np.round(cmd / res) * res, axis.min_deg, axis.max_deg)
+    prev = np.concatenate(([p0], cmd[:-1]))
+    step = cmd - prev
+    moving = np.abs(step) > 1e-9
+    delay = np.where(moving, axis.start_delay_s, 0.0)
+    arrival = cmd_t + delay + np.abs(step) / axis.rate_deg_s
+    next_t = np.concatenate((cmd_t[1:], [np.inf]))
+    overlap = arrival > next_t + 1e-9
+    if axis.jammed:
+        overlap[:] = True
+
+    # Closed form: command i moves from prev[i] (reached) toward cmd[i] after its delay.
+    idx = np.searchsorted(cmd_t, t_eval, side="right") - 1
+    before = idx < 0
+    i = np.clip(idx, 0, n - 1)
+    travelled = np.clip((t_eval - cmd_t[i] - delay[i]) * axis.rate_deg_s, 0.0,
+                        np.abs(step[i]))
+    out[:] = prev[i] + np.sign(step[i]) * travelled
+    out[before] = p0
+    starts = int(np.count_nonzero(moving & ~overlap))
+
+    # Stretches where moves overlap: step the real AxisMotor command by command.
+    overlap_idx = np.flatnonzero(overlap)
+    k = 0
+    while k < len(overlap_idx):
+        j = int(overlap_idx[k])
+        _rest_at(axis, float(prev[j]), cmd_t[j])
+        last = j
+        while last < n:
+            was = axis.direction(cmd_t[last])
+            axis.command(cmd[last], cmd_t[last])
+            if axis.direction(cmd_t[last]) not in (0, was):
+                starts += 1
+            lo = np.searchsorted(t_eval, cmd_t[last], side="left")
+            hi = np.searchsorted(t_eval, next_t[last], side="left")
+            if hi > lo:
+                out[lo:hi] = axis.position(t_eval[lo:hi])
+            caught = axis.arrival_s() <= next_t[last] + 1e-9 and not axis.jammed
+            last += 1
+            if caught:
+                break
+        # Commands after the stretch start from rest on cmd[last - 1]: closed form holds.
+        while k < len(overlap_idx) and overlap_idx[k] < last:
+            k += 1
+    if not overlap[n - 1]:
+        # Leave the axis where the last command put it, as simulate_commands would.
+        _rest_at(axis, float(prev[-1]), cmd_t[-1])
+        axis.command(cmd[-1], cmd_t[-1])
+    return out, starts
+
+
+def _rest_at(axis: AxisMotor, position_deg: float, t_s: float) -> None:
+    """Put ``axis`` at rest on ``position_deg`` at ``t_s`` (a known, reached target)."""
+    axis.stop(t_s)
+    axis._p0 = axis._target = position_deg

@@ -1,0 +1,125 @@
+"""Shared helpers for the GS-232 / emulator tests (transcripts, raw peers, leak checks)."""
+
+from __future__ import annotations
+
+import codecs
+import os
+import select
+import socket
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+T0 = "2026-08-23T12:00:00+00:00"
+TRANSCRIPTS = Path(__file__).parent / "data" / "transcripts"
+
+
+@dataclass
+class Transcript:
+    profile: str
+    rotator: str
+    steps: list  # ("send", bytes, expected_bytes) | ("advance", seconds)
+
+
+def unescape(text: str) -> bytes:
+    return codecs.escape_decode(text.encode("ascii"))[0]
+
+
+def load_transcript(path: Path) -> Transcript:
+    profile, rotator, steps = "", "G-5500", []
+    pending: bytes | None = None
+    for raw in path.read_text().splitlines():
+        if raw.startswith("# profile:"):
+            profile = raw.split(":", 1)[1].strip()
+        elif raw.startswith("# rotator:"):
+            rotator = raw.split(":", 1)[1].strip()
+        elif raw.startswith(">>"):
+            assert pending is None, f"{path.name}: two requests without a reply line"
+            pending = unescape(raw[3:])
+        elif raw.startswith("<<"):
+            assert pending is not None, f"{path.name}: reply without request"
+            steps.append(("send", pending, unescape(raw[3:])))
+            pending = None
+        elif raw.startswith("@"):
+            steps.append(("advance", float(raw[1:])))
+    assert profile and steps
+    return Transcript(profile, rotator, steps)
+
+
+class RawPeer:
+    """A tiny misbehaving 'controller' on a real TCP socket or pty: it reads requests and
+    answers with whatever ``respond(request_bytes) -> bytes`` says."""
+
+    def __init__(self, kind: str, respond):
+        self.respond = respond
+        self.received = bytearray()
+        self._stop = threading.Event()
+        if kind == "tcp":
+            self._listen = socket.create_server(("127.0.0.1", 0))
+            self.url = f"socket://127.0.0.1:{self._listen.getsockname()[1]}"
+            self._fd = None
+        else:
+            import tty
+            self._listen = None
+            self._fd, self._slave = os.openpty()
+            tty.setraw(self._slave)
+            self.url = os.ttyname(self._slave)
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        if self._listen is not None:
+            self._listen.settimeout(0.05)
+            conn = None
+            while not self._stop.is_set() and conn is None:
+                try:
+                    conn, _ = self._listen.accept()
+                except TimeoutError:
+                    continue
+            if conn is None:
+                return
+            rd, wr, fileno = conn.recv, conn.sendall, conn.fileno()
+        else:
+            fileno = self._fd
+
+            def rd(n):
+                return os.read(self._fd, n)
+
+            def wr(b):
+                os.write(self._fd, b)
+        try:
+            while not self._stop.is_set():
+                r, _, _ = select.select([fileno], [], [], 0.05)
+                if not r:
+                    continue
+                data = rd(4096)
+                if not data:
+                    return
+                self.received += data
+                out = self.respond(bytes(data))
+                if out:
+                    wr(out)
+        except OSError:
+            return
+        finally:
+            if self._listen is not None and conn is not None:
+                conn.close()
+
+    def close(self) -> None:
+        self._stop.set()
+        self.thread.join(2)
+        if self._listen is not None:
+            self._listen.close()
+        else:
+            os.close(self._fd)
+            os.close(self._slave)
+
+
+def wait_until(pred, timeout_s: float = 5.0, step_s: float = 0.02) -> bool:
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        if pred():
+            return True
+        time.sleep(step_s)
+    return pred()

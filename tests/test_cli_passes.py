@@ -1,0 +1,205 @@
+"""`tracker passes`, `tracker next` and `tracker config` from the command line.
+
+Most tests call ``tracker.cli.main`` in-process (fast); a few run the installed console script
+as a real process to prove the README command works and errors never show a traceback.
+The element cache and config dir point at empty temp dirs, so the bundled snapshot is used.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tracker.cli import main
+from tracker.commands.passes import CSV_COLUMNS, format_duration
+
+DATA = Path(__file__).parent / "data"
+SATS = str(DATA / "passes_sats.tle")
+AT = "2026-08-23T00:00:00Z"
+HERE = ["--lat", "52.0", "--lon", "4.4", "--alt", "10"]
+
+
+@pytest.fixture(autouse=True)
+def isolated(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "config"))
+    monkeypatch.delenv("TRACKER_CONFIG", raising=False)
+    monkeypatch.setenv("TZ", "UTC")
+
+
+def run(capsys, *argv) -> tuple[int, str, str]:
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_table_for_iss(capsys):
+    code, out, err = run(capsys, "passes", "ISS (ZARYA)", "--at", AT, *HERE, "--tle", SATS)
+    assert code == 0
+    lines = out.splitlines()
+    assert lines[0].startswith("Passes of ISS (ZARYA) over station")
+    assert lines[1].split()[:3] == ["AOS", "local", "AOS"]
+    rows = [ln for ln in lines[2:] if ln.startswith("Sun 2026-08-23")]
+    assert 4 <= len(rows) <= 8
+    # first pass of the day: AOS 02:07:45 UTC from the south-south-west (see test_passes)
+    assert "02:07:4" in rows[0] and "SSW" in rows[0]
+    assert "old" not in err or "elements for ISS" in err  # age warning only, no noise
+
+
+def test_csv_columns_and_values(capsys):
+    code, out, _ = run(capsys, "passes", "25544", "--at", AT, *HERE, "--tle", SATS,
+                       "--format", "csv", "--hours", "12")
+    assert code == 0
+    reader = csv.DictReader(io.StringIO(out))
+    assert tuple(reader.fieldnames) == CSV_COLUMNS
+    rows = list(reader)
+    assert rows and all(r["target"] == "ISS (ZARYA)" for r in rows)
+    for r in rows:
+        assert r["aos_utc"] < r["tca_utc"] < r["los_utc"] and r["aos_utc"].endswith("Z")
+        assert 0 < float(r["max_el_deg"]) <= 90 and r["sunlit"] in ("true", "false")
+        assert r["aos_known"] == "true" and r["always_up"] == "false"
+
+
+def test_json_and_min_el(capsys):
+    code, out, _ = run(capsys, "passes", "ISS", "--at", AT, *HERE, "--tle", SATS,
+                       "--format", "json", "--days", "2", "--min-el", "30")
+    assert code == 0
+    doc = json.loads(out)
+    assert doc["station"]["min_el_deg"] == 30.0
+    assert doc["window"] == {"start": "2026-08-23T00:00:00Z", "end": "2026-08-25T00:00:00Z"}
+    assert doc["passes"] and all(p["max_el_deg"] > 30 for p in doc["passes"])
+    assert set(doc["passes"][0]) == set(CSV_COLUMNS)
+
+
+def test_group_lists_several_targets(capsys):
+    code, out, _ = run(capsys, "passes", "--group", "passes_sats", "--tle", SATS,
+                       "--at", AT, *HERE, "--hours", "3")
+    assert code == 0
+    assert out.splitlines()[1].startswith("Target")
+    assert "ES'HAIL 2" in out and "always up" in out
+    assert "YAMAL" not in out  # never rises here
+
+
+def test_in_progress_marker(capsys):
+    code, out, _ = run(capsys, "passes", "ISS", "--at", "2026-08-23T03:50:00Z", *HERE,
+                       "--tle", SATS, "--hours", "1")
+    assert code == 0
+    assert "03:43:1" in out and " *" in out and "already in progress" in out
+
+
+def test_next_one_line(capsys):
+    code, out, _ = run(capsys, "next", "ISS", "--at", AT, *HERE, "--tle", SATS)
+    assert code == 0 and out.count("\n") == 1
+    assert out.startswith("ISS (ZARYA): next AOS 2026-08-23 02:07:4")
+    assert " in 2h07m, max el 14°" in out
+    code, out, _ = run(capsys, "next", "ISS", "--at", "2026-08-23T03:50:00Z", *HERE,
+                       "--tle", SATS)
+    assert code == 0 and "up now" in out and "LOS in 4m0" in out
+    code, out, _ = run(capsys, "next", "YAMAL 300K", "--at", AT, *HERE, "--tle", SATS,
+                       "--days", "2")
+    assert code == 1 and "no pass above 0° in the next 2 days" in out
+    code, out, _ = run(capsys, "next", "ES'HAIL 2", "--at", AT, *HERE, "--tle", SATS)
+    assert code == 0 and "always up" in out
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["passes", "ISX", "--tle", SATS], "did you mean"),
+    (["passes", "--tle", SATS], "name a target"),
+    (["passes", "ISS", "--tle", SATS, "--at", "yesterday"], "cannot read the time 'yesterday'"),
+    (["passes", "ISS", "--tle", SATS, "--hours", "0"], "the window must be more than 0"),
+    (["passes", "ISS", "--tle", SATS, "--lat", "123"], "lat_deg = 123.0 is out of range"),
+    (["passes", "ISS", "--tle", SATS, "--station", "roof"], "no station 'roof'"),
+    (["passes", "ISS", "--tle", SATS, "--group", "nope"], "no group 'nope'"),
+    (["next", "DECAYSAT", "--tle", str(DATA / "passes_decayed.tle"), "--at",
+      "2026-08-25T00:00Z"], "DECAYSAT (NORAD 25544): the elements cannot be propagated"),
+])
+def test_errors_are_one_line_exit_2(capsys, argv, message):
+    code, out, err = run(capsys, *argv, *HERE[:0])
+    assert code == 2
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("tracker: error: ") and message in last
+    assert "Traceback" not in err
+
+
+def test_bad_tle_file_names_file_and_line(capsys, tmp_path):
+    bad = tmp_path / "bad.tle"
+    lines = (DATA / "passes_sats.tle").read_text().splitlines()[:3]
+    lines[2] = lines[2][:-1] + str((int(lines[2][-1]) + 1) % 10)  # break the checksum
+    bad.write_text("\n".join(lines) + "\n")
+    code, _, err = run(capsys, "passes", "ISS", "--tle", str(bad), "--at", AT)
+    assert code == 2
+    assert "tracker: error:" in err and "Traceback" not in err
+
+
+def test_bad_config_exit_2(capsys, tmp_path):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[station]\nlat_deg = 52\nlon_deg = 400\n")
+    code, _, err = run(capsys, "passes", "ISS", "--tle", SATS, "--config", str(cfg))
+    assert code == 2
+    assert f"{cfg}: [station] lon_deg = 400 is invalid; allowed: a number from -180 to 180" \
+        in err
+
+
+def test_config_station_used_and_flags_override(capsys, tmp_path):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[station]\nname = \"pole\"\nlat_deg = 89\nlon_deg = 0\n")
+    code, out, _ = run(capsys, "passes", "ISS", "--tle", SATS, "--config", str(cfg),
+                       "--at", AT)
+    assert code == 0 and "no passes" in out and "pole" in out
+    code, out, _ = run(capsys, "passes", "ISS", "--tle", SATS, "--config", str(cfg),
+                       "--at", AT, "--lat", "52")
+    assert code == 0 and "no passes" not in out
+
+
+def test_config_init_show_path(capsys, tmp_path):
+    cfg = tmp_path / "dir" / "config.toml"
+    code, out, _ = run(capsys, "config", "init", "--config", str(cfg))
+    assert code == 0 and cfg.exists()
+    cfg.write_text(cfg.read_text().replace("lat_deg = 52.0", "lat_deg = 51.25"))
+    code, _, err = run(capsys, "config", "init", "--config", str(cfg))
+    assert code == 2 and "already exists" in err
+    assert "lat_deg = 51.25" in cfg.read_text()  # nothing saved is lost
+    code, out, _ = run(capsys, "config", "show", "--config", str(cfg), "--min-el", "7")
+    assert code == 0
+    assert "lat_deg = 51.25" in out and "min_el_deg = 7.0" in out and "[rotator.home]" in out
+    code, out, _ = run(capsys, "config", "path", "--config", str(cfg))
+    assert out.strip() == str(cfg)
+    code, out, _ = run(capsys, "config", "show")
+    assert code == 0 and "no config file" in out and "lat_deg = 52.0" in out
+
+
+def test_format_duration():
+    assert [format_duration(s) for s in (0, 59.4, 61, 3599, 3600, 5000, 90000)] == [
+        "0s", "59s", "1m01s", "59m59s", "1h00m", "1h23m", "1d01h"]
+
+
+def _proc(*argv, tmp_path):
+    env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path / "cache"),
+               XDG_CONFIG_HOME=str(tmp_path / "config"), TZ="UTC")
+    env.pop("TRACKER_CONFIG", None)
+    return subprocess.run([sys.executable, "-m", "tracker", *argv], capture_output=True,
+                          text=True, env=env, timeout=120)
+
+
+def test_readme_command_as_a_process(tmp_path):
+    """`tracker passes "ISS (ZARYA)"` on a fresh machine: bundled elements, default station,
+    real time now; old elements are flagged loudly but passes are still listed."""
+    r = _proc("passes", "ISS (ZARYA)", tmp_path=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "Passes of ISS (ZARYA)" in r.stdout
+    assert "no station configured" in r.stderr and "tracker config init" in r.stderr
+    if "WARNING" in r.stderr:  # elements older than 30 days
+        assert "tracker tle update" in r.stderr
+
+
+def test_error_as_a_process_has_no_traceback(tmp_path):
+    r = _proc("passes", "NO SUCH SATELLITE 42", "--tle", SATS, tmp_path=tmp_path)
+    assert r.returncode == 2
+    assert r.stderr.count("\n") == 1 and r.stderr.startswith("tracker: error: ")

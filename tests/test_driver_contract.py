@@ -1,0 +1,216 @@
+"""One driver contract, run over a real pty and a real TCP socket against the emulator (and
+against real hardware when TRACKER_TEST_PORT is set)."""
+
+from __future__ import annotations
+
+import os
+import time
+from datetime import datetime
+
+import pytest
+
+from tests._gs232_helpers import T0, wait_until
+from tracker.clock import SimClock
+from tracker.emulator import Gs232Controller, serve_pty, serve_tcp
+from tracker.errors import LimitError, PortLostError
+from tracker.mount import preset
+from tracker.protocols import open_driver
+from tracker.protocols.gs232 import Gs232Driver
+
+SPEED = 150.0
+PROFILES = ["gs232b", "gs232a", "k3ng"]
+
+
+class Rig:
+    def __init__(self, kind: str, profile: str, **ctrl_kw):
+        self.clock = SimClock(datetime.fromisoformat(T0), speed=SPEED)
+        self.ctrl = Gs232Controller(profile, preset("G-5500"), self.clock, **ctrl_kw)
+        self.server = serve_tcp(self.ctrl) if kind == "tcp" else serve_pty(self.ctrl)
+        self.kind, self.profile = kind, profile
+
+    def driver(self, **kw) -> Gs232Driver:
+        return open_driver(self.server.url, self.profile, timeout_s=kw.pop("timeout_s", 0.5),
+                           **kw)
+
+    def lines(self) -> list[bytes]:
+        return [line for _t, line, _r in self.ctrl.log]
+
+    def seen(self, line: bytes) -> bool:
+        """Whether the controller received ``line`` (waits: set commands get no reply)."""
+        return wait_until(lambda: line in self.lines(), 2)
+
+    def tail_is(self, *lines: bytes) -> bool:
+        return wait_until(lambda: self.lines()[-len(lines):] == list(lines), 2)
+
+    def close(self) -> None:
+        self.server.close()
+
+
+@pytest.fixture(params=["pty", "tcp"])
+def kind(request):
+    return request.param
+
+
+@pytest.fixture(params=PROFILES)
+def rig(request, kind):
+    r = Rig(kind, request.param)
+    yield r
+    r.close()
+    # leak check: the server thread ended and its descriptors are closed
+    assert r.server.closed and not r.server.thread.is_alive()
+    assert r.server.connections == 0
+    if kind == "pty":
+        for fd in r.server._fds:
+            with pytest.raises(OSError):
+                os.fstat(fd)
+
+
+def test_position_at_park(rig):
+    with rig.driver() as d:
+        assert d.position() == (0.0, 0.0)
+        assert rig.tail_is(b"C2")
+
+
+def test_goto_moves_the_antenna_and_reads_back(rig):
+    with rig.driver() as d:
+        d.goto(270, 30)
+        assert rig.seen(b"W270 030")
+        assert wait_until(lambda: rig.ctrl.antenna() == (270.0, 30.0), 5)
+        assert d.position() == (270.0, 30.0)
+
+
+def test_read_back_lags_the_command(rig):
+    with rig.driver() as d:
+        d.goto(400, 0)
+        az, _ = d.position()
+        assert 0.0 <= az < 400.0          # the motor model's rate shows on the wire
+
+
+def test_stop_halts_motion_and_exit_sends_stop(rig):
+    with rig.driver() as d:
+        d.goto(450, 180)
+        assert wait_until(lambda: rig.ctrl.antenna()[0] > 20, 5)
+        d.stop()
+        p1 = d.position()
+        time.sleep(0.2)
+        assert d.position() == p1
+        assert p1[0] < 450
+        d.goto(100, 10)
+    assert rig.tail_is(b"S")
+
+
+def test_stop_one_axis(rig):
+    with rig.driver() as d:
+        d.goto(440, 170)
+        assert wait_until(lambda: rig.ctrl.antenna()[1] > 5, 5)
+        d.stop_axis("el")
+        el1 = d.position()[1]
+        assert wait_until(lambda: rig.ctrl.antenna()[0] > 100, 5)
+        az2, el2 = d.position()
+        assert el2 == el1 and az2 > 100
+        assert rig.seen(b"E")
+
+
+def test_manual_move_and_speed(rig):
+    with rig.driver() as d:
+        d.set_speed(2)
+        d.move("cw")
+        d.move("up")
+        assert wait_until(lambda: rig.ctrl.antenna()[0] > 30, 5)
+        d.stop()
+        assert rig.tail_is(b"X2", b"R", b"U", b"S")
+
+
+def test_table_upload_and_stepping(rig):
+    with rig.driver() as d:
+        d.upload_table(1, [(10, 5), (20, 10), (30, 15)])
+        assert rig.seen(b"W001 010 005 020 010 030 015")
+        assert wait_until(lambda: rig.ctrl.antenna() == (10.0, 5.0), 5)
+        cur, total = d.table_status()
+        assert total == 3 and cur in (1, None)
+        d.start_table()
+        assert wait_until(lambda: rig.ctrl.antenna() == (30.0, 15.0), 5)
+        if rig.profile == "k3ng":
+            assert rig.ctrl.table is None   # K3NG clears the list at the end
+        else:
+            assert d.table_status() == (3, 3)
+
+
+def test_limits_refused_before_sending(rig):
+    with rig.driver() as d:
+        before = len(rig.ctrl.log)
+        for az, el in [(451, 0), (-1, 0), (90, 181), (float("nan"), 0)]:
+            with pytest.raises(LimitError):
+                d.goto(az, el)
+        with pytest.raises(LimitError):
+            d.upload_table(0, [1, 2])
+        with pytest.raises(LimitError):
+            d.set_speed(5)
+        assert len(rig.ctrl.log) == before
+
+
+def test_controller_off_and_jam(rig):
+    with rig.driver() as d:
+        rig.ctrl.set_rotator_power(False)
+        assert d.position() == (-1.0, -2.0)
+        rig.ctrl.set_rotator_power(True)
+        rig.ctrl.jam("az")
+        d.goto(200, 20)
+        assert wait_until(lambda: rig.ctrl.antenna()[1] == 20.0, 5)
+        assert d.position() == (0.0, 20.0)
+
+
+def test_port_lost_is_typed(kind):
+    r = Rig(kind, "gs232b")
+    try:
+        d = r.driver()
+        assert d.position() == (0.0, 0.0)
+        if kind == "tcp":
+            r.server.drop_connections()
+        else:
+            r.server.hangup()
+        t0 = time.monotonic()
+        with pytest.raises(PortLostError):
+            for _ in range(5):   # a hangup may take one exchange to be noticed
+                d.position()
+                time.sleep(0.05)
+        assert time.monotonic() - t0 < 3
+        d.close()
+    finally:
+        r.close()
+
+
+def test_azimuth_only_driver_uses_c_and_m(kind):
+    r = Rig(kind, "gs232a")
+    try:
+        with r.driver(has_elevation=False) as d:
+            assert d.position() == (0.0, None)
+            d.goto(90, 45)
+            assert r.tail_is(b"C", b"M090")
+            assert wait_until(lambda: r.ctrl.antenna() == (90.0, 0.0), 5)
+    finally:
+        r.close()
+
+
+@pytest.mark.parametrize("profile", ["gs232b", "gs232a"])
+def test_help_and_raw(kind, profile):
+    r = Rig(kind, profile)
+    try:
+        with r.driver() as d:
+            assert "COMMAND LIST 1" in d.help(1)
+            assert "HELP COMMAND 2" in d.help(2)
+            assert d.raw("Q") == b"?>\r\n"
+            assert d.raw("C2") in (b"AZ=000  EL=000\r\n", b"+0000+0000\r\n")
+    finally:
+        r.close()
+
+
+@pytest.mark.skipif(not os.environ.get("TRACKER_TEST_PORT"),
+                    reason="set TRACKER_TEST_PORT=/dev/ttyUSB0 (and TRACKER_TEST_PROTOCOL) "
+                           "to run the contract against real hardware")
+def test_hardware_position_and_stop():
+    with open_driver(os.environ["TRACKER_TEST_PORT"],
+                     os.environ.get("TRACKER_TEST_PROTOCOL", "gs232b")) as d:
+        az, _el = d.position()
+        assert -5 <= az <= 455
+        d.stop()

@@ -1,0 +1,154 @@
+"""Rotator specs, presets and the one motor model (AxisMotor / predict_axis)."""
+
+import re
+
+import numpy as np
+import pytest
+
+from tracker.errors import ConfigError
+from tracker.mount import (
+    PRESETS,
+    AxisMotor,
+    MotorModel,
+    RotatorSpec,
+    predict_axis,
+    preset,
+    rotator_from_config,
+    simulate_commands,
+)
+
+
+def test_presets_are_valid_and_have_published_rates():
+    g = preset("g-5500")
+    assert g.az_span_deg == 450 and g.stop_bearing_deg == 0 and g.el_max_deg == 180
+    assert 360 / g.az_rate_deg_s == pytest.approx(58)
+    assert 180 / g.el_rate_deg_s == pytest.approx(67)
+    slow = preset("G-5500", mains_hz=50)
+    assert 360 / slow.az_rate_deg_s == pytest.approx(58 * 6 / 5)
+    dxa = preset("G-1000DXA")
+    assert not dxa.has_elevation and dxa.az_span_deg == 450
+    assert len(dxa.az_speed_rates_deg_s) == 4
+    assert list(dxa.az_speed_rates_deg_s) == sorted(dxa.az_speed_rates_deg_s)
+    assert preset("G-1000DXA", 50) == dxa  # DC drive: mains frequency does not matter
+    assert preset("G-400").az_span_deg == 360 and not preset("G-400").has_elevation
+    for name in ("G-5400B", "G-5600B", "G-800DXA", "G-2800DXA", "generic-k3ng"):
+        assert name in PRESETS
+
+
+def test_unknown_preset_and_mains():
+    with pytest.raises(ConfigError, match="known presets"):
+        preset("G-9999")
+    with pytest.raises(ConfigError, match="mains_hz"):
+        preset("G-5500", 55)
+
+
+@pytest.mark.parametrize("fields, key", [
+    ({"az_span_deg": 500}, "az_span_deg"),
+    ({"az_rate_deg_s": 0}, "az_rate_deg_s"),
+    ({"el_rate_deg_s": -2}, "el_rate_deg_s"),
+    ({"az_rate_deg_s": "fast"}, "az_rate_deg_s"),
+    ({"el_max_deg": 190}, "el_max_deg"),
+    ({"stop_bearing_deg": 360}, "stop_bearing_deg"),
+    ({"park_az_deg": 400, "az_span_deg": 360}, "park_az_deg"),
+    ({"az_speed_rates_deg_s": (1.0, 0.0)}, "az_speed_rates_deg_s[1]"),
+])
+def test_bad_specs_name_the_field(fields, key):
+    with pytest.raises(ConfigError, match=re.escape(key)):
+        RotatorSpec(name="bad", **fields)
+    with pytest.raises(ConfigError, match=re.escape(key)):
+        rotator_from_config("bad", dict(fields))
+
+
+def test_rotator_from_config():
+    spec = rotator_from_config("roof", {"preset": "G-5500", "mains_hz": 50,
+                                        "el_max_deg": 170, "park_az_deg": 180})
+    assert spec.name == "roof" and spec.el_max_deg == 170 and spec.park_az_deg == 180
+    assert spec.az_rate_deg_s == pytest.approx(preset("G-5500", 50).az_rate_deg_s)
+    az_only = rotator_from_config("mast", {"az_only": True, "az_span_deg": 360,
+                                           "az_speed_rates_deg_s": [2, 4, 6, 8]})
+    assert not az_only.has_elevation and az_only.az_speed_rates_deg_s == (2, 4, 6, 8)
+    with pytest.raises(ConfigError, match="unknown key 'speed'"):
+        rotator_from_config("x", {"speed": 3})
+
+
+def test_frames_south_stop():
+    spec = preset("G-5400B")
+    assert spec.bearing_of(0) == 180 and spec.mech_of(0) == 180
+    assert spec.mech_candidates(200) == [20.0]
+    assert preset("G-5500").mech_candidates(30) == [30.0, 390.0]
+
+
+def test_axis_start_delay_rate_and_arrival():
+    ax = AxisMotor(0, 450, rate_deg_s=5, start_delay_s=0.5, resolution_deg=1, position_deg=10)
+    assert ax.command(20.4, 0.0) == 20  # quantised
+    assert ax.position(0.5) == pytest.approx(10)  # still in its start delay
+    assert ax.position(1.5) == pytest.approx(15)
+    assert ax.arrival_s() == pytest.approx(2.5)
+    assert ax.position(10) == pytest.approx(20)
+
+
+def test_axis_reversal_costs_a_new_delay_same_direction_does_not():
+    ax = AxisMotor(0, 450, 5, 0.5, 1, 100)
+    ax.command(200, 0)
+    ax.command(300, 2.0)  # same direction while running: no new delay
+    assert ax.position(3.0) == pytest.approx(100 + 5 * 2.5)
+    ax.command(0, 4.0)  # reversal: waits again
+    p = ax.position(4.0)
+    assert ax.position(4.4) == pytest.approx(p)
+    assert ax.position(5.5) == pytest.approx(p - 5)
+
+
+def test_axis_clamps_to_limits_and_quantises():
+    ax = AxisMotor(0, 180, 2, 0, 1, 90)
+    assert ax.command(500, 0) == 180
+    assert ax.command(-20, 0) == 0
+    fine = AxisMotor(0, 90, 2, 0, 0.5, 0)
+    assert fine.command(10.26, 0) == 10.5
+
+
+def test_set_rate_during_rotation_and_jam():
+    ax = AxisMotor(0, 450, 2, 0, 1, 0)
+    ax.command(100, 0)
+    ax.set_rate(4, 5)  # X4 during rotation: takes effect now
+    assert ax.position(5) == pytest.approx(10)
+    assert ax.position(7) == pytest.approx(18)
+    with pytest.raises(ValueError):
+        ax.set_rate(0, 7)
+    ax.jam(7)
+    assert ax.position(100) == pytest.approx(18) and not ax.moving(100)
+    ax.jam(100, jammed=False)
+    ax.command(30, 100)
+    assert ax.position(200) == pytest.approx(30)
+
+
+def test_motor_model_az_only():
+    mm = MotorModel(preset("G-400"), az_deg=10)
+    assert mm.el is None
+    mm.command(50, 30, 0)
+    assert mm.position(100) == (pytest.approx(50), 0.0)
+
+
+def test_predict_axis_matches_simulate_commands_exactly():
+    rng = np.random.default_rng(7)
+    for _ in range(60):
+        n = int(rng.integers(3, 200))
+        cmd_t = np.cumsum(rng.uniform(0.2, 3.0, n))
+        cmd = np.clip(200 + np.cumsum(rng.normal(0, 2, n))
+                      + rng.choice([0, 0, 0, 60], n) * rng.choice([-1, 1], n), 0, 450)
+        t_eval = np.linspace(cmd_t[0] - 5, cmd_t[-1] + 100, 700)
+        kw = dict(min_deg=0, max_deg=450, rate_deg_s=float(rng.uniform(1, 8)),
+                  start_delay_s=float(rng.choice([0.0, 0.5, 1.0])), resolution_deg=1.0,
+                  position_deg=200.0, t_s=cmd_t[0] - 10)
+        a, b = AxisMotor(**kw), AxisMotor(**kw)
+        slow = simulate_commands(a, cmd_t, cmd, t_eval)
+        fast, starts = predict_axis(b, cmd_t, cmd, t_eval)
+        np.testing.assert_allclose(fast, slow, atol=1e-9)
+        assert a.position(cmd_t[-1] + 500) == pytest.approx(b.position(cmd_t[-1] + 500))
+        assert 0 < starts <= n
+
+
+def test_predict_axis_counts_one_start_per_step_from_rest():
+    ax = AxisMotor(0, 450, 6, 0.5, 1, 100)
+    t = np.arange(10.0)
+    _, starts = predict_axis(ax, t, 100 + t, t)  # 1 deg/s in 1 deg steps: 9 moves from rest
+    assert starts == 9

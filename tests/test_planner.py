@@ -1,0 +1,212 @@
+"""Mount-path planner: named cases, real passes, pre-position/park and the baseline."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tracker.errors import LimitError
+from tracker.mount import preset
+from tracker.planner import (
+    MountPlan,
+    boresight_horizon_ok,
+    gpredict_plan,
+    plan_pass,
+    pointing_error_deg,
+)
+from tracker.skytrack import SkyTrack
+from tracker.station import HorizonMask, Station
+from tracker.synthpass import synthetic_pass
+
+STATION = Station("test", 48.0, 11.0, 500.0)
+G5500 = preset("G-5500", 50)
+NORTH_360 = G5500.with_(name="north-360", az_span_deg=360)
+TLE_DIR = Path(__file__).resolve().parents[1] / "tle" / "data"
+
+
+def assert_safe(plan: MountPlan, station: Station = STATION) -> None:
+    spec = plan.spec
+    assert np.all(plan.cmd_az_deg >= 0) and np.all(plan.cmd_az_deg <= spec.az_span_deg)
+    assert np.all(plan.ant_az_deg >= 0) and np.all(plan.ant_az_deg <= spec.az_span_deg)
+    if spec.has_elevation:
+        assert np.all(plan.cmd_el_deg >= spec.el_min_deg)
+        assert np.all(plan.cmd_el_deg <= spec.el_max_deg)
+        assert boresight_horizon_ok(spec, station, plan.cmd_az_deg, plan.cmd_el_deg).all()
+    for move in plan.preposition_moves + plan.park_moves:
+        assert 0 <= move.az_deg <= spec.az_span_deg
+        if spec.has_elevation:
+            assert boresight_horizon_ok(spec, station, move.az_deg, move.el_deg)
+
+
+def no_stop_crossing_while_tracking(plan: MountPlan) -> bool:
+    vis = np.flatnonzero(plan.visible)
+    steps = np.abs(np.diff(plan.cmd_az_deg[vis[0]:vis[-1] + 1]))
+    return bool(np.all(steps < 90.0))
+
+
+def test_north_crossing_pass_on_360_north_stop_flips():
+    track = synthetic_pass(40, 0)  # culminates due north: crosses the north stop
+    plan = plan_pass(track, NORTH_360, STATION)
+    assert plan.mode == "flip"
+    assert plan.max_error_deg <= 1.0 and plan.lost_track_s == 0
+    assert np.all(plan.cmd_el_deg >= 90)  # over the top for the whole pass
+    assert no_stop_crossing_while_tracking(plan)
+    assert "flip" in plan.reason.lower() and "stop" in plan.reason
+    assert_safe(plan)
+
+
+def test_north_crossing_pass_on_360_north_stop_without_flip_unwinds():
+    spec = NORTH_360.with_(name="n360-el90", el_max_deg=90)
+    plan = plan_pass(synthetic_pass(40, 0), spec, STATION)
+    assert plan.mode == "unwind"
+    assert plan.lost_track_s > 0  # honest: the swing costs seconds, and they are reported
+    assert plan.lost_track_s < 120
+    assert_safe(plan)
+    modes = {c.mode for c in plan.candidates}
+    assert {"normal", "unwind"} <= modes and "flip" not in modes
+
+
+def test_north_crossing_pass_on_450_uses_overlap_not_flip():
+    plan = plan_pass(synthetic_pass(40, 0), G5500, STATION)
+    assert plan.mode == "overlap"
+    assert plan.cmd_az_deg[plan.visible].max() > 360  # in the overlap region
+    assert np.all(plan.cmd_el_deg <= 90)
+    assert plan.max_error_deg <= 1.0 and plan.lost_track_s == 0
+    assert no_stop_crossing_while_tracking(plan)
+    assert_safe(plan)
+    # Gpredict's rule flips instead (it ignores the overlap when deciding)
+    assert gpredict_plan(synthetic_pass(40, 0), G5500, STATION).mode == "flip"
+
+
+def test_south_crossing_pass_on_south_stop_rotator():
+    spec = preset("G-5400B", 50)
+    plan = plan_pass(synthetic_pass(35, 180), spec, STATION)
+    assert plan.mode == "flip" and plan.max_error_deg <= 1.0
+    assert_safe(plan)
+    # a north-crossing pass is nothing special for a south-stop rotator
+    assert plan_pass(synthetic_pass(35, 0), spec, STATION).mode == "normal"
+
+
+def test_89_degree_pass_uses_keyhole():
+    plan = plan_pass(synthetic_pass(89, 30, 480), G5500, STATION)
+    assert plan.mode == "keyhole"
+    assert plan.lost_track_s == 0 and plan.max_error_deg < 3.0
+    # the exact paths need an azimuth rate the rotator does not have
+    exact = [c for c in plan.candidates if c.mode in ("normal", "overlap", "flip")]
+    assert exact and min(c.max_error_deg for c in exact) > plan.max_error_deg
+    assert np.ptp(plan.cmd_el_deg[plan.visible]) > 170  # elevation sweeps 0 -> 180
+    assert_safe(plan)
+
+
+def test_el_max_170_counts_the_clamped_error():
+    spec = NORTH_360.with_(name="el170", el_max_deg=170)
+    plan = plan_pass(synthetic_pass(40, 0), spec, STATION)
+    flip = next(c for c in plan.candidates if c.mode == "flip")
+    # AOS/LOS at el 0 would need 180: clamped at 170, so about 10 deg short, counted
+    assert 9.0 < flip.max_error_deg < 11.0 and flip.lost_track_s > 0
+    assert "clamped at 170" in flip.note
+    assert np.all(plan.cmd_el_deg <= 170)
+    assert_safe(plan)
+    # Gpredict drops the flip entirely below 180 (its maxel >= 180 test)
+    assert gpredict_plan(synthetic_pass(40, 0), spec, STATION).mode == "normal"
+
+
+def test_candidates_are_ranked_and_reported():
+    plan = plan_pass(synthetic_pass(40, 0), G5500, STATION)
+    keys = [c.rank_key(1.0) for c in plan.candidates]
+    assert keys == sorted(keys)
+    summary = plan.summary()
+    assert summary["mode"] == plan.mode and len(summary["candidates"]) >= 2
+    assert summary["aos"] < summary["los"]
+
+
+def test_preposition_and_park_are_mask_safe():
+    mask = HorizonMask((0.0, 60.0, 90.0, 120.0, 300.0), (0.0, 0.0, 25.0, 0.0, 0.0))
+    station = Station("masked", 48.0, 11.0, 0.0, mask=mask)
+    track = synthetic_pass(50, 180)  # rises in the east-north-east... sets to the west
+    plan = plan_pass(track, G5500, station, current=(0.0, 0.0))
+    assert_safe(plan, station)
+    # moving from north to the AOS bearing sweeps past the 25 deg obstruction at 90
+    start_b = float(G5500.bearing_of(plan.preposition[0]))
+    if 0 < 90 < start_b:
+        assert max(m.el_deg for m in plan.preposition_moves) >= 25
+    assert plan.preposition_moves[-1].az_deg == plan.preposition[0]
+    assert plan.preposition_t_s + 1 < plan.t_s[plan.visible][0]
+    assert plan.park_moves[-1].az_deg == G5500.park_az_deg
+    assert plan.park_moves[0].t_s > plan.t_s[plan.visible][-1]
+
+
+def test_mask_lifts_commands():
+    mask = HorizonMask((0.0, 180.0), (15.0, 15.0))
+    station = Station("walled", 48.0, 11.0, 0.0, mask=mask)
+    plan = plan_pass(synthetic_pass(60, 90), G5500, station)
+    assert_safe(plan, station)
+    assert plan.cmd_el_deg.min() >= 15
+
+
+def test_travel_from_current_position_breaks_ties():
+    t = np.arange(-30.0, 331.0)  # a low pass in the NE, az 30 -> 80: fits at m and m + 360
+    track = SkyTrack.from_azel(t, 30 + 50 * t / 300, 20 * np.sin(np.pi * t / 300))
+    low = plan_pass(track, G5500, STATION, current=(20.0, 0.0))
+    high = plan_pass(track, G5500, STATION, current=(440.0, 0.0))
+    assert low.cmd_az_deg.max() <= 360 and high.cmd_az_deg.min() >= 360
+    assert {low.mode, high.mode} == {"normal", "overlap"}
+
+
+def test_az_only_rotator_error_is_azimuth_only():
+    spec = preset("G-1000DXA")
+    plan = plan_pass(synthetic_pass(50, 200), spec, STATION)
+    assert np.all(plan.cmd_el_deg == 0)
+    assert plan.max_error_deg <= 1.0  # the elevation of the target is not an error
+    assert pointing_error_deg(spec, 10.0, 0.0, 20.0, 60.0) == pytest.approx(10.0)
+
+
+def test_track_below_the_mask_is_refused():
+    track = SkyTrack.from_azel(np.arange(10.0), np.full(10, 90.0), np.full(10, -5.0))
+    with pytest.raises(LimitError, match="never rises"):
+        plan_pass(track, G5500, STATION)
+
+
+@lru_cache(maxsize=1)
+def _real_tracks() -> tuple[SkyTrack, ...]:
+    """Every pass of three bundled amateur satellites over one day (skyfield directly)."""
+    from skyfield.api import EarthSatellite, load, wgs84
+
+    ts = load.timescale()
+    lines = (TLE_DIR / "amateur.txt").read_text().splitlines()
+    sats = [EarthSatellite(lines[i + 1], lines[i + 2], lines[i].strip(), ts)
+            for i in range(0, len(lines) - 2, 3)]
+    topo = wgs84.latlon(STATION.lat_deg, STATION.lon_deg, elevation_m=STATION.alt_m)
+    t0, t1 = ts.utc(2026, 8, 23), ts.utc(2026, 8, 24)
+    tracks = []
+    for sat in sats[:40:8]:
+        t, events = sat.find_events(topo, t0, t1, altitude_degrees=0.0)
+        rises = [t[i] for i in range(len(events) - 2) if events[i] == 0 and events[i + 2] == 2]
+        sets = [t[i + 2] for i in range(len(events) - 2) if events[i] == 0
+                and events[i + 2] == 2]
+        for r, s in zip(rises[:3], sets[:3], strict=True):
+            ts_s = np.arange(r.utc_datetime().timestamp() - 60, s.utc_datetime().timestamp()
+                             + 60, 1.0)
+            tt = ts.from_datetimes([__import__("datetime").datetime.fromtimestamp(
+                x, __import__("datetime").timezone.utc) for x in ts_s[[0, -1]]])
+            tt = ts.linspace(tt[0], tt[1], len(ts_s))
+            alt, az, _ = (sat - topo).at(tt).altaz()
+            tracks.append(SkyTrack.from_azel(ts_s, az.degrees, alt.degrees, name=sat.name))
+    return tuple(tracks)
+
+
+@pytest.mark.parametrize("spec_name", ["G-5500", "G-5400B", "generic-k3ng", "G-1000DXA"])
+def test_real_passes_are_safe_and_exact_when_rates_allow(spec_name):
+    spec = preset(spec_name, 50)
+    tracks = _real_tracks()
+    assert len(tracks) >= 5
+    for track in tracks:
+        plan = plan_pass(track, spec, STATION)
+        assert_safe(plan)
+        if plan.mode in ("normal", "overlap", "flip"):
+            assert no_stop_crossing_while_tracking(plan)
+        if float(np.max(track.el_deg)) < 60 and plan.mode != "unwind":
+            assert plan.max_error_deg <= spec.resolution_deg, (track.name, plan.mode)

@@ -1,0 +1,202 @@
+"""The live loop's decisions and guards, on an in-process rotator built on THE motor model.
+
+Pure logic only (ManualClock, no bytes). The same loop over a real pty / TCP socket against the
+GS-232B emulator is in test_stream_e2e.py.
+"""
+
+from __future__ import annotations
+
+from datetime import datetime, timezone
+
+import numpy as np
+import pytest
+from _stream_fakes import T0, FakeRotator, arc_pass, simple_plan
+
+from tracker.clock import ManualClock
+from tracker.errors import PortLostError, StallError
+from tracker.mount import preset
+from tracker.station import HorizonMask, Station
+from tracker.stream import (
+    Link,
+    Phase,
+    StreamSettings,
+    TrackCore,
+    mech_candidates_of_wire,
+    run_pass,
+    safe_target,
+)
+
+SPEC = preset("G-5500", 50)
+
+
+class Rig:
+    """A core, a fake rotator and a manual clock; ``faults`` maps time offsets to callbacks."""
+
+    def __init__(self, track=None, settings=None, start_az=90.0, spec=SPEC, faults=None,
+                 lead_s=45.0):
+        self.track = track if track is not None else arc_pass(duration_s=300, pad_s=30)
+        self.spec = spec
+        self.plan = simple_plan(self.track, spec, lead_s=lead_s)
+        self.clock = ManualClock(datetime.fromtimestamp(T0 - 60, timezone.utc))
+        self.fake = FakeRotator(spec, self.clock, az_deg=start_az, el_deg=0.0)
+        self.settings = settings or StreamSettings(deadband_deg=3.0)
+        self.core = TrackCore(self.plan, self.track, spec, Station(), self.settings)
+        self.faults = dict(faults or {})
+        self.events: list[tuple[float, str, dict]] = []
+        self.stamps: list[tuple[float, str]] = []
+        self.status: list = []
+
+    def connect(self):
+        if self.fake.lost and self.clock.timestamp() < getattr(self, "plug_at", np.inf):
+            raise PortLostError("still unplugged")
+        self.fake.lost = False
+        self.fake.closed = False
+        return self.fake
+
+    def on_status(self, st):
+        self.status.append(st)
+        for t_off in sorted(self.faults):
+            if st.t_s >= T0 + t_off:
+                self.faults.pop(t_off)(self)
+
+    def event(self, kind, **data):
+        t = self.clock.timestamp()
+        self.events.append((t, kind, data))
+        if kind == "command":
+            self.stamps.append((t, "S" if data.get("cmd") == "stop" else "W"))
+
+    def run(self):
+        link = Link(self.connect, self.spec)
+        return run_pass(self.core, link, self.clock, on_status=self.on_status,
+                        events=self.event)
+
+    def states(self):
+        return [d.get("state") for _t, k, d in self.events if k == "state"]
+
+
+def track_errors(rig):
+    return np.array([s.error_deg for s in rig.status
+                     if rig.core.aos_s + 5 <= s.t_s <= rig.core.los_s and s.error_deg is not None])
+
+
+def test_a_pass_completes_within_the_deadband_and_parks():
+    rig = Rig()
+    res = rig.run()
+    assert res.completed and rig.core.phase is Phase.DONE
+    assert rig.fake.written[0] == "W100 000"          # pre-position to the AOS point
+    assert rig.fake.written[-1] == "W000 000"         # park (G-5500 park 0/0)
+    err = track_errors(rig)
+    # deadband + integer read-back (0.5 deg per axis) + the 1 deg command resolution
+    assert err.max() <= 3.0 + 1.5
+    assert 10 <= res.commands <= 30
+    assert "stop" not in [d.get("cmd") for _t, k, d in rig.events if k == "command"]
+
+
+def test_stay_after_pass_sends_no_park():
+    rig = Rig(settings=StreamSettings(deadband_deg=3.0, park_after_pass=False))
+    rig.run()
+    assert rig.fake.written[-1] != "W000 000"
+    assert rig.core.phase is Phase.DONE
+
+
+def test_jammed_axis_is_stopped_within_3_s_and_reported():
+    def jam(r):
+        r.jam_t = r.clock.timestamp()
+        r.fake.model.az.jam(r.jam_t)
+    rig = Rig(start_az=0.0, faults={-40: jam})        # during the long pre-position slew
+    with pytest.raises(StallError, match="azimuth did not move"):
+        rig.run()
+    assert rig.fake.written[-1] == "S"
+    stop_t = [t for t, what in rig.stamps if what == "S"][0]
+    assert stop_t - rig.jam_t <= 3.0
+
+
+def test_controller_off_means_no_moves_until_it_is_back():
+    def off(r):
+        r.fake.off = True
+        r.off_t = r.clock.timestamp()
+
+    def on(r):
+        r.fake.off = False
+        r.on_t = r.clock.timestamp()
+    rig = Rig(faults={100: off, 130: on})
+    res = rig.run()
+    assert res.completed
+    assert "controller_off" in rig.states()
+    during = [what for t, what in rig.stamps if rig.off_t <= t < rig.on_t]
+    assert during == ["S"]                             # one all-stop, never a blind move
+    assert any(what == "W" for t, what in rig.stamps if t > rig.on_t)
+
+
+def test_readback_contradicting_the_plan_is_not_trusted_blindly():
+    def turned_by_hand(r):
+        t = r.clock.timestamp()
+        az, el = r.fake.model.position(t)
+        r.fake.model.stop(t)
+        from tracker.mount import MotorModel
+        r.fake.model = MotorModel(r.spec, az + 60.0, el, t)
+        r.moved_t = t
+    rig = Rig(faults={120: turned_by_hand})
+    res = rig.run()
+    assert res.completed
+    assert "contradiction" in rig.states()
+    after = [what for t, what in rig.stamps if t >= rig.moved_t]
+    assert after[0] == "S"                             # stop first, then re-aim
+    assert track_errors(rig)[-20:].max() <= 4.5        # recovered onto the path
+
+
+def test_overlap_readback_folded_to_0_359_is_read_against_the_command():
+    # Pass crossing north: bearings 300 -> 60, mechanical 300 -> 420 on a 450 rotator.
+    track = arc_pass(duration_s=300, az0_deg=300.0, az1_deg=420.0, pad_s=30)
+    rig = Rig(track=track, start_az=300.0)
+    rig.fake.fold_360 = True
+    res = rig.run()
+    assert res.completed
+    assert "contradiction" not in rig.states()
+    assert any(w.startswith("W4") for w in rig.fake.written)   # used the overlap
+    assert track_errors(rig).max() <= 4.5
+
+
+def test_port_loss_reconnects_with_backoff_and_resumes():
+    def unplug(r):
+        r.fake.lost = True
+        r.plug_at = r.clock.timestamp() + 15.0   # USB cable back 15 s later
+    rig = Rig(faults={100: unplug})
+    res = rig.run()
+    assert res.completed and res.reconnects >= 1
+    states = rig.states()
+    assert "port_lost" in states and "reconnected" in states
+    waits = [d["wait_s"] for _t, k, d in rig.events if d.get("state") == "reconnecting"]
+    assert waits == sorted(waits) and waits[0] < waits[-1]     # backoff grows
+    assert track_errors(rig)[-20:].max() <= 4.5
+
+
+def test_interrupt_sends_all_stop_last():
+    def interrupt(r):
+        raise KeyboardInterrupt
+    rig = Rig(faults={60: interrupt})
+    with pytest.raises(KeyboardInterrupt):
+        rig.run()
+    assert rig.fake.written[-1] == "S"
+
+
+def test_safe_target_keeps_limits_and_mask():
+    station = Station(mask=HorizonMask((0.0, 90.0, 180.0, 270.0), (10.0, 10.0, 20.0, 10.0)))
+    az, el, why = safe_target(SPEC, station, 500.0, 5.0)
+    assert az == 450.0 and el >= 10.0 and "outside" in why and "mask" in why
+    # Over the top: el 175 looks at bearing 180+180=0 (north), el 5 -> raised to 10 -> 170.
+    az, el, why = safe_target(SPEC, station, 180.0, 175.0)
+    assert el == 170.0 and "mask" in why
+    az, el, why = safe_target(SPEC, station, 90.0, 45.0)
+    assert (az, el, why) == (90.0, 45.0, "")
+    spec90 = preset("generic-k3ng")
+    assert safe_target(spec90, Station(), 10.0, 120.0)[1] == 90.0
+
+
+def test_wire_readback_candidates():
+    assert mech_candidates_of_wire(SPEC, 40.0) == [40.0, 400.0]
+    assert mech_candidates_of_wire(SPEC, 400.0) == [40.0, 400.0]
+    south = preset("G-5500").with_(name="south", az_span_deg=360, stop_bearing_deg=180,
+                                   controller_maps_south=True)
+    assert mech_candidates_of_wire(south, 180.0) == [0.0, 360.0]
+    assert mech_candidates_of_wire(south, 90.0) == [270.0]

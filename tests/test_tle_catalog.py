@@ -1,0 +1,133 @@
+"""Catalogue lookups, groups, duplicates and element age on the bundled snapshot."""
+
+from __future__ import annotations
+
+import re
+from datetime import datetime, timedelta, timezone
+from pathlib import Path
+
+import pytest
+
+from tle.catalog import Catalog, age_warning
+from tle.checksum import compute_checksum
+from tle.errors import AmbiguousSatelliteError, UnknownSatelliteError
+from tle.store import TleStore
+from tracker.clock import ManualClock
+
+DATA = Path(__file__).parent / "data" / "tle"
+T0 = datetime(2026, 8, 23, tzinfo=timezone.utc)
+
+
+@pytest.fixture(scope="module")
+def bundled():
+    return Catalog.bundled_snapshot()
+
+
+@pytest.mark.parametrize("query", ["25544", "ISS (ZARYA)", "iss (zarya)", "ISS", "zarya",
+                                   "1998-067A", "98067A", " 25544 "])
+def test_find_iss_every_way(bundled, query):
+    assert bundled.find(query).norad_id == 25544
+
+
+@pytest.mark.parametrize(("query", "norad_id"), [
+    ("AO-7", 7530),            # the part in parentheses; not AO-73 by substring
+    ("AO-73", 39444),
+    ("funcube-1", 39444),      # the part before the parentheses
+    ("SAUDISAT 1C", 27607),
+    ("7530", 7530),
+])
+def test_name_parts_and_ids(bundled, query, norad_id):
+    assert bundled.find(query).norad_id == norad_id
+
+
+def test_ambiguous_lists_candidates(bundled):
+    with pytest.raises(AmbiguousSatelliteError, match=re.escape(
+            "'NOAA' matches 2 satellites by partial name: NOAA 20 (JPSS-1) (43013), "
+            "NOAA 21 (JPSS-2) (54234); give the full name or the NORAD id")) as info:
+        bundled.find("NOAA")
+    assert info.value.candidates == ("NOAA 20 (JPSS-1)", "NOAA 21 (JPSS-2)")
+
+
+def test_unknown_suggests(bundled):
+    with pytest.raises(UnknownSatelliteError, match=re.escape(
+            "no satellite 'ISSS' in the bundled snapshot (343 sets); did you mean "
+            "'ISS (ZARYA)'")) as info:
+        bundled.find("ISSS")
+    assert info.value.suggestions[0] == "ISS (ZARYA)"
+    with pytest.raises(UnknownSatelliteError, match="tracker tle update") as info:
+        bundled.find("qqqqqqqq")
+    assert info.value.suggestions == ()
+    with pytest.raises(UnknownSatelliteError, match="empty satellite name"):
+        bundled.find("  ")
+
+
+def test_groups_keep_shared_members(bundled):
+    assert bundled.groups == ["amateur", "stations", "visual", "weather"]
+    amateur = bundled.group("amateur")
+    assert len(amateur) == 96 and 25544 in amateur  # ISS is in amateur and stations
+    assert 25544 in bundled.group("stations")
+    assert amateur.find("ISS").norad_id == 25544
+    with pytest.raises(UnknownSatelliteError, match=re.escape(
+            "no group 'amatuer' in the catalogue (groups: amateur, stations, visual, weather); "
+            "did you mean amateur?")):
+        bundled.group("amatuer")
+
+
+def test_search_and_iteration(bundled):
+    hits = bundled.search("noaa")
+    assert [es.name for es in hits] == ["NOAA 20 (JPSS-1)", "NOAA 21 (JPSS-2)"]
+    assert bundled.search("98067A") == [] and bundled.search("1998-067A")
+    assert len(list(bundled)) == len(bundled) == 343
+    assert bundled.bundled and "old" in bundled.note and "2026-08-2" in bundled.note
+
+
+def _with_epoch(text: str, day: str) -> str:
+    out = []
+    for line in text.splitlines():
+        if line.startswith("1 "):
+            line = line[:20] + day + line[32:68]
+            line += str(compute_checksum(line))
+        out.append(line)
+    return "\n".join(out) + "\n"
+
+
+def test_duplicates_keep_the_newest_epoch(tmp_path):
+    text = (DATA / "amateur5.txt").read_text()
+    old = tmp_path / "old.txt"
+    new = tmp_path / "new.txt"
+    old.write_text(_with_epoch(text, "200.00000000"))
+    new.write_text(_with_epoch(text, "235.50000000"))
+    for order in ([old, new], [new, old]):
+        catalog = Catalog.load(order)
+        assert len(catalog) == 5
+        assert catalog.find("ISS").epoch == datetime(2026, 8, 23, 12, tzinfo=timezone.utc)
+        assert catalog.groups == ["new", "old"]
+        assert len(catalog.group("old")) == 5
+
+
+def test_load_skips_bad_sets_with_warnings():
+    seen: list[str] = []
+    catalog = Catalog.load([DATA / "bad_checksum.txt", DATA / "truncated_line2.txt",
+                            DATA / "amateur5.json"], on_warning=seen.append)
+    assert len(seen) == 2 and len(catalog) == 5
+    assert not catalog.bundled
+
+
+def test_default_prefers_the_cache(tmp_path):
+    store = TleStore(cache_dir=tmp_path, clock=ManualClock(T0))
+    assert Catalog.default(store).bundled
+    (tmp_path / "mine.txt").write_bytes((DATA / "alpha5.txt").read_bytes())
+    catalog = Catalog.default(store)
+    assert not catalog.bundled and len(catalog) == 2
+    assert catalog.find("A0000").norad_id == 100000
+    assert catalog.find("339999").name == "ALPHA FIVE HIGH"
+
+
+def test_age_warning_thresholds(bundled):
+    iss = bundled.find("ISS")
+    assert age_warning(iss, iss.epoch + timedelta(days=6.9)) is None
+    mild = age_warning(iss, iss.epoch + timedelta(days=8))
+    assert mild.startswith("elements for ISS (ZARYA) are 8.0 days old (epoch 2026-08-22 12:00")
+    loud = age_warning(iss, iss.epoch + timedelta(days=45))
+    assert loud.startswith("WARNING: elements for ISS (ZARYA) are 45 days old")
+    assert "tracker tle update" in mild and "tracker tle update" in loud

@@ -1,0 +1,230 @@
+"""The catalogue: element sets from several files, looked up by id, name or designator.
+
+Lookup order in :meth:`Catalog.find`: NORAD id, international designator, exact name,
+case-insensitive name, a few well-known nicknames ("ISS"), a name part (the text before or
+inside the parentheses: "AO-7" finds "OSCAR 7 (AO-7)"), then a unique substring. Several
+matches at one step raise :class:`AmbiguousSatelliteError`; none raise
+:class:`UnknownSatelliteError` with difflib "did you mean" suggestions.
+"""
+
+from __future__ import annotations
+
+import difflib
+import re
+import statistics
+from collections.abc import Iterable, Iterator
+from datetime import datetime, timezone
+from pathlib import Path
+
+from tle.alpha5 import alpha5_to_int
+from tle.elements import ElementSet, WarningHandler, format_intl_designator, parse_text
+from tle.errors import AmbiguousSatelliteError, TleError, UnknownSatelliteError
+
+AGE_WARN_DAYS = 7.0
+AGE_LOUD_DAYS = 30.0
+MAX_LISTED = 8
+
+# Nicknames people type that match several names otherwise ("ISS" is in both ISS (ZARYA) and
+# ISS (NAUKA)); each maps to the object everyone means. Only used if that id is loaded.
+NICKNAMES = {"ISS": 25544, "HST": 20580, "HUBBLE": 20580, "CSS": 48274, "TIANGONG": 48274}
+
+_INTL_SHORT = re.compile(r"^\d{5}[A-Z]{1,3}$")
+_INTL_LONG = re.compile(r"^\d{4}-\d{3}[A-Z]{1,3}$")
+_ALPHA5 = re.compile(r"^[A-HJ-NP-Z]\d{4}$")
+_PAREN = re.compile(r"^(.*?)\s*\((.*)\)\s*$")
+
+
+def _name_parts(name: str) -> tuple[str, ...]:
+    match = _PAREN.match(name)
+    if not match:
+        return ()
+    return tuple(part.casefold() for part in match.groups() if part)
+
+
+def age_warning(es: ElementSet, now: datetime) -> str | None:
+    """None for fresh elements, a warning past 7 days, a louder one past 30 days."""
+    age_days = es.age_days(now)
+    stamp = es.epoch.strftime("%Y-%m-%d %H:%M UTC")
+    if age_days > AGE_LOUD_DAYS:
+        return (f"WARNING: elements for {es.name} are {age_days:.0f} days old (epoch {stamp}): "
+                "predictions may be off by minutes and many degrees; "
+                "run `tracker tle update`")
+    if age_days > AGE_WARN_DAYS:
+        return (f"elements for {es.name} are {age_days:.1f} days old (epoch {stamp}); "
+                "run `tracker tle update` for fresh ones")
+    return None
+
+
+class Catalog:
+    """Element sets keyed by NORAD id (the newest epoch wins), with per-group membership."""
+
+    def __init__(self, sets: Iterable[ElementSet] = (), bundled: bool = False,
+                 note: str | None = None):
+        self.bundled = bundled
+        self.note = note
+        self._by_id: dict[int, ElementSet] = {}
+        self._groups: dict[str, set[int]] = {}
+        for es in sets:
+            self.add(es)
+
+    def add(self, es: ElementSet) -> None:
+        """Add one set; a duplicate id keeps whichever epoch is newer."""
+        old = self._by_id.get(es.norad_id)
+        if old is None or es.epoch > old.epoch:
+            self._by_id[es.norad_id] = es
+        self._groups.setdefault(Path(es.source).stem, set()).add(es.norad_id)
+
+    @classmethod
+    def load(cls, paths: Iterable[str | Path], skip_bad: bool = True,
+             on_warning: WarningHandler | None = None) -> Catalog:
+        """Load TLE/3LE/OMM files; broken sets are skipped with one warning each by default."""
+        from tle.elements import load_file
+
+        catalog = cls()
+        for path in paths:
+            for es in load_file(path, skip_bad=skip_bad, on_warning=on_warning):
+                catalog.add(es)
+        return catalog
+
+    @classmethod
+    def bundled_snapshot(cls, on_warning: WarningHandler | None = None) -> Catalog:
+        """The snapshot shipped in ``tle/data/`` (read via importlib.resources)."""
+        from importlib.resources import files
+
+        catalog = cls(bundled=True)
+        data = files("tle").joinpath("data")
+        for entry in sorted(data.iterdir(), key=lambda e: e.name):
+            if entry.name.endswith(".txt"):
+                text = entry.read_text(encoding="utf-8")
+                for es in parse_text(text, source=str(entry), skip_bad=True,
+                                     on_warning=on_warning):
+                    catalog.add(es)
+        if catalog._by_id:
+            median = statistics.median(es.epoch.timestamp() for es in catalog)
+            day = datetime.fromtimestamp(median, tz=timezone.utc).strftime("%Y-%m-%d")
+            catalog.note = (f"using the bundled element snapshot (epochs around {day}); these "
+                            "elements are old, run `tracker tle update` for fresh ones")
+        return catalog
+
+    @classmethod
+    def default(cls, store=None, on_warning: WarningHandler | None = None) -> Catalog:
+        """Cached groups if the store has any, else the bundled snapshot (``bundled=True``)."""
+        if store is None:
+            from tle.store import TleStore
+
+            store = TleStore()
+        paths = store.paths()
+        if paths:
+            return cls.load(paths, skip_bad=True, on_warning=on_warning)
+        return cls.bundled_snapshot(on_warning=on_warning)
+
+    def __iter__(self) -> Iterator[ElementSet]:
+        return iter(self._by_id.values())
+
+    def __len__(self) -> int:
+        return len(self._by_id)
+
+    def __contains__(self, norad_id: object) -> bool:
+        return norad_id in self._by_id
+
+    def get(self, norad_id: int) -> ElementSet | None:
+        return self._by_id.get(norad_id)
+
+    @property
+    def groups(self) -> list[str]:
+        return sorted(self._groups)
+
+    def group(self, name: str) -> Catalog:
+        """A catalogue of the sets that appeared in group ``name`` (file stem, "amateur").
+
+        Each set is the newest one for its id, even if that came from another group's file.
+        """
+        ids = self._groups.get(name)
+        if ids is None:
+            known = ", ".join(self.groups) or "none loaded"
+            close = tuple(difflib.get_close_matches(name, self.groups))
+            hint = f"; did you mean {', '.join(close)}?" if close else ""
+            raise UnknownSatelliteError(
+                f"no group {name!r} in the catalogue (groups: {known}){hint}", close)
+        sub = Catalog(bundled=self.bundled, note=self.note)
+        for norad_id in sorted(ids):
+            sub._by_id[norad_id] = self._by_id[norad_id]
+        sub._groups[name] = set(ids)
+        return sub
+
+    def search(self, query: str) -> list[ElementSet]:
+        """Every set whose name, id or designator contains ``query`` (case-insensitive)."""
+        needle = query.strip().casefold()
+        return sorted((es for es in self if needle in es.name.casefold()
+                       or needle in str(es.norad_id) or needle in es.intl_designator.casefold()),
+                      key=lambda es: es.name)
+
+    def _pick(self, query: str, matches: list[ElementSet], how: str) -> ElementSet | None:
+        if len(matches) == 1:
+            return matches[0]
+        if not matches:
+            return None
+        matches.sort(key=lambda es: es.name)
+        listed = ", ".join(f"{es.name} ({es.norad_id})" for es in matches[:MAX_LISTED])
+        more = f" and {len(matches) - MAX_LISTED} more" if len(matches) > MAX_LISTED else ""
+        raise AmbiguousSatelliteError(
+            f"{query!r} matches {len(matches)} satellites by {how}: {listed}{more}; "
+            "give the full name or the NORAD id",
+            tuple(es.name for es in matches))
+
+    def find(self, query: str) -> ElementSet:
+        """One set by NORAD id, designator, name (exact, any case, part, unique substring)."""
+        text = query.strip()
+        if not text:
+            raise UnknownSatelliteError("empty satellite name; give a name or a NORAD id")
+        if text.isdigit() and int(text) in self._by_id:
+            return self._by_id[int(text)]
+        if _ALPHA5.match(text.upper()):
+            found = self._by_id.get(alpha5_to_int(text.upper()))
+            if found:
+                return found
+        upper = text.upper()
+        if _INTL_SHORT.match(upper) or _INTL_LONG.match(upper):
+            designator = format_intl_designator(upper) if "-" not in upper else upper
+            hit = self._pick(text, [es for es in self if es.intl_designator == designator],
+                             "international designator")
+            if hit:
+                return hit
+        folded = text.casefold()
+        steps = (
+            ("exact name", lambda es: es.name == text),
+            ("name", lambda es: es.name.casefold() == folded),
+        )
+        for how, test in steps:
+            hit = self._pick(text, [es for es in self if test(es)], how)
+            if hit:
+                return hit
+        nick = NICKNAMES.get(text.upper())
+        if nick in self._by_id:
+            return self._by_id[nick]
+        for how, test in (
+            ("name part", lambda es: folded in _name_parts(es.name)),
+            ("partial name", lambda es: folded in es.name.casefold()),
+        ):
+            hit = self._pick(text, [es for es in self if test(es)], how)
+            if hit:
+                return hit
+        raise self._unknown(text)
+
+    def _unknown(self, text: str) -> UnknownSatelliteError:
+        # Compare with the full names and their parts, so "ISSS" still finds "ISS (ZARYA)".
+        keys: dict[str, str] = {}
+        for es in sorted(self, key=lambda es: es.norad_id):
+            for key in (es.name.casefold(), *_name_parts(es.name)):
+                keys.setdefault(key, es.name)
+        close = difflib.get_close_matches(text.casefold(), list(keys), n=10, cutoff=0.6)
+        suggestions = tuple(dict.fromkeys(keys[c] for c in close))[:5]
+        where = "the bundled snapshot" if self.bundled else "the catalogue"
+        hint = (f"; did you mean {', '.join(repr(s) for s in suggestions)}?" if suggestions
+                else "; try `tracker tle list` / a NORAD id, or `tracker tle update` to fetch "
+                     "more groups")
+        return UnknownSatelliteError(
+            f"no satellite {text!r} in {where} ({len(self)} sets){hint}", suggestions)
+
+
+__all__ = ["AGE_LOUD_DAYS", "AGE_WARN_DAYS", "Catalog", "TleError", "age_warning"]

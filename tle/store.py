@@ -1,0 +1,334 @@
+"""The element cache: fetch CelesTrak GP groups (or any URL) politely, validate, keep safe.
+
+Rules: a source is fetched at most every 2 hours unless forced; requests are conditional
+(If-Modified-Since / If-None-Match, 304 keeps the copy); a body that is HTML, empty, truncated
+or has any set that does not parse is rejected; files are written to a temp file and
+``os.replace``d, so a failed download never destroys the cached copy. Metadata (url, last check,
+Last-Modified, ETag, count) lives in ``sources.json`` beside the element files.
+"""
+
+from __future__ import annotations
+
+import http.client
+import json
+import os
+import re
+import statistics
+import tempfile
+import urllib.error
+import urllib.parse
+import urllib.request
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from tle.elements import parse_text, sniff_format
+from tle.errors import TleError, TleFetchError
+
+DEFAULT_BASE_URL = "https://celestrak.org/NORAD/elements/gp.php"
+DEFAULT_GROUPS = ("amateur", "weather", "stations", "visual")
+FORMATS = ("tle", "json", "csv", "xml")
+MIN_INTERVAL_S = 2 * 3600.0
+DEFAULT_TIMEOUT_S = 20.0
+META_NAME = "sources.json"
+ELEMENT_SUFFIXES = (".txt", ".tle", ".json", ".csv", ".xml")
+USER_AGENT = "rotator-tracker (+https://github.com/; tle store)"
+_GROUP_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
+_SUFFIX = {"tle": ".txt", "json": ".json", "csv": ".csv", "xml": ".xml"}
+
+
+@dataclass(frozen=True)
+class FetchResponse:
+    """What a fetch function returns: HTTP status, body bytes, lower-case header names."""
+
+    status: int
+    body: bytes
+    headers: Mapping[str, str] = field(default_factory=dict)
+
+
+Fetch = Callable[[str, Mapping[str, str], float], FetchResponse]
+
+
+def urllib_fetch(url: str, headers: Mapping[str, str], timeout_s: float) -> FetchResponse:
+    """GET ``url`` with urllib; 304 is a response, other HTTP errors raise TleFetchError."""
+    request = urllib.request.Request(url, headers={"User-Agent": USER_AGENT, **headers})
+    try:
+        with urllib.request.urlopen(request, timeout=timeout_s) as reply:
+            body = reply.read()
+            return FetchResponse(reply.status, body,
+                                 {k.lower(): v for k, v in reply.headers.items()})
+    except urllib.error.HTTPError as e:
+        if e.code == 304:
+            return FetchResponse(304, b"", {k.lower(): v for k, v in e.headers.items()})
+        raise TleFetchError(f"{url}: HTTP {e.code} {e.reason}; cached copy kept") from None
+    except http.client.IncompleteRead as e:
+        raise TleFetchError(f"{url}: truncated download ({len(e.partial)} bytes arrived, "
+                            f"{e.expected} missing); cached copy kept") from None
+    except TimeoutError:
+        raise TleFetchError(f"{url}: no answer within {timeout_s:g} s (slow server or no "
+                            "network?); cached copy kept") from None
+    except urllib.error.URLError as e:
+        reason = e.reason
+        if isinstance(reason, TimeoutError):
+            raise TleFetchError(f"{url}: no answer within {timeout_s:g} s (slow server or no "
+                                "network?); cached copy kept") from None
+        raise TleFetchError(f"{url}: cannot connect ({reason}); no network? cached copy "
+                            "kept") from None
+    except (OSError, http.client.HTTPException) as e:
+        raise TleFetchError(f"{url}: download failed ({e or type(e).__name__}); no network? "
+                            "cached copy kept") from None
+
+
+@dataclass(frozen=True)
+class Source:
+    """A named download: a CelesTrak group ("amateur") or any URL."""
+
+    name: str
+    url: str
+
+
+@dataclass(frozen=True)
+class UpdateResult:
+    """The outcome for one source: "updated", "not modified", "fresh" (skipped) or "failed"."""
+
+    source: Source
+    status: str
+    count: int = 0
+    message: str = ""
+
+
+@dataclass(frozen=True)
+class SourceInfo:
+    """One cached source as ``list()`` reports it; ages in seconds/days from the clock."""
+
+    name: str
+    url: str
+    path: Path
+    count: int
+    checked_age_s: float | None
+    median_epoch_age_days: float | None
+
+
+def _name_from_url(url: str) -> str:
+    parts = urllib.parse.urlsplit(url)
+    query = urllib.parse.parse_qs(parts.query)
+    for key in ("GROUP", "NAME", "CATNR", "INTDES", "SPECIAL"):
+        if query.get(key):
+            return re.sub(r"[^A-Za-z0-9_.-]+", "_", query[key][0]).strip("_") or "download"
+    stem = Path(urllib.parse.unquote(parts.path)).stem
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", stem).strip("_") or "download"
+
+
+def resolve_source(spec: str, base_url: str = DEFAULT_BASE_URL, fmt: str = "tle") -> Source:
+    """"amateur" → the CelesTrak GP URL for that group; a URL is kept as given."""
+    if "://" in spec:
+        return Source(_name_from_url(spec), spec)
+    if not _GROUP_RE.match(spec):
+        raise TleError(f"{spec!r} is neither a CelesTrak group name (like amateur, weather) "
+                       "nor a URL")
+    if fmt not in FORMATS:
+        raise TleError(f"unknown element format {fmt!r}; choose one of {', '.join(FORMATS)}")
+    query = urllib.parse.urlencode({"GROUP": spec, "FORMAT": fmt})
+    return Source(spec, f"{base_url}?{query}")
+
+
+def default_cache_dir() -> Path:
+    """``$TRACKER_CACHE_DIR/tle`` if set (tests, CI), else the platformdirs user cache."""
+    env = os.environ.get("TRACKER_CACHE_DIR")
+    if env:
+        return Path(env) / "tle"
+    import platformdirs
+
+    return Path(platformdirs.user_cache_dir("tracker")) / "tle"
+
+
+def _atomic_write(path: Path, data: bytes) -> None:
+    # Temp file in the same directory, then os.replace: readers see the old or the new file,
+    # never half of one, and a crash leaves the old copy in place.
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".part")
+    try:
+        with os.fdopen(fd, "wb") as out:
+            out.write(data)
+            out.flush()
+            os.fsync(out.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+class TleStore:
+    """A directory of downloaded element files plus their metadata."""
+
+    def __init__(self, cache_dir: str | Path | None = None, fetch: Fetch | None = None,
+                 clock=None, base_url: str | None = None,
+                 timeout_s: float = DEFAULT_TIMEOUT_S, min_interval_s: float = MIN_INTERVAL_S):
+        self.cache_dir = Path(cache_dir) if cache_dir is not None else default_cache_dir()
+        self.fetch = fetch or urllib_fetch
+        if clock is None:
+            from tracker.clock import SystemClock
+
+            clock = SystemClock()
+        self.clock = clock
+        self.base_url = (base_url or os.environ.get("TRACKER_CELESTRAK_URL")
+                         or DEFAULT_BASE_URL)
+        self.timeout_s = timeout_s
+        self.min_interval_s = min_interval_s
+
+    # -- metadata ------------------------------------------------------------------------
+    @property
+    def meta_path(self) -> Path:
+        return self.cache_dir / META_NAME
+
+    def _read_meta(self) -> dict[str, dict[str, Any]]:
+        try:
+            data = json.loads(self.meta_path.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            return {}
+        except (OSError, ValueError) as e:
+            raise TleError(f"{self.meta_path}: unreadable cache metadata ({e}); delete it and "
+                           "run `tracker tle update --force`") from None
+        return data if isinstance(data, dict) else {}
+
+    def _write_meta(self, meta: Mapping[str, Any]) -> None:
+        text = json.dumps(meta, indent=2, sort_keys=True) + "\n"
+        _atomic_write(self.meta_path, text.encode("utf-8"))
+
+    # -- queries -------------------------------------------------------------------------
+    def paths(self) -> list[Path]:
+        """Cached element files (the downloads plus any element file dropped in the dir)."""
+        if not self.cache_dir.is_dir():
+            return []
+        return sorted(p for p in self.cache_dir.iterdir()
+                      if p.suffix in ELEMENT_SUFFIXES and p.name != META_NAME
+                      and not p.name.startswith(".") and p.is_file())
+
+    def list(self) -> list[SourceInfo]:
+        """Each cached source with its count, time since the last check, and element age."""
+        meta = self._read_meta()
+        now_s = self.clock.timestamp()
+        infos = []
+        known = set()
+        for name, entry in sorted(meta.items()):
+            path = self.cache_dir / entry.get("file", "")
+            if not entry.get("file") or not path.is_file():
+                continue
+            known.add(path)
+            checked = entry.get("last_check")
+            median = entry.get("median_epoch")
+            infos.append(SourceInfo(
+                name, entry.get("url", ""), path, int(entry.get("count", 0)),
+                None if checked is None else now_s - checked,
+                None if median is None else (now_s - median) / 86400.0))
+        for path in self.paths():
+            if path not in known:
+                infos.append(SourceInfo(path.stem, "", path, -1, None, None))
+        return infos
+
+    # -- updating ------------------------------------------------------------------------
+    def resolve(self, spec: str, fmt: str = "tle") -> Source:
+        return resolve_source(spec, self.base_url, fmt)
+
+    def update(self, sources: Iterable[str | Source] = DEFAULT_GROUPS, force: bool = False,
+               fmt: str = "tle",
+               on_result: Callable[[UpdateResult], None] | None = None) -> list[UpdateResult]:
+        """Update every source; report each through ``on_result``.
+
+        Failures do not stop the other sources; afterwards one TleFetchError names them all
+        (the cached copies are kept).
+        """
+        results = []
+        for spec in sources:
+            source = spec if isinstance(spec, Source) else self.resolve(spec, fmt)
+            try:
+                result = self.update_source(source, force=force)
+            except TleError as e:
+                result = UpdateResult(source, "failed", 0, str(e))
+            results.append(result)
+            if on_result is not None:
+                on_result(result)
+        failed = [r for r in results if r.status == "failed"]
+        if len(failed) == 1:
+            raise TleFetchError(failed[0].message)
+        if failed:
+            names = ", ".join(r.source.name for r in failed)
+            raise TleFetchError(f"{len(failed)} of {len(results)} sources failed ({names}), "
+                                f"cached copies kept; first: {failed[0].message}")
+        return results
+
+    def update_source(self, source: Source, force: bool = False) -> UpdateResult:
+        """Fetch one source if due; raise TleFetchError when it fails (copy kept)."""
+        meta = self._read_meta()
+        entry = dict(meta.get(source.name, {}))
+        if entry.get("url") not in (None, source.url):
+            entry = {}  # same name, different URL: the old validators do not apply
+        old_path = self.cache_dir / entry["file"] if entry.get("file") else None
+        have_copy = old_path is not None and old_path.is_file()
+        now_s = self.clock.timestamp()
+        last_check = entry.get("last_check")
+        if (have_copy and not force and last_check is not None
+                and now_s - last_check < self.min_interval_s):
+            wait_min = (self.min_interval_s - (now_s - last_check)) / 60.0
+            return UpdateResult(source, "fresh", int(entry.get("count", 0)),
+                                f"checked {(now_s - last_check) / 60.0:.0f} min ago; next "
+                                f"check allowed in {wait_min:.0f} min (--force to override)")
+        headers = {}
+        if have_copy:
+            if entry.get("etag"):
+                headers["If-None-Match"] = entry["etag"]
+            if entry.get("last_modified"):
+                headers["If-Modified-Since"] = entry["last_modified"]
+        response = self.fetch(source.url, headers, self.timeout_s)
+        if response.status == 304 and have_copy:
+            entry["last_check"] = now_s
+            self._save_entry(source.name, entry)
+            return UpdateResult(source, "not modified", int(entry.get("count", 0)),
+                                "server copy unchanged; cached copy kept")
+        if response.status != 200:
+            raise TleFetchError(f"{source.url}: HTTP {response.status}; cached copy kept")
+        sets, kind = self._validate(source, response.body)
+        self.cache_dir.mkdir(parents=True, exist_ok=True)
+        new_path = self.cache_dir / f"{source.name}{_SUFFIX[kind]}"
+        _atomic_write(new_path, response.body)
+        if old_path is not None and old_path != new_path and old_path.is_file():
+            old_path.unlink()
+        entry.update(
+            url=source.url, file=new_path.name, last_check=now_s, count=len(sets),
+            last_modified=response.headers.get("last-modified"),
+            etag=response.headers.get("etag"),
+            median_epoch=statistics.median(es.epoch.timestamp() for es in sets))
+        self._save_entry(source.name, entry)
+        return UpdateResult(source, "updated", len(sets), f"{len(sets)} element sets")
+
+    def _save_entry(self, name: str, entry: Mapping[str, Any]) -> None:
+        self.cache_dir.mkdir(parents=True, exist_ok=True)
+        meta = self._read_meta()
+        meta[name] = dict(entry)
+        self._write_meta(meta)
+
+    def _validate(self, source: Source, body: bytes):
+        where = f"download from {source.url}"
+        try:
+            text = body.decode("utf-8-sig")
+        except UnicodeDecodeError:
+            raise TleFetchError(f"{where} is not text; rejected, cached copy kept") from None
+        if not text.strip():
+            raise TleFetchError(f"{where} is empty; rejected, cached copy kept")
+        kind = sniff_format(text)
+        if kind == "html":
+            raise TleFetchError(f"{where} is an HTML page, not element sets (wrong URL or an "
+                                "error page); rejected, cached copy kept")
+        first_line = text.strip().splitlines()[0]
+        if len(text.strip().splitlines()) == 1 and kind == "tle":
+            # CelesTrak answers unknown groups with one line of text ("No GP data found").
+            raise TleFetchError(f"{where}: the server says {first_line[:120]!r}; rejected, "
+                                "cached copy kept")
+        try:
+            sets = parse_text(text, source=f"{source.name} (downloaded)")
+        except TleError as e:
+            raise TleFetchError(f"{where} does not parse (truncated or damaged?): {e}; "
+                                "rejected, cached copy kept") from None
+        if not sets:
+            raise TleFetchError(f"{where} holds no element sets; rejected, cached copy kept")
+        return sets, kind

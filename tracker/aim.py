@@ -1,0 +1,248 @@
+"""Aim-point and deadband policy for live tracking (pure numpy, no I/O, no clock).
+
+The live loop follows a planned mount path ``A(t), E(t)`` (mechanical azimuth, elevation)
+but does not send every sample: relays wear out and the G-5500 has a start delay. It waits
+while the antenna is within ``deadband_deg`` of the path, and when it must move it aims
+*ahead* so the target drifts through the beam.
+
+Gpredict aims at "the furthest future point still within the threshold of the current
+target" and ignores the time the rotator needs to get there, so on fast passes the antenna
+arrives late and the hold is short. Here every candidate aim point on the path ahead is
+played through THE motor model (:class:`tracker.mount.AxisMotor`: start delay, rate,
+quantisation, limits) and scored by the real great-circle pointing error until the next
+command it would cause:
+
+* the *hold* of a candidate is the time until the antenna, arrived at the aim point, is more
+  than the deadband off the path (when the loop would have to command again);
+* its *peak* is the largest predicted error over that hold (at least ``min_window_s``), slew
+  included.
+
+The chosen candidate keeps the peak within the deadband (or as close to the best achievable
+as ``peak_slack_deg`` when the rotator lags) with the longest hold, and among candidates with
+nearly that hold, the smallest peak. That is the aim point that minimises the maximum error
+until the next expected command for the longest possible interval between commands.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass
+
+import numpy as np
+
+from tracker.mount import AxisMotor, RotatorSpec
+from tracker.skytrack import azel_to_enu
+
+
+@dataclass(frozen=True)
+class AimPath:
+    """A mount path to follow: mechanical azimuth and elevation at UTC POSIX seconds."""
+
+    t_s: np.ndarray
+    az_m_deg: np.ndarray
+    el_deg: np.ndarray
+    stop_bearing_deg: float = 0.0
+
+    @classmethod
+    def from_arrays(cls, t_s, az_m_deg, el_deg, spec: RotatorSpec) -> AimPath:
+        t = np.asarray(t_s, dtype=float)
+        az = np.asarray(az_m_deg, dtype=float)
+        el = np.zeros_like(t) if el_deg is None else np.asarray(el_deg, dtype=float)
+        return cls(t, az, el, float(spec.stop_bearing_deg))
+
+    @classmethod
+    def from_plan(cls, plan, spec: RotatorSpec, track=None) -> AimPath:
+        """The path to follow from a :class:`tracker.planner.MountPlan`.
+
+        The plan's commands are quantised and already led by ``plan.lead_s``; the aim policy
+        does its own lead, so the lead is undone. Where the target is visible in an exact mode
+        (normal, overlap, flip) the path is the exact mechanical pointing at the target on the
+        plan's branch (no 1-degree staircase); keyhole and unwind paths are approximations by
+        design and are followed as planned.
+        """
+        t = np.asarray(plan.t_s, dtype=float)
+        lead = float(getattr(plan, "lead_s", 0.0) or 0.0)
+        az = np.interp(t - lead, t, np.asarray(plan.cmd_az_deg, dtype=float))
+        el_cmd = getattr(plan, "cmd_el_deg", None)
+        el = (np.zeros_like(t) if el_cmd is None or not spec.has_elevation
+              else np.interp(t - lead, t, np.asarray(el_cmd, dtype=float)))
+        track = track if track is not None else getattr(plan, "track", None)
+        mode = str(getattr(plan, "mode", "normal"))
+        if track is not None and mode in ("normal", "overlap", "flip") and len(track) == len(t):
+            flip = mode == "flip"
+            bearing = np.mod(track.az_deg + (180.0 if flip else 0.0), 360.0)
+            exact_m = az + (np.mod(spec.mech_of(bearing) - az + 180.0, 360.0) - 180.0)
+            vis = np.asarray(getattr(plan, "visible", track.el_deg >= 0.0), dtype=bool)
+            az = np.where(vis, np.clip(exact_m, 0.0, spec.az_span_deg), az)
+            if spec.has_elevation:
+                exact_e = 180.0 - track.el_deg if flip else track.el_deg
+                el = np.where(vis, np.clip(exact_e, spec.el_min_deg, spec.el_max_deg), el)
+        return cls(t, az, el, float(spec.stop_bearing_deg))
+
+    @property
+    def start_s(self) -> float:
+        return float(self.t_s[0])
+
+    @property
+    def end_s(self) -> float:
+        return float(self.t_s[-1])
+
+    def at(self, t_s) -> tuple[np.ndarray, np.ndarray]:
+        """Mechanical az and el at ``t_s`` (linear: the mechanical frame has no wrap)."""
+        return (np.interp(t_s, self.t_s, self.az_m_deg), np.interp(t_s, self.t_s, self.el_deg))
+
+    def direction(self, t_s) -> np.ndarray:
+        """Where the path points (east-north-up unit vectors), shape ``(..., 3)``."""
+        az, el = self.at(t_s)
+        return pointing_enu(az, el, self.stop_bearing_deg)
+
+
+def pointing_enu(az_m_deg, el_deg, stop_bearing_deg: float = 0.0) -> np.ndarray:
+    """Boresight unit vectors of a mount at mechanical az / el (el > 90 points over the top)."""
+    bearing = np.mod(np.asarray(az_m_deg, dtype=float) + stop_bearing_deg, 360.0)
+    return azel_to_enu(bearing, el_deg)
+
+
+def angle_between_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Great-circle angle between unit vectors (last axis 3), robust near 0 and 180."""
+    cross = np.linalg.norm(np.cross(a, b), axis=-1)
+    dot = np.sum(a * b, axis=-1)
+    return np.degrees(np.arctan2(cross, dot))
+
+
+@dataclass(frozen=True)
+class Aim:
+    """One chosen command and what the policy expects from it."""
+
+    az_m_deg: float          # quantised, clamped: what the motor will really go to
+    el_deg: float | None
+    aim_t_s: float           # the path time whose point is aimed at
+    hold_s: float            # expected time from now until the next command
+    peak_error_deg: float    # predicted max great-circle error over the hold
+    arrival_s: float         # predicted arrival time at the aim point (UTC POSIX s)
+    candidates: int          # how many distinct aim points were compared
+
+
+def _predict(axis: AxisMotor, target_deg, t0_s: float, ts: np.ndarray):
+    """Positions of ``axis`` over ``ts`` if ``target_deg`` is commanded at ``t0_s`` (copy)."""
+    a = copy.copy(axis)
+    if target_deg is not None:
+        a.command(target_deg, t0_s)
+    return a.position(ts), a.arrival_s() if target_deg is not None else t0_s
+
+
+def predicted_error(path: AimPath, az_axis: AxisMotor, el_axis: AxisMotor | None,
+                    t0_s: float, ts) -> np.ndarray:
+    """Error (deg) over ``ts`` if nothing new is commanded: the motors finish what they do."""
+    ts = np.asarray(ts, dtype=float)
+    az = az_axis.position(ts)
+    el = el_axis.position(ts) if el_axis is not None else np.zeros_like(ts)
+    return angle_between_deg(pointing_enu(az, el, path.stop_bearing_deg), path.direction(ts))
+
+
+def needs_command(path: AimPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t0_s: float,
+                  deadband_deg: float, lookahead_s: float, step_s: float = 0.25) -> bool:
+    """True when the antenna, left alone, would leave the deadband within ``lookahead_s``.
+
+    Looking ahead by one cycle plus the start delay makes the loop move *before* the target
+    leaves the deadband instead of after it, so the error stays within it.
+    """
+    ts = t0_s + np.arange(0.0, max(lookahead_s, step_s) + 1e-9, step_s)
+    ts = ts[ts <= path.end_s]
+    if len(ts) == 0:
+        return False
+    return bool(np.max(predicted_error(path, az_axis, el_axis, t0_s, ts)) > deadband_deg)
+
+
+def choose_aim(path: AimPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t0_s: float,
+               deadband_deg: float, step_s: float = 0.5, horizon_s: float = 180.0,
+               min_window_s: float | None = None, peak_slack_deg: float = 0.25,
+               hold_fraction: float = 0.9) -> Aim:
+    """The best aim point on ``path`` ahead of ``t0_s`` for motors in their current state.
+
+    ``az_axis``/``el_axis`` are the motor states as the loop believes them (they are copied,
+    never mutated). Candidates are path points every ``step_s`` up to ``horizon_s`` ahead (or
+    the end of the path); each is simulated with the motor model and scored as described in
+    the module docstring.
+    """
+    t_end = min(path.end_s, t0_s + horizon_s)
+    ts = np.arange(t0_s, max(t_end, t0_s) + 1e-9, step_s)
+    if len(ts) < 2:
+        ts = np.array([t0_s, t0_s + step_s])
+    target_dir = path.direction(ts)                       # (n, 3)
+    cand_az, cand_el = path.at(ts)
+    # Candidates beyond where the target will be once it has moved well past the deadband
+    # cannot be the best; cut them to keep the loop cheap.
+    cur_dir = path.direction(t0_s)
+    here = pointing_enu(az_axis.position(t0_s),
+                        el_axis.position(t0_s) if el_axis is not None else 0.0,
+                        path.stop_bearing_deg)
+    lag_deg = float(angle_between_deg(here, cur_dir))
+    reach = angle_between_deg(target_dir, cur_dir) <= 2.5 * deadband_deg + lag_deg + 2.0
+    n_cand = max(1, int(np.argmin(reach)) if not reach.all() else len(ts))
+    q_az = np.array([az_axis.quantise(a) for a in cand_az[:n_cand]])
+    q_el = (np.array([el_axis.quantise(e) for e in cand_el[:n_cand]]) if el_axis is not None
+            else np.zeros(n_cand))
+    # Several path points quantise to the same command: keep the first of each.
+    _, first = np.unique(np.stack([q_az, q_el], axis=1), axis=0, return_index=True)
+    first = np.sort(first)
+
+    ant_az = np.empty((len(first), len(ts)))
+    ant_el = np.zeros((len(first), len(ts)))
+    arrival = np.empty(len(first))
+    for i, k in enumerate(first):
+        ant_az[i], arr_az = _predict(az_axis, q_az[k], t0_s, ts)
+        arr_el = t0_s
+        if el_axis is not None:
+            ant_el[i], arr_el = _predict(el_axis, q_el[k], t0_s, ts)
+        arrival[i] = max(arr_az, arr_el)
+    err = angle_between_deg(pointing_enu(ant_az, ant_el, path.stop_bearing_deg),
+                            target_dir[None, :, :])              # (k, n)
+    # The loop commands again once the antenna, settled on its aim point, is more than the
+    # deadband off the path; a candidate that cannot arrive inside the horizon holds nothing.
+    leaves = (ts[None, :] >= arrival[:, None]) & (err > deadband_deg)
+    next_idx = np.where(leaves.any(axis=1), np.argmax(leaves, axis=1), len(ts) - 1)
+    hold = np.where(arrival <= ts[-1], ts[next_idx] - t0_s, 0.0)
+    if min_window_s is None:
+        min_window_s = 4.0 * step_s
+    # The error before the quickest candidate can arrive is the same for all of them (the
+    # antenna is where it is), so it does not count in the comparison.
+    t_settle = min(float(np.min(arrival)), ts[-1])
+    window_end = np.maximum(t0_s + np.maximum(hold, min_window_s), t_settle)
+    in_window = (ts[None, :] >= t_settle) & (ts[None, :] <= window_end[:, None])
+    peak = np.max(np.where(in_window, err, 0.0), axis=1)
+    level = max(deadband_deg, float(np.min(peak)) + peak_slack_deg)
+    ok = peak <= level
+    best_hold = float(np.max(np.where(ok, hold, -np.inf)))
+    near = ok & (hold >= hold_fraction * best_hold)
+    pick = int(np.argmin(np.where(near, peak, np.inf)))
+    k = first[pick]
+    return Aim(az_m_deg=float(q_az[k]),
+               el_deg=float(q_el[k]) if el_axis is not None else None,
+               aim_t_s=float(ts[k]), hold_s=float(hold[pick]),
+               peak_error_deg=float(peak[pick]), arrival_s=float(arrival[pick]),
+               candidates=len(first))
+
+
+def gpredict_aim(path: AimPath, t0_s: float, threshold_deg: float, cycle_s: float,
+                 quantise=None) -> tuple[float, float]:
+    """Gpredict's lead (ANCHORS §3.2): the furthest future path point whose az and el are each
+    within ``threshold_deg`` of the current target, found by bisection down to ``cycle/4``.
+
+    Slew time is ignored, as in Gpredict; returns mechanical ``(az, el)``.
+    """
+    az0, el0 = path.at(t0_s)
+    lo, hi = 0.0, max(0.0, path.end_s - t0_s)
+    # Gpredict bisects on the time delta; the path may come back within the threshold
+    # later (it is not monotone), so this is the same heuristic, not a global search.
+    while hi - lo > cycle_s / 4.0:
+        mid = 0.5 * (lo + hi)
+        az, el = path.at(t0_s + mid)
+        if abs(az - az0) <= threshold_deg and abs(el - el0) <= threshold_deg:
+            lo = mid
+        else:
+            hi = mid
+    az, el = path.at(t0_s + lo)
+    if quantise is not None:
+        az, el = quantise(az, el)
+    return float(az), float(el)

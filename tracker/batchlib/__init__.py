@@ -1,0 +1,1 @@
+"""Internals of :mod:`tracker.batch`: geometry, the vectorised finder, the Dask backend."""

@@ -1,0 +1,593 @@
+"""Catalogue-scale pass finder on sgp4's SatrecArray + numpy.
+
+How one job runs (every step is numpy over all satellites of a chunk at once):
+
+1. **Screen** on a coarse grid (``coarse_s``, up to 20 min for LEO, 1 h for slow orbits): SGP4 at
+   each coarse time for the whole chunk (one ``SatrecArray`` call). Between two coarse samples a
+   Keplerian orbit stays on the great circle through them, so the satellite's direction sweeps
+   that arc. A satellite can only rise above ``min_el`` within the interval if the arc comes
+   within the *horizon cone* (geocentric angle for that elevation at the orbit's apogee) of the
+   station, widened by the station's own motion in half an interval and a margin for
+   perturbations. Intervals that fail the test are skipped: no further SGP4 work there.
+2. **Sample** the candidate intervals on a fine grid (``step_s``), sharing the TEME -> ITRS
+   rotation of each grid time across every satellite and station; elevation *and* its rate come
+   from the SGP4 position and velocity, so maxima are found by the rate's sign change.
+3. **Bracket** AOS/LOS (sign changes of elevation - horizon), maxima (rate + -> -), and
+   near-miss maxima: a maximum whose cubic Hermite estimate from the two ends is close below the
+   threshold is refined too, so short grazing passes inside one fine step are not lost.
+4. **Refine** all brackets at once with the Illinois (modified regula falsi) method, one SGP4
+   call per satellite per iteration, to ``tol_s``.
+
+SGP4 errors (decayed elements) are collected per satellite and reported, never raised.
+Memory is bounded by chunking over satellites (sized from ``memory_mb``) and over time (blocks
+of at most ``block_days``; passes cut at a block edge are joined again).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from datetime import datetime, timedelta, timezone
+
+import numpy as np
+from sgp4.api import SGP4_ERRORS, SatrecArray, jday
+
+from tracker.batchlib import geometry as geo
+from tracker.errors import ConfigError
+from tracker.station import Station
+
+PASS_DTYPE = np.dtype([
+    ("sat", np.int32), ("station", np.int32),
+    ("aos_s", np.float64), ("tca_s", np.float64), ("los_s", np.float64),
+    ("max_el_deg", np.float64), ("aos_az_deg", np.float64), ("tca_az_deg", np.float64),
+    ("los_az_deg", np.float64), ("aos_clipped", np.bool_), ("los_clipped", np.bool_),
+    ("sunlit", np.bool_), ("visible", np.bool_),
+])
+
+ARC_LIMIT_RAD = 2.0  # the coarse arc must stay well short of pi for the great-circle test
+PERTURBATION_MARGIN_RAD = math.radians(0.5)
+ELLIPSOID_MARGIN_DEG = 0.5  # geodetic vs geocentric vertical (< 0.2 deg) plus slack
+NEAR_MISS_DEG = 2.0
+TWILIGHT_DEG = -6.0
+
+
+@dataclass(frozen=True)
+class SatError:
+    """SGP4 could not propagate satellite ``sat`` from ``first_s`` (POSIX UTC) on."""
+
+    sat: int
+    name: str
+    code: int
+    message: str
+    first_s: float
+
+
+@dataclass
+class PassTable:
+    """The finder's result: one row per (satellite, station) pass, sorted by AOS.
+
+    Times are POSIX UTC seconds; ``aos_clipped``/``los_clipped`` mark passes already in
+    progress at the window start / still in progress at its end (or cut by decay).
+    """
+
+    passes: np.ndarray
+    names: list[str]
+    stations: list[Station]
+    start: datetime
+    end: datetime
+    errors: list[SatError] = field(default_factory=list)
+    stats: dict = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return len(self.passes)
+
+    def select(self, mask) -> PassTable:
+        return PassTable(self.passes[mask], self.names, self.stations, self.start, self.end,
+                         self.errors, self.stats)
+
+
+@dataclass
+class _Job:
+    satrecs: list
+    frames: geo.StationFrames
+    stations: list[Station]
+    jd0: float
+    fr0: float
+    window_s: float
+    dut1_s: float
+    step_s: float
+    tol_s: float
+    stats: dict
+    errors: dict  # sat -> (tau_s, code)
+
+    def theta(self, tau):
+        return geo.gmst_rad(self.jd0, self.fr0 + (np.asarray(tau) + self.dut1_s) / geo.DAY_S)
+
+    def fr(self, tau):
+        return self.fr0 + np.asarray(tau, dtype=float) / geo.DAY_S
+
+    def note_errors(self, sat, tau, code) -> None:
+        bad = np.flatnonzero(code != 0)
+        for i in bad[np.argsort(tau[bad], kind="stable")].tolist():
+            s = int(sat[i])
+            if s not in self.errors or tau[i] < self.errors[s][0]:
+                self.errors[s] = (float(tau[i]), int(code[i]))
+
+    def threshold(self, st, az_deg):
+        """The horizon (deg) at azimuths for stations ``st``: min elevation, raised by masks."""
+        if np.ndim(st) == 0:
+            mask = self.stations[st].mask
+            base = float(self.frames.min_el_deg[st])
+            return base if mask is None else np.maximum(base, mask.min_el_at(az_deg))
+        thr = self.frames.min_el_deg[st].copy()
+        for k, station in enumerate(self.stations):
+            if station.mask is not None:
+                m = st == k
+                if m.any():
+                    thr[m] = np.maximum(thr[m], station.mask.min_el_at(az_deg[m]))
+        return thr
+
+
+def _sgp4_pairs(job: _Job, sat: np.ndarray, tau: np.ndarray, kind: str = "sgp4_refine"):
+    """SGP4 for (satellite, time) pairs: one ``sgp4_array`` call per distinct satellite."""
+    m = len(sat)
+    err = np.zeros(m, np.int32)
+    r = np.empty((m, 3))
+    v = np.empty((m, 3))
+    if m == 0:
+        return err, r, v
+    order = np.argsort(sat, kind="stable")
+    s_sorted = sat[order]
+    jd = np.full(m, job.jd0)
+    fr = job.fr(tau[order])
+    cuts = np.flatnonzero(np.diff(s_sorted)) + 1
+    starts = np.concatenate([[0], cuts]).tolist()
+    ends = np.concatenate([cuts, [m]]).tolist()
+    e_s = np.empty(m, np.int32)
+    r_s = np.empty((m, 3))
+    v_s = np.empty((m, 3))
+    satrecs = job.satrecs
+    for a, b in zip(starts, ends, strict=True):
+        e_s[a:b], r_s[a:b], v_s[a:b] = satrecs[s_sorted[a]].sgp4_array(jd[a:b], fr[a:b])
+    err[order], r[order], v[order] = e_s, r_s, v_s
+    job.stats[kind] = job.stats.get(kind, 0) + m
+    job.note_errors(sat, tau, err)
+    return err, r, v
+
+
+def _evaluate(job: _Job, sat, st: int, tau):
+    """Look angles, elevation rate and TEME position at (satellite, time) pairs for station st."""
+    err, r, v = _sgp4_pairs(job, sat, tau)
+    r_ecef, v_ecef = geo.teme_to_ecef(r, v, job.theta(tau))
+    el, az, rate = geo.look_angles(r_ecef, v_ecef, job.frames, st)
+    ok = (err == 0) & np.isfinite(el)
+    el = np.where(ok, el, -90.0)
+    rate = np.where(ok, rate, 0.0)
+    return el, az, rate, r
+
+
+def _hermite(f0, d0, f1, d1, h, n=17):
+    """Cubic Hermite samples on each interval: (len, n) values and the unit abscissae."""
+    s = np.linspace(0.0, 1.0, n)
+    h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
+    h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
+    p = (f0[:, None] * h00 + (h * d0)[:, None] * h10 + f1[:, None] * h01
+         + (h * d1)[:, None] * h11)
+    return p, s
+
+
+def _hermite_slope(f0, d0, f1, d1, h, n=17):
+    """Slope (per unit abscissa) of the cubic Hermite on each interval, sampled like above."""
+    s = np.linspace(0.0, 1.0, n)
+    c1 = h * d0
+    c2 = -3 * f0 - 2 * h * d0 + 3 * f1 - h * d1
+    c3 = 2 * f0 + h * d0 - 2 * f1 + h * d1
+    return 3 * c3[:, None] * s**2 + 2 * c2[:, None] * s + c1[:, None], s
+
+
+def _first_root_guess(p, s):
+    """Linear root of the first sign change in each row of samples (fraction 0..1)."""
+    neg = p < 0
+    change = neg[:, 1:] != neg[:, :-1]
+    k = np.where(change.any(1), change.argmax(1), p.shape[1] // 2 - 1)
+    rows = np.arange(len(p))
+    a, b = p[rows, k], p[rows, k + 1]
+    frac = np.where(b != a, a / np.where(b != a, a - b, 1.0), 0.5)
+    return s[k] + np.clip(frac, 0.0, 1.0) * (s[k + 1] - s[k])
+
+
+def _solve(job: _Job, sat, st: int, lo, hi, g_lo, g_hi, guess, want_rate: bool):
+    """Root of g in each bracket [lo, hi] (g changes sign there), all brackets at once.
+
+    g is f = el - horizon (AOS/LOS; Newton steps with the elevation rate as slope) or the
+    elevation rate (TCA; secant steps). Steps that leave the bracket fall back to bisection,
+    so every bracket converges. Returns (tau, el, az, r_teme) at the last evaluated point.
+    """
+    n = len(sat)
+    tau = np.clip(guess, lo, hi)
+    out_el, out_az, out_r = np.zeros(n), np.zeros(n), np.zeros((n, 3))
+    lo, hi, g_lo = lo.copy(), hi.copy(), g_lo.copy()
+    x_prev, g_prev = lo.copy(), g_lo.copy()
+    active = np.arange(n)
+    for _ in range(40):
+        if active.size == 0:
+            break
+        x = tau[active]
+        el, az, rate, r = _evaluate(job, sat[active], st, x)
+        out_el[active], out_az[active], out_r[active] = el, az, r
+        if want_rate:
+            g = rate
+            xp, gp = x_prev[active], g_prev[active]
+            slope = np.where(x != xp, (g - gp) / np.where(x != xp, x - xp, 1.0), 0.0)
+        else:
+            g = el - job.threshold(st, az)
+            slope = rate
+        a_, b_, ga = lo[active], hi[active], g_lo[active]
+        same_as_lo = np.sign(g) == np.sign(ga)
+        a_ = np.where(same_as_lo, x, a_)
+        ga = np.where(same_as_lo, g, ga)
+        b_ = np.where(same_as_lo, b_, x)
+        step = np.where(slope != 0, g / np.where(slope != 0, slope, 1.0), np.inf)
+        x_new = x - step
+        bad = ~np.isfinite(x_new) | (x_new <= a_) | (x_new >= b_)
+        x_new = np.where(bad, 0.5 * (a_ + b_), x_new)
+        lo[active], hi[active], g_lo[active] = a_, b_, ga
+        x_prev[active], g_prev[active] = x, g
+        done = (np.abs(x_new - x) < job.tol_s) | (b_ - a_ < job.tol_s) | (g == 0)
+        tau[active] = np.where(done, x, x_new)
+        active = active[~done]
+    return tau, out_el, out_az, out_r
+
+
+def _coarse_candidates(job: _Job, r, valid, tau_c, coarse_s, r_apo, screenable):
+    """Per station, (S, K) booleans: coarse intervals where a pass is geometrically possible."""
+    frames = job.frames
+    rn = np.linalg.norm(r, axis=-1)
+    a_hat = r / np.where(rn > 0, rn, 1.0)[..., None]
+    A, B = a_hat[:, :-1], a_hat[:, 1:]
+    h = np.cross(A, B)
+    sin_ab = np.linalg.norm(h, axis=-1)
+    cos_ab = np.einsum("skc,skc->sk", A, B)
+    h_hat = h / np.maximum(sin_ab, 1e-12)[..., None]
+    q = np.cross(h_hat, A)
+    phi_ab = np.arctan2(sin_ab, cos_ab)
+    interval_ok = valid[:, :-1] & valid[:, 1:]
+    theta_mid = job.theta(0.5 * (tau_c[:-1] + tau_c[1:]))
+    c, s = np.cos(theta_mid), np.sin(theta_mid)
+    out = []
+    for k in range(len(frames)):
+        u = frames.unit[k]
+        p = np.stack([c * u[0] - s * u[1], s * u[0] + c * u[1], np.full_like(c, u[2])], -1)
+        lim = (geo.horizon_angle_rad(r_apo, frames.radius_km[k],
+                                     frames.min_el_deg[k] - ELLIPSOID_MARGIN_DEG)
+               + geo.EARTH_ROTATION_RAD_S * coarse_s / 2.0 * frames.cos_lat[k]
+               + PERTURBATION_MARGIN_RAD)
+        cos_lim = np.cos(np.minimum(lim, math.pi))[:, None]
+        sin_lim = np.sin(np.minimum(lim, math.pi / 2))[:, None]
+        pa = np.einsum("skc,kc->sk", A, p)
+        pb = np.einsum("skc,kc->sk", B, p)
+        ph = np.einsum("skc,kc->sk", h_hat, p)
+        pq = np.einsum("skc,kc->sk", q, p)
+        alpha = np.arctan2(pq, pa)
+        in_arc = (alpha >= 0.0) & (alpha <= phi_ab)
+        cand = (pa >= cos_lim) | (pb >= cos_lim) | (in_arc & (np.abs(ph) <= sin_lim))
+        cand |= ~screenable[:, None]
+        out.append(cand & interval_ok)
+    return out
+
+
+def _fine_mask(cand, n: int):
+    rep = np.repeat(cand, n, axis=1)
+    mask = np.zeros((cand.shape[0], rep.shape[1] + 1), bool)
+    mask[:, :-1] |= rep
+    mask[:, 1:] |= rep
+    return mask
+
+
+def _run_chunk(job: _Job, sat_ids: np.ndarray, n: int, r_apo, screenable):
+    """Screen, sample and bracket one chunk of satellites sharing the coarse factor ``n``."""
+    stats = job.stats
+    K = max(1, math.ceil(job.window_s / (n * job.step_s)))
+    coarse_s = job.window_s / K
+    fine_s = coarse_s / n
+    nf = K * n
+    tau_c = np.arange(K + 1) * coarse_s
+    arr = SatrecArray([job.satrecs[i] for i in sat_ids.tolist()])
+    e, r, v = arr.sgp4(np.full(K + 1, job.jd0), job.fr(tau_c))
+    stats["sgp4_coarse"] = stats.get("sgp4_coarse", 0) + e.size
+    valid = (e == 0) & np.isfinite(r).all(-1)
+    if not valid.all():
+        ss, kk = np.nonzero(~valid)
+        job.note_errors(sat_ids[ss], tau_c[kk], np.where(e[ss, kk] == 0, 6, e[ss, kk]))
+    cands = _coarse_candidates(job, r, valid, tau_c, coarse_s, r_apo, screenable)
+    cand_any = np.logical_or.reduce(cands) if len(cands) > 1 else cands[0]
+    stats["intervals"] = stats.get("intervals", 0) + cand_any.size
+    stats["candidate_intervals"] = stats.get("candidate_intervals", 0) + int(cand_any.sum())
+
+    F = _fine_mask(cand_any, n)
+    flat = np.flatnonzero(F)
+    s_loc = flat // (nf + 1)
+    j = flat % (nf + 1)
+    P = np.empty((len(flat), 3))
+    V = np.empty((len(flat), 3))
+    ok = np.ones(len(flat), bool)
+    on_c = j % n == 0
+    P[on_c] = r[s_loc[on_c], j[on_c] // n]
+    V[on_c] = v[s_loc[on_c], j[on_c] // n]
+    ok[on_c] = valid[s_loc[on_c], j[on_c] // n]
+    off = ~on_c
+    e_f, P[off], V[off] = _sgp4_pairs(job, sat_ids[s_loc[off]], j[off] * fine_s, "sgp4_fine")
+    ok[off] = (e_f == 0) & np.isfinite(P[off]).all(-1)
+    theta_f = job.theta(np.arange(nf + 1) * fine_s)
+    r_ecef, v_ecef = geo.teme_to_ecef(P, V, theta_f[j])
+
+    brackets = []
+    pos = np.cumsum(F.ravel()) - 1 if len(cands) > 1 else None
+    for st, cand in enumerate(cands):
+        sel = np.arange(len(flat)) if pos is None else pos[np.flatnonzero(_fine_mask(cand, n))]
+        if sel.size == 0:
+            continue
+        el, az, rate = geo.look_angles(tuple(c[sel] for c in r_ecef),
+                                       tuple(c[sel] for c in v_ecef), job.frames, st)
+        good = ok[sel]
+        f = np.where(good, el - job.threshold(st, az), -1e3)
+        rate = np.where(good, rate, 0.0)
+        ss, jj = s_loc[sel], j[sel]
+        tau = jj * fine_s
+        contig = (ss[1:] == ss[:-1]) & (jj[1:] == jj[:-1] + 1) & good[1:] & good[:-1]
+        up = f >= 0
+        # Up samples with no contiguous neighbour: the window edge (or decay) cuts the pass.
+        prev_c = np.concatenate([[False], contig])
+        next_c = np.concatenate([contig, [False]])
+        brackets.append(dict(
+            st=st, sat=sat_ids[ss], tau=tau, f=f, rate=rate, el=el, az=az, contig=contig,
+            up=up, cut_start=up & ~prev_c, cut_end=up & ~next_c, fine_s=fine_s, r=P[sel]))
+    return brackets
+
+
+def _refine_station_chunk(job: _Job, b: dict):
+    """Turn one station's samples into pass rows (refined AOS, TCA, LOS)."""
+    st, sat, tau, f, rate, el, az, contig, r = (b[k] for k in (
+        "st", "sat", "tau", "f", "rate", "el", "az", "contig", "r"))
+    h = b["fine_s"]
+    i0 = np.flatnonzero(contig)
+    i1 = i0 + 1
+    aos_i = i0[~b["up"][i0] & b["up"][i1]]
+    los_i = i0[b["up"][i0] & ~b["up"][i1]]
+    max_i = i0[(rate[i0] > 0) & (rate[i1] <= 0)]
+    # Maxima: keep those whose Hermite estimate reaches near the threshold (near misses too).
+    p, s = _hermite(f[max_i], rate[max_i], f[max_i + 1], rate[max_i + 1], h)
+    max_i = max_i[p.max(1) >= -NEAR_MISS_DEG]
+    dp, s = _hermite_slope(el[max_i], rate[max_i], el[max_i + 1], rate[max_i + 1], h)
+    guess = tau[max_i] + h * _first_root_guess(dp, s)
+    m_tau, m_el, m_az, m_r = _solve(job, sat[max_i], st, tau[max_i], tau[max_i + 1],
+                                    rate[max_i], rate[max_i + 1], guess, want_rate=True)
+    m_f = m_el - job.threshold(st, m_az)
+    hidden = (m_f >= 0) & (f[max_i] < 0) & (f[max_i + 1] < 0)
+
+    # Crossing brackets: grid sign changes plus both sides of each hidden pass.
+    hi_idx = max_i[hidden]
+    zeros = np.zeros(len(hi_idx))
+    c_sat = np.concatenate([sat[aos_i], sat[los_i], sat[hi_idx], sat[hi_idx]])
+    c_lo = np.concatenate([tau[aos_i], tau[los_i], tau[hi_idx], m_tau[hidden]])
+    c_hi = np.concatenate([tau[aos_i + 1], tau[los_i + 1], m_tau[hidden], tau[hi_idx + 1]])
+    c_glo = np.concatenate([f[aos_i], f[los_i], f[hi_idx], m_f[hidden]])
+    c_ghi = np.concatenate([f[aos_i + 1], f[los_i + 1], m_f[hidden], f[hi_idx + 1]])
+    c_kind = np.concatenate([np.zeros(len(aos_i), int), np.ones(len(los_i), int),
+                             np.zeros(len(hi_idx), int), np.ones(len(hi_idx), int)])
+    d_lo = np.concatenate([rate[aos_i], rate[los_i], rate[hi_idx], zeros])
+    d_hi = np.concatenate([rate[aos_i + 1], rate[los_i + 1], zeros, rate[hi_idx + 1]])
+    width = c_hi - c_lo
+    p, s = _hermite(c_glo, d_lo, c_ghi, d_hi, width)
+    guess = c_lo + width * _first_root_guess(p, s)
+    c_tau, c_el, c_az, c_r = _solve(job, c_sat, st, c_lo, c_hi, c_glo, c_ghi, guess, False)
+
+    # Window-edge (or decay) cuts become clipped AOS/LOS at the sample itself.
+    cs, ce = np.flatnonzero(b["cut_start"]), np.flatnonzero(b["cut_end"])
+    ev = dict(
+        sat=np.concatenate([c_sat, sat[cs], sat[ce]]),
+        tau=np.concatenate([c_tau, tau[cs], tau[ce]]),
+        kind=np.concatenate([c_kind, np.zeros(len(cs), int), np.ones(len(ce), int)]),
+        az=np.concatenate([c_az, az[cs], az[ce]]),
+        el=np.concatenate([c_el, el[cs], el[ce]]),
+        r=np.concatenate([c_r, r[cs], r[ce]]),
+        clip=np.concatenate([np.zeros(len(c_sat), bool), np.ones(len(cs) + len(ce), bool)]))
+    mx = dict(sat=sat[max_i], tau=m_tau, el=m_el, az=m_az, r=m_r)
+    return _assemble(job, st, ev, mx)
+
+
+def _assemble(job: _Job, st: int, ev: dict, mx: dict) -> np.ndarray:
+    """Pair AOS with the next LOS per satellite, attach the highest maximum, set Sun flags."""
+    span = job.window_s + 1e4
+    comb = ev["sat"] * span + ev["tau"]
+    a = ev["kind"] == 0
+    a_idx = np.flatnonzero(a)[np.argsort(comb[a], kind="stable")]
+    l_idx = np.flatnonzero(~a)[np.argsort(comb[~a], kind="stable")]
+    k = np.searchsorted(comb[l_idx], comb[a_idx], "left")
+    good = k < len(l_idx)
+    k = np.minimum(k, max(len(l_idx) - 1, 0))
+    if len(l_idx):
+        good &= ev["sat"][l_idx[k]] == ev["sat"][a_idx]
+    else:
+        good[:] = False
+    # An AOS followed by another AOS before any LOS would share a LOS: keep the first only.
+    dup = np.zeros(len(a_idx), bool)
+    dup[1:] = good[1:] & good[:-1] & (k[1:] == k[:-1])
+    good &= ~dup
+    a_idx, l_idx = a_idx[good], l_idx[k[good]]
+    n = len(a_idx)
+    rows = np.zeros(n, PASS_DTYPE)
+    rows["sat"] = ev["sat"][a_idx]
+    rows["station"] = st
+    rows["aos_s"], rows["los_s"] = ev["tau"][a_idx], ev["tau"][l_idx]
+    rows["aos_az_deg"], rows["los_az_deg"] = ev["az"][a_idx], ev["az"][l_idx]
+    rows["aos_clipped"], rows["los_clipped"] = ev["clip"][a_idx], ev["clip"][l_idx]
+    # Default TCA: the higher end (kept only when no interior maximum was refined).
+    hi_end = ev["el"][l_idx] > ev["el"][a_idx]
+    t_idx = np.where(hi_end, l_idx, a_idx)
+    rows["tca_s"], rows["max_el_deg"] = ev["tau"][t_idx], ev["el"][t_idx]
+    rows["tca_az_deg"] = ev["az"][t_idx]
+    tca_r = ev["r"][t_idx]
+    if n and len(mx["sat"]):
+        m_comb = mx["sat"] * span + mx["tau"]
+        pa = comb[a_idx]
+        order = np.argsort(pa, kind="stable")
+        pi = np.searchsorted(pa[order], m_comb, "right") - 1
+        inside = pi >= 0
+        pi = order[np.maximum(pi, 0)]
+        inside &= (m_comb <= comb[l_idx][pi]) & (mx["sat"] == rows["sat"][pi])
+        inside &= mx["el"] > rows["max_el_deg"][pi]
+        sel = np.flatnonzero(inside)
+        sel = sel[np.lexsort((mx["el"][sel], pi[sel]))]
+        last = np.ones(len(sel), bool)
+        last[:-1] = pi[sel][1:] != pi[sel][:-1]
+        sel = sel[last]
+        rows["tca_s"][pi[sel]] = mx["tau"][sel]
+        rows["max_el_deg"][pi[sel]] = mx["el"][sel]
+        rows["tca_az_deg"][pi[sel]] = mx["az"][sel]
+        tca_r[pi[sel]] = mx["r"][sel]
+    # Sunlit: the satellite sees the Sun at AOS, TCA or LOS; visible: at one of those
+    # instants the station is also in nautical twilight or darker.
+    for key, rr in (("aos_s", ev["r"][a_idx]), ("tca_s", tca_r), ("los_s", ev["r"][l_idx])):
+        jd = job.jd0 + job.fr(rows[key])
+        lit = geo.is_sunlit(rr, jd)
+        dark = geo.sun_elevation_deg(jd, job.theta(rows[key]), job.frames, st) < TWILIGHT_DEG
+        rows["sunlit"] |= lit
+        rows["visible"] |= lit & dark
+    return rows
+
+
+def _chunk_size(n_coarse: int, n_fine: int, n_stations: int, memory_mb: float) -> int:
+    fine_share = min(1.0, 0.25 * n_stations)
+    per_sat = n_coarse * 500 + n_fine * (24 + 260 * fine_share) + n_fine * 12 * min(
+        n_stations, 8)
+    return int(min(4096, max(32, memory_mb * 2**20 / per_sat)))
+
+
+def _to_utc(t: datetime) -> datetime:
+    if t.tzinfo is None:
+        raise ConfigError(f"time {t!r} has no timezone; give UTC times (e.g. ...+00:00)")
+    return t.astimezone(timezone.utc)
+
+
+def find_passes_block(satrecs, names, stations, start, end, min_el_deg=None, *,
+                      step_s: float = 240.0, tol_s: float = 1e-3, memory_mb: float = 256.0,
+                      sat_offset: int = 0) -> PassTable:
+    """One time block of :func:`find_passes_batch` (no joining across blocks)."""
+    start, end = _to_utc(start), _to_utc(end)
+    window_s = (end - start).total_seconds()
+    frames = geo.StationFrames.from_stations(stations, min_el_deg)
+    jd0, fr0 = jday(start.year, start.month, start.day, start.hour, start.minute,
+                    start.second + start.microsecond * 1e-6)
+    stats: dict = {}
+    job = _Job(list(satrecs), frames, list(stations), jd0, fr0, window_s, geo.dut1_s(start),
+               step_s, tol_s, stats, {})
+    n_sat = len(job.satrecs)
+    r_apo = np.empty(n_sat)
+    rate = np.empty(n_sat)
+    for i, sr in enumerate(job.satrecs):
+        r_apo[i], rate[i] = geo.orbit_bounds(sr)
+    r_apo += 100.0  # SGP4 vs Kepler radius, drag and J2 short-period terms
+    # Coarse factor: as many fine steps per coarse interval as keep the arc short, <= 1 hour.
+    n_fact = np.clip(np.floor(np.minimum(ARC_LIMIT_RAD / rate, 3600.0) / step_s), 1, None)
+    n_fact = np.minimum(n_fact, max(1, int(3600.0 // step_s))).astype(int)
+    screenable = rate * step_s * n_fact <= ARC_LIMIT_RAD
+    rows = []
+    for n in np.unique(n_fact).tolist():
+        ids = np.flatnonzero(n_fact == n)
+        k = max(1, math.ceil(window_s / (n * step_s)))
+        size = _chunk_size(k + 1, k * n + 1, len(stations), memory_mb)
+        for c0 in range(0, len(ids), size):
+            chunk = ids[c0:c0 + size]
+            stats["chunks"] = stats.get("chunks", 0) + 1
+            for b in _run_chunk(job, chunk, n, r_apo[chunk], screenable[chunk]):
+                rows.append(_refine_station_chunk(job, b))
+    passes = np.concatenate(rows) if rows else np.zeros(0, PASS_DTYPE)
+    passes = passes[(passes["los_s"] > passes["aos_s"]) | passes["aos_clipped"]]
+    t0 = start.timestamp()
+    for key in ("aos_s", "tca_s", "los_s"):
+        passes[key] += t0
+    passes["sat"] += sat_offset
+    passes = passes[np.lexsort((passes["station"], passes["sat"], passes["aos_s"]))]
+    errors = []
+    for s, (tau, code) in sorted(job.errors.items()):
+        errors.append(SatError(s + sat_offset, names[s], code, SGP4_ERRORS.get(code, "error"),
+                               t0 + tau))
+    return PassTable(passes, list(names), list(stations), start, end, errors, stats)
+
+
+def merge_tables(tables: list[PassTable], names, stations, start, end) -> PassTable:
+    """Concatenate tables of consecutive time blocks / satellite chunks; re-join passes cut at
+    a block edge and keep the first error per satellite."""
+    passes = np.concatenate([t.passes for t in tables]) if tables else np.zeros(0, PASS_DTYPE)
+    passes = passes[np.lexsort((passes["aos_s"], passes["station"], passes["sat"]))]
+    edges = {t.end.timestamp() for t in tables} - {end.timestamp()}
+    if len(passes) > 1 and edges:
+        edge = np.isin(passes["los_s"], list(edges)) & passes["los_clipped"]
+        join = (edge[:-1] & passes["aos_clipped"][1:]
+                & (passes["aos_s"][1:] == passes["los_s"][:-1])
+                & (passes["sat"][1:] == passes["sat"][:-1])
+                & (passes["station"][1:] == passes["station"][:-1]))
+        for i in np.flatnonzero(join)[::-1].tolist():
+            a, b = passes[i], passes[i + 1]
+            for key in ("los_s", "los_az_deg", "los_clipped"):
+                a[key] = b[key]
+            if b["max_el_deg"] > a["max_el_deg"]:
+                for key in ("tca_s", "max_el_deg", "tca_az_deg"):
+                    a[key] = b[key]
+            a["sunlit"] |= b["sunlit"]
+            a["visible"] |= b["visible"]
+            passes[i] = a
+        keep = np.ones(len(passes), bool)
+        keep[np.flatnonzero(join) + 1] = False
+        passes = passes[keep]
+    passes = passes[np.lexsort((passes["station"], passes["sat"], passes["aos_s"]))]
+    first: dict[int, SatError] = {}
+    stats: dict = {}
+    for t in tables:
+        for e in t.errors:
+            if e.sat not in first or e.first_s < first[e.sat].first_s:
+                first[e.sat] = e
+        for k, val in t.stats.items():
+            stats[k] = stats.get(k, 0) + val
+    return PassTable(passes, list(names), list(stations), start, end,
+                     [first[k] for k in sorted(first)], stats)
+
+
+def time_blocks(start: datetime, end: datetime, block_days: float):
+    """Consecutive [a, b) blocks covering the window, each at most ``block_days`` long."""
+    start, end = _to_utc(start), _to_utc(end)
+    if not end > start:
+        raise ConfigError(f"the window end {end.isoformat()} must be after its start "
+                          f"{start.isoformat()}")
+    step = timedelta(days=block_days)
+    out = []
+    a = start
+    while a < end:
+        b = min(a + step, end)
+        out.append((a, b))
+        a = b
+    return out
+
+
+def find_passes_batch(satrecs, names, stations, start: datetime, end: datetime,
+                      min_el_deg: float | None = None, *, step_s: float = 240.0,
+                      tol_s: float = 1e-3, memory_mb: float = 256.0,
+                      block_days: float = 7.0) -> PassTable:
+    """Every pass of every satellite over every station in ``[start, end]``.
+
+    ``satrecs``: sgp4 ``Satrec`` objects, ``names`` their names (same order); ``stations``:
+    :class:`~tracker.station.Station` list; ``min_el_deg`` overrides each station's own
+    minimum elevation (the horizon mask still applies). ``step_s`` is the fine sampling step,
+    ``tol_s`` the time tolerance of AOS/TCA/LOS, ``memory_mb`` the working-set budget.
+    """
+    if len(satrecs) != len(names):
+        raise ConfigError(f"{len(satrecs)} satellites but {len(names)} names")
+    if not stations:
+        raise ConfigError("no stations given")
+    if not (10.0 <= step_s <= 600.0):
+        raise ConfigError(f"step_s = {step_s!r} is invalid; allowed: 10 to 600 seconds")
+    tables = [find_passes_block(satrecs, names, stations, a, b, min_el_deg, step_s=step_s,
+                                tol_s=tol_s, memory_mb=memory_mb)
+              for a, b in time_blocks(start, end, block_days)]
+    return merge_tables(tables, names, stations, _to_utc(start), _to_utc(end))

@@ -1,0 +1,175 @@
+"""Vectorised geometry for the batch finder: Earth rotation, station frames, look angles, Sun.
+
+Frames follow skyfield's satellite pipeline so results agree with ``find_events``: SGP4 gives
+TEME positions; TEME -> ITRS is a rotation about z by GMST (IAU 1982, on UT1), polar motion is
+neglected (skyfield's default too); stations are WGS84 geodetic points and elevation is taken
+against the geodetic normal, with no refraction.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from tracker.station import Station
+
+WGS84_A_KM = 6378.137
+WGS84_F = 1.0 / 298.257223563
+EARTH_ROTATION_RAD_S = 7.292115e-5  # skyfield.sgp4lib.ANGVEL (the Earth's sidereal rate)
+MU_KM3_S2 = 398600.4418
+DAY_S = 86400.0
+
+
+def gmst_rad(jd_ut1_whole, fraction_ut1) -> np.ndarray:
+    """GMST 1982 angle in radians (the TEME -> ITRS angle), vectorised over times."""
+    from skyfield.sgp4lib import theta_GMST1982
+
+    theta, _ = theta_GMST1982(jd_ut1_whole, fraction_ut1)
+    return np.asarray(theta, dtype=float)
+
+
+@dataclass(frozen=True)
+class StationFrames:
+    """Stations as arrays: ECEF position, local east/north/up unit vectors, screening radii."""
+
+    ecef_km: np.ndarray  # (N, 3)
+    east: np.ndarray  # (N, 3)
+    north: np.ndarray  # (N, 3)
+    up: np.ndarray  # (N, 3)
+    radius_km: np.ndarray  # (N,) geocentric distance of the station
+    unit: np.ndarray  # (N, 3) geocentric unit vector (ECEF)
+    cos_lat: np.ndarray  # (N,) geocentric latitude cosine (how fast the station moves in TEME)
+    min_el_deg: np.ndarray  # (N,) lowest threshold anywhere (the mask only raises it)
+
+    @classmethod
+    def from_stations(cls, stations: list[Station], min_el_deg: float | None = None
+                      ) -> StationFrames:
+        lat = np.radians([s.lat_deg for s in stations])
+        lon = np.radians([s.lon_deg for s in stations])
+        alt_km = np.array([s.alt_m for s in stations]) / 1000.0
+        e2 = WGS84_F * (2.0 - WGS84_F)
+        n = WGS84_A_KM / np.sqrt(1.0 - e2 * np.sin(lat) ** 2)
+        ecef = np.stack([(n + alt_km) * np.cos(lat) * np.cos(lon),
+                         (n + alt_km) * np.cos(lat) * np.sin(lon),
+                         (n * (1.0 - e2) + alt_km) * np.sin(lat)], axis=-1)
+        up = np.stack([np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)], -1)
+        east = np.stack([-np.sin(lon), np.cos(lon), np.zeros_like(lon)], -1)
+        north = np.cross(up, east)
+        radius = np.linalg.norm(ecef, axis=-1)
+        unit = ecef / radius[:, None]
+        thr = np.array([s.min_el_deg if min_el_deg is None else min_el_deg for s in stations],
+                       dtype=float)
+        return cls(ecef, east, north, up, radius, unit, np.hypot(unit[:, 0], unit[:, 1]), thr)
+
+    def __len__(self) -> int:
+        return len(self.radius_km)
+
+
+def teme_to_ecef(r_teme, v_teme, theta_rad):
+    """Rotate TEME position/velocity (..., 3) into ECEF at GMST angle(s) ``theta_rad`` (...).
+
+    Returns two tuples of components ``(x, y, z), (vx, vy, vz)`` (arrays, no stacking).
+    """
+    c, s = np.cos(theta_rad), np.sin(theta_rad)
+    rx, ry = r_teme[..., 0], r_teme[..., 1]
+    x = c * rx + s * ry
+    y = c * ry - s * rx
+    # The frame turns with the Earth: v_ecef = R v_teme - omega x r_ecef.
+    vx = c * v_teme[..., 0] + s * v_teme[..., 1] + EARTH_ROTATION_RAD_S * y
+    vy = c * v_teme[..., 1] - s * v_teme[..., 0] - EARTH_ROTATION_RAD_S * x
+    return (x, y, r_teme[..., 2]), (vx, vy, v_teme[..., 2])
+
+
+def look_angles(r_ecef, v_ecef, frames: StationFrames, station_idx):
+    """Elevation, azimuth (deg) and elevation rate (deg/s) of satellites seen from stations.
+
+    ``r_ecef``/``v_ecef`` are component tuples as returned by :func:`teme_to_ecef`;
+    ``station_idx`` (an int or an array like the components) picks each sample's station.
+    """
+    o = frames.ecef_km[station_idx]
+    u, e, n = frames.up[station_idx], frames.east[station_idx], frames.north[station_idx]
+    dx, dy, dz = r_ecef[0] - o[..., 0], r_ecef[1] - o[..., 1], r_ecef[2] - o[..., 2]
+    ru = dx * u[..., 0] + dy * u[..., 1] + dz * u[..., 2]
+    re = dx * e[..., 0] + dy * e[..., 1]
+    rn = dx * n[..., 0] + dy * n[..., 1] + dz * n[..., 2]
+    dist2 = dx * dx + dy * dy + dz * dz
+    inv = 1.0 / np.sqrt(dist2)
+    sin_el = np.clip(ru * inv, -1.0, 1.0)
+    el = np.degrees(np.arcsin(sin_el))
+    az = np.degrees(np.arctan2(re, rn)) % 360.0
+    vx, vy, vz = v_ecef
+    vu = vx * u[..., 0] + vy * u[..., 1] + vz * u[..., 2]
+    rv = dx * vx + dy * vy + dz * vz
+    d_sin = (vu - ru * rv / dist2) * inv
+    rate = np.degrees(d_sin / np.sqrt(np.maximum(1.0 - sin_el * sin_el, 1e-12)))
+    return el, az, rate
+
+
+def horizon_angle_rad(r_km, station_radius_km, el_deg) -> np.ndarray:
+    """Largest geocentric angle between station and a satellite at distance ``r_km`` for which
+    the satellite is at elevation >= ``el_deg`` (spherical Earth through the station)."""
+    el = np.radians(el_deg)
+    ratio = np.clip(station_radius_km * np.cos(el) / np.maximum(r_km, station_radius_km), -1, 1)
+    return np.arccos(ratio) - el
+
+
+def sun_teme_unit(jd_utc) -> np.ndarray:
+    """Sun direction (unit vectors, equator and equinox of date, ~0.01 deg) at Julian dates.
+
+    The low-precision formula of the Astronomical Almanac; plenty for shadow and twilight tests.
+    """
+    n = np.asarray(jd_utc, dtype=float) - 2451545.0
+    g = np.radians(np.mod(357.528 + 0.9856003 * n, 360.0))
+    lam = np.radians(np.mod(280.460 + 0.9856474 * n, 360.0)) + np.radians(
+        1.915 * np.sin(g) + 0.020 * np.sin(2 * g))
+    eps = np.radians(23.439 - 0.0000004 * n)
+    return np.stack([np.cos(lam), np.cos(eps) * np.sin(lam), np.sin(eps) * np.sin(lam)], -1)
+
+
+def sun_distance_km(jd_utc) -> np.ndarray:
+    n = np.asarray(jd_utc, dtype=float) - 2451545.0
+    g = np.radians(np.mod(357.528 + 0.9856003 * n, 360.0))
+    return (1.00014 - 0.01671 * np.cos(g) - 0.00014 * np.cos(2 * g)) * 149597870.7
+
+
+def is_sunlit(r_teme_km, jd_utc) -> np.ndarray:
+    """True where the satellite sees the Sun (the Sun-ward ray misses a spherical Earth)."""
+    sun = sun_teme_unit(jd_utc) * sun_distance_km(jd_utc)[..., None]
+    d = sun - r_teme_km
+    d_len = np.linalg.norm(d, axis=-1)
+    d_hat = d / d_len[..., None]
+    # Closest approach of the ray r + s*d_hat (s >= 0) to the Earth's centre.
+    s = -np.einsum("...i,...i->...", r_teme_km, d_hat)
+    closest = r_teme_km + np.maximum(s, 0.0)[..., None] * d_hat
+    return np.linalg.norm(closest, axis=-1) > WGS84_A_KM
+
+
+def sun_elevation_deg(jd_utc, theta_rad, frames: StationFrames, station_idx) -> np.ndarray:
+    """Sun elevation at stations (geometric, degrees), for twilight tests."""
+    sun = sun_teme_unit(jd_utc)
+    c, s = np.cos(theta_rad), np.sin(theta_rad)
+    x = c * sun[..., 0] + s * sun[..., 1]
+    y = -s * sun[..., 0] + c * sun[..., 1]
+    u = frames.up[station_idx]
+    return np.degrees(np.arcsin(np.clip(
+        x * u[..., 0] + y * u[..., 1] + sun[..., 2] * u[..., 2], -1.0, 1.0)))
+
+
+def orbit_bounds(satrec) -> tuple[float, float]:
+    """(apogee radius km, fastest orbital angular rate rad/s) from a Satrec's mean elements."""
+    n_rad_s = max(satrec.no_kozai, 1e-6) / 60.0
+    e = min(max(satrec.ecco, 0.0), 0.999)
+    a_km = (MU_KM3_S2 / n_rad_s**2) ** (1.0 / 3.0)
+    rate = n_rad_s * (1.0 + e) ** 2 / (1.0 - e * e) ** 1.5
+    return a_km * (1.0 + e), rate
+
+
+def dut1_s(start_utc) -> float:
+    """UT1 - UTC at ``start_utc`` from skyfield's bundled IERS table (changes ~ms per week)."""
+    from skyfield.api import load
+
+    ts = load.timescale(builtin=True)
+    value = float(ts.from_datetime(start_utc).dut1)
+    return value if math.isfinite(value) else 0.0

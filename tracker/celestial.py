@@ -1,0 +1,548 @@
+"""Celestial targets: the Sun, the Moon, the planets and fixed RA/Dec sources.
+
+Names (case-insensitive; spaces, ``-`` and ``_`` are ignored, so ``Cas A`` = ``cas-a``):
+
+- ``sun``, ``moon``, ``mercury`` .. ``neptune``, ``pluto`` (JPL DE421, see
+  :mod:`tracker.ephemeris`);
+- a built-in radio source (:data:`RADIO_SOURCES`: ``cas-a``, ``cyg-a``, ``tau-a``, ``vir-a``,
+  ``sgr-a``, ...; J2000 positions from SIMBAD);
+- ``radec:HH:MM:SS,+DD:MM:SS`` (RA in hours) or ``radec:83.63,22.01`` (both in degrees), J2000;
+- an az/el schedule file: ``schedule:FILE`` or any name ending in ``.csv``
+  (:mod:`tracker.schedule_file`).
+
+Positions are *apparent topocentric* (light time, aberration, deflection, precession/nutation
+to the true equator of date), **without atmospheric refraction**: refraction depends on weather,
+is below 0.6° except near the horizon, and radio refraction differs from optical; leaving it
+off keeps results reproducible and matches what rotator users compare against (PyEphem with
+``pressure=0``). Rise/set is therefore the centre of the body crossing the geometric horizon
+(plus the station's minimum elevation and mask), not the upper limb.
+
+Importing this module registers :func:`resolve` in :data:`tracker.targets.RESOLVERS`.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tracker.errors import TargetError
+from tracker.skytrack import SkyTrack, enu_to_azel
+from tracker.station import Station
+
+# DE421 segment names for each body we accept.
+SOLAR_SYSTEM: dict[str, tuple[str, str]] = {
+    "sun": ("sun", "sun"),
+    "moon": ("moon", "moon"),
+    "mercury": ("mercury", "planet"),
+    "venus": ("venus", "planet"),
+    "mars": ("mars", "planet"),
+    "jupiter": ("jupiter barycenter", "planet"),
+    "saturn": ("saturn barycenter", "planet"),
+    "uranus": ("uranus barycenter", "planet"),
+    "neptune": ("neptune barycenter", "planet"),
+    "pluto": ("pluto barycenter", "planet"),
+}
+
+
+@dataclass(frozen=True)
+class RadioSource:
+    """A fixed source: J2000 (ICRS) right ascension in hours, declination in degrees."""
+
+    name: str
+    ra_hours: float
+    dec_deg: float
+    aliases: tuple[str, ...] = ()
+    note: str = ""
+
+
+def _hms(h: float, m: float, s: float) -> float:
+    return h + m / 60.0 + s / 3600.0
+
+
+def _dms(sign: int, d: float, m: float, s: float) -> float:
+    return sign * (d + m / 60.0 + s / 3600.0)
+
+
+# J2000 positions from SIMBAD (CDS, simbad.u-strasbg.fr), rounded to 0.1 s / 1". Antenna beams
+# are degrees wide, so proper motion and source structure do not matter here.
+RADIO_SOURCES: tuple[RadioSource, ...] = (
+    RadioSource("Cas A", _hms(23, 23, 24.0), _dms(+1, 58, 48, 54), ("3c461", "cassiopeiaa"),
+                "supernova remnant, brightest source at VHF"),
+    RadioSource("Cyg A", _hms(19, 59, 28.4), _dms(+1, 40, 44, 2), ("3c405", "cygnusa"),
+                "radio galaxy"),
+    RadioSource("Tau A", _hms(5, 34, 31.9), _dms(+1, 22, 0, 52), ("3c144", "crab", "m1"),
+                "Crab nebula"),
+    RadioSource("Vir A", _hms(12, 30, 49.4), _dms(+1, 12, 23, 28), ("3c274", "m87"),
+                "radio galaxy M87"),
+    RadioSource("Sgr A", _hms(17, 45, 40.0), _dms(-1, 29, 0, 28), ("sgra*", "galacticcentre",
+                                                                    "galacticcenter"),
+                "galactic centre (Sgr A*)"),
+    RadioSource("Cen A", _hms(13, 25, 27.6), _dms(-1, 43, 1, 9), ("ngc5128", "centaurusa"),
+                "radio galaxy NGC 5128"),
+    RadioSource("Ori A", _hms(5, 35, 17.3), _dms(-1, 5, 23, 28), ("m42", "oriona"),
+                "Orion nebula"),
+    RadioSource("Her A", _hms(16, 51, 8.1), _dms(+1, 4, 59, 33), ("3c348", "herculesa"),
+                "radio galaxy"),
+    RadioSource("Hya A", _hms(9, 18, 5.7), _dms(-1, 12, 5, 44), ("3c218", "hydraa"),
+                "radio galaxy"),
+    RadioSource("3C 273", _hms(12, 29, 6.7), _dms(+1, 2, 3, 9), (), "quasar"),
+)
+
+
+def _key(name: str) -> str:
+    return re.sub(r"[\s\-_]+", "", name.strip().lower())
+
+
+_SOURCE_INDEX: dict[str, RadioSource] = {}
+for _src in RADIO_SOURCES:
+    for _alias in (_src.name, *_src.aliases):
+        _SOURCE_INDEX[_key(_alias)] = _src
+
+
+def known_names() -> list[str]:
+    """Every built-in celestial name, for help texts and suggestions."""
+    return [*SOLAR_SYSTEM, *(_key(s.name) for s in RADIO_SOURCES)]
+
+
+# --------------------------------------------------------------------------------------------
+# Targets
+
+NODE_STEP_S = 30.0
+
+
+def _interpolation_nodes(t_s: np.ndarray) -> np.ndarray | None:
+    """Nodes every NODE_STEP_S covering sorted ``t_s`` if that needs < half the samples."""
+    if t_s.size < 64 or not np.all(np.diff(t_s) > 0):
+        return None
+    span_s = float(t_s[-1] - t_s[0])
+    n_nodes = int(np.ceil(span_s / NODE_STEP_S)) + 1
+    if n_nodes * 2 > t_s.size:
+        return None
+    return np.linspace(t_s[0], t_s[0] + (n_nodes - 1) * NODE_STEP_S, n_nodes)
+
+
+@dataclass(frozen=True)
+class _SkyfieldTarget:
+    """Common observe() for anything skyfield can ``observe()`` from the ground."""
+
+    name: str
+    kind: str
+    meta: dict = field(default_factory=dict, compare=False, repr=False)
+
+    def _body(self, kernel):  # pragma: no cover - overridden
+        raise NotImplementedError
+
+    def _has_range(self) -> bool:
+        return True
+
+    def _apparent(self, station: Station, t_s):
+        from tracker.ephemeris import check_range, load_ephemeris, times_from_posix
+
+        kernel = load_ephemeris()
+        check_range(kernel, t_s)
+        t = times_from_posix(t_s)
+        observer = kernel["earth"] + station.topos()
+        return observer.at(t).observe(self._body(kernel)).apparent()
+
+    def observe(self, station: Station, t_s) -> SkyTrack:
+        """Apparent az/el (no refraction) at UTC POSIX seconds ``t_s``, shape ``(n,)``.
+
+        One vectorised skyfield call for the whole array. ``range_km`` and
+        ``range_rate_km_s`` are topocentric for Sun/Moon/planets and NaN for fixed sources;
+        ``sunlit`` is always False (it means nothing here).
+        """
+        t_s = np.atleast_1d(np.asarray(t_s, dtype=float))
+        if t_s.size == 0:
+            return SkyTrack.from_azel(t_s, t_s, t_s, name=self.name, kind=self.kind)
+        nodes_s = _interpolation_nodes(t_s)
+        if nodes_s is not None:
+            return self._observe_interpolated(station, t_s, nodes_s)
+        return self._observe_exact(station, t_s)
+
+    def _observe_interpolated(self, station: Station, t_s, nodes_s) -> SkyTrack:
+        # Dense requests (e.g. 12 h at 1 s) cost ~90 µs per sample in skyfield; these bodies
+        # move < 0.15°/30 s across the sky, so a chord between 30 s nodes is off by < 1e-4°.
+        exact = self._observe_exact(station, nodes_s)
+        enu = exact.unit_vectors()
+        interp = np.stack([np.interp(t_s, nodes_s, enu[:, i]) for i in range(3)], axis=-1)
+        az_deg, el_deg = enu_to_azel(interp)
+        return SkyTrack(t_s, az_deg, el_deg, np.interp(t_s, nodes_s, exact.range_km),
+                        np.interp(t_s, nodes_s, exact.range_rate_km_s),
+                        np.zeros(t_s.shape, dtype=bool), self.name,
+                        {**exact.meta, "interpolated_node_s": NODE_STEP_S})
+
+    def _observe_exact(self, station: Station, t_s) -> SkyTrack:
+        app = self._apparent(station, t_s)
+        if self._has_range():
+            alt, az, _dist, _, _, range_rate = app.frame_latlon_and_rates(station.topos())
+            range_km = np.asarray(_dist.km, dtype=float).reshape(t_s.shape)
+            rate_km_s = np.asarray(range_rate.km_per_s, dtype=float).reshape(t_s.shape)
+        else:
+            alt, az, _ = app.altaz()
+            range_km = np.full(t_s.shape, np.nan)
+            rate_km_s = np.full(t_s.shape, np.nan)
+        az_deg = np.mod(np.asarray(az.degrees, dtype=float).reshape(t_s.shape), 360.0)
+        el_deg = np.asarray(alt.degrees, dtype=float).reshape(t_s.shape)
+        return SkyTrack(t_s, az_deg, el_deg, range_km, rate_km_s,
+                        np.zeros(t_s.shape, dtype=bool), self.name,
+                        {"kind": self.kind, "refraction": False, **self.meta})
+
+    def elevation(self, station: Station, t_s) -> tuple[np.ndarray, np.ndarray]:
+        """``(az_deg, el_deg)`` at times in any order or shape (for event searches)."""
+        t_s = np.asarray(t_s, dtype=float)
+        flat = np.atleast_1d(t_s).ravel()
+        unique_s, inverse = np.unique(flat, return_inverse=True)
+        track = self.observe(station, unique_s)
+        shape = np.shape(t_s)
+        return (track.az_deg[inverse].reshape(shape), track.el_deg[inverse].reshape(shape))
+
+    def hour_angle_deg(self, station: Station, t_s) -> np.ndarray:
+        """Local hour angle of date in degrees, wrapped to (-180, 180]; 0 at upper transit."""
+        t_s = np.atleast_1d(np.asarray(t_s, dtype=float))
+        ha, _dec, _ = self._apparent(station, t_s).hadec()
+        ha_deg = np.asarray(ha.hours, dtype=float).reshape(t_s.shape) * 15.0
+        return -np.mod(-ha_deg + 180.0, 360.0) + 180.0
+
+
+@dataclass(frozen=True)
+class SolarSystemTarget(_SkyfieldTarget):
+    """The Sun, the Moon or a planet (``kind`` "sun", "moon" or "planet")."""
+
+    segment: str = ""
+
+    def _body(self, kernel):
+        return kernel[self.segment]
+
+
+@dataclass(frozen=True)
+class FixedTarget(_SkyfieldTarget):
+    """A fixed J2000 position (``kind`` "radio"): built-in radio source or ``radec:``."""
+
+    ra_hours: float = 0.0
+    dec_deg: float = 0.0
+
+    def _body(self, kernel):
+        from skyfield.api import Star
+
+        return Star(ra_hours=self.ra_hours, dec_degrees=self.dec_deg)
+
+    def _has_range(self) -> bool:
+        return False
+
+
+# --------------------------------------------------------------------------------------------
+# Parsing names
+
+RADEC_HELP = ("expected radec:HH:MM:SS,+DD:MM:SS (RA in hours) or radec:RA_DEG,DEC_DEG "
+              "(both in degrees), J2000, e.g. radec:05:34:31.9,+22:00:52 or radec:83.63,22.01")
+
+
+def _sexagesimal(text: str) -> tuple[int, float]:
+    """(sign, value) of ``[+-]D:M[:S]``; raises ValueError."""
+    text = text.strip()
+    sign = -1 if text.startswith("-") else 1
+    parts = [float(p) for p in text.lstrip("+-").split(":")]
+    if not 2 <= len(parts) <= 3 or any(p < 0 for p in parts) or any(p >= 60 for p in parts[1:]):
+        raise ValueError(text)
+    parts += [0.0] * (3 - len(parts))
+    return sign, parts[0] + parts[1] / 60.0 + parts[2] / 3600.0
+
+
+def parse_radec(spec: str) -> FixedTarget:
+    """A FixedTarget from ``radec:...`` (see :data:`RADEC_HELP`); TargetError when malformed."""
+    body = spec.split(":", 1)[1] if spec.lower().startswith("radec:") else spec
+    fields = body.split(",")
+    if len(fields) != 2:
+        raise TargetError(f"bad fixed position {spec!r}: {RADEC_HELP}")
+    ra_text, dec_text = (f.strip() for f in fields)
+    try:
+        if ":" in ra_text:
+            sign, ra_hours = _sexagesimal(ra_text)
+            if sign < 0:
+                raise ValueError(ra_text)
+        else:
+            ra_hours = float(ra_text) / 15.0
+        if ":" in dec_text:
+            sign, dec_abs = _sexagesimal(dec_text)
+            dec_deg = sign * dec_abs
+        else:
+            dec_deg = float(dec_text)
+    except ValueError:
+        raise TargetError(f"bad fixed position {spec!r}: {RADEC_HELP}") from None
+    if not (0.0 <= ra_hours < 24.0 and np.isfinite(ra_hours)):
+        raise TargetError(f"bad fixed position {spec!r}: RA must be 0..24 h (0..360°); "
+                          f"{RADEC_HELP}")
+    if not (-90.0 <= dec_deg <= 90.0):
+        raise TargetError(f"bad fixed position {spec!r}: Dec must be -90..+90°; {RADEC_HELP}")
+    name = f"RA {ra_hours:.4f}h Dec {dec_deg:+.4f}°"
+    return FixedTarget(name, "radio", {"ra_hours": ra_hours, "dec_deg": dec_deg},
+                       ra_hours=ra_hours, dec_deg=dec_deg)
+
+
+def resolve(name: str):
+    """The celestial or schedule Target for ``name``, or None if the name is not one of ours.
+
+    Registered in :data:`tracker.targets.RESOLVERS`. Raises TargetError / ConfigError only
+    when the name is clearly meant for us (``radec:``, ``schedule:``, ``*.csv``) but is
+    malformed or the file is missing/bad.
+    """
+    text = name.strip()
+    lower = text.lower()
+    if lower.startswith("radec:"):
+        return parse_radec(text)
+    if lower.startswith("schedule:") or lower.endswith(".csv"):
+        from pathlib import Path
+
+        from tracker.schedule_file import ScheduleTarget
+
+        # A name ending in .csv is a file the user meant, not a satellite: a missing one is
+        # reported as such rather than as an unknown satellite with odd suggestions.
+        path = Path(text.split(":", 1)[1]) if lower.startswith("schedule:") else Path(text)
+        return ScheduleTarget.load(path)
+    key = _key(text)
+    if key in SOLAR_SYSTEM:
+        segment, kind = SOLAR_SYSTEM[key]
+        return SolarSystemTarget(key.capitalize(), kind, {}, segment=segment)
+    src = _SOURCE_INDEX.get(key) or _SOURCE_INDEX.get(key.rstrip("*"))
+    if src is not None:
+        return FixedTarget(src.name, "radio",
+                           {"ra_hours": src.ra_hours, "dec_deg": src.dec_deg,
+                            "note": src.note, "reference": "SIMBAD J2000"},
+                           ra_hours=src.ra_hours, dec_deg=src.dec_deg)
+    return None
+
+
+EVENT_LABELS: dict[str, tuple[str, str, str]] = {
+    "satellite": ("AOS", "TCA", "LOS"),
+    "schedule": ("start", "max el", "end"),
+}
+
+
+def event_labels(kind: str) -> tuple[str, str, str]:
+    """Column labels for a pass of a target of ``kind``: AOS/TCA/LOS or rise/transit/set."""
+    return EVENT_LABELS.get(kind, ("rise", "transit", "set"))
+
+
+def _register() -> None:
+    from tracker.targets import RESOLVERS
+
+    if resolve not in RESOLVERS:
+        RESOLVERS.append(resolve)
+
+
+_register()
+
+__all__ = ["RADIO_SOURCES", "FixedTarget", "RadioSource", "SolarSystemTarget",
+           "event_labels", "known_names", "parse_radec", "resolve"]
+
+
+# --------------------------------------------------------------------------------------------
+# Rise / transit / set for slow targets
+
+#: Coarse sampling step of the rise/set search per kind. These bodies move at most ~0.5° per
+#: 2 minutes, so only a pass peaking within a few hundredths of a degree of the horizon could
+#: fall between two samples. Schedule files are sampled at their own points as well.
+SEARCH_STEP_S: dict[str, float] = {"sun": 120.0, "moon": 120.0, "planet": 120.0,
+                                   "radio": 120.0, "schedule": 60.0}
+_BISECT_TOL_S = 0.05
+
+
+@dataclass(frozen=True)
+class RiseSet:
+    """One visible span of a slow target: rise, transit (culmination) and set.
+
+    Times are UTC POSIX seconds. If the target is already up at the window start,
+    ``rise_s`` is the window start and ``rises`` is False (likewise ``set_s`` / ``sets``);
+    a circumpolar target's span is cut at lower culmination, which then counts as its rise/set.
+    ``transit_s`` is the upper meridian crossing when it lies inside the span, otherwise the
+    time of highest elevation (schedule files: always the highest point).
+    """
+
+    name: str
+    kind: str
+    rise_s: float
+    transit_s: float
+    set_s: float
+    rise_az_deg: float
+    transit_az_deg: float
+    set_az_deg: float
+    max_el_deg: float
+    rises: bool = True
+    sets: bool = True
+
+    @property
+    def duration_s(self) -> float:
+        return self.set_s - self.rise_s
+
+    @property
+    def labels(self) -> tuple[str, str, str]:
+        return event_labels(self.kind)
+
+    def times(self, step_s: float) -> np.ndarray:
+        """Sample times from rise to set every ``step_s`` (the set time always included)."""
+        if step_s <= 0:
+            raise ValueError("step_s must be positive")
+        t = np.arange(self.rise_s, self.set_s, step_s)
+        return np.append(t, self.set_s) if t.size == 0 or t[-1] < self.set_s else t
+
+    def track(self, target, station: Station, step_s: float = 60.0) -> SkyTrack:
+        """The target's SkyTrack over this span (one vectorised observe call)."""
+        return target.observe(station, self.times(step_s))
+
+
+def _margin(target, station: Station, t_s: np.ndarray) -> tuple[np.ndarray, SkyTrack]:
+    """Elevation above the station's horizon (min elevation and mask); NaN counts as below."""
+    track = target.observe(station, t_s)
+    margin = track.el_deg - station.horizon_at(np.nan_to_num(track.az_deg))
+    return np.where(np.isfinite(margin), margin, -np.inf), track
+
+
+def _bisect(f, lo_s: np.ndarray, hi_s: np.ndarray, lo_up: np.ndarray) -> np.ndarray:
+    """Vectorised bisection: the time each bracket [lo, hi] changes from up to not up."""
+    lo_s, hi_s = lo_s.copy(), hi_s.copy()
+    while lo_s.size and np.max(hi_s - lo_s) > _BISECT_TOL_S:
+        mid = 0.5 * (lo_s + hi_s)
+        up = f(mid) >= 0.0
+        same = up == lo_up
+        lo_s = np.where(same, mid, lo_s)
+        hi_s = np.where(same, hi_s, mid)
+    return 0.5 * (lo_s + hi_s)
+
+
+def _refine_max(f, lo_s: np.ndarray, hi_s: np.ndarray) -> np.ndarray:
+    """Vectorised golden-section search for the maximum of ``f`` in each [lo, hi]."""
+    g = (np.sqrt(5.0) - 1.0) / 2.0
+    a, b = lo_s.copy(), hi_s.copy()
+    while a.size and np.max(b - a) > 1.0:
+        c = b - g * (b - a)
+        d = a + g * (b - a)
+        fc, fd = f(np.concatenate([c, d])).reshape(2, -1)
+        left = fc > fd
+        b = np.where(left, d, b)
+        a = np.where(left, a, c)
+    return 0.5 * (a + b)
+
+
+def _to_s(t) -> float:
+    from datetime import datetime
+
+    if isinstance(t, datetime):
+        if t.tzinfo is None:
+            raise ValueError("times must be timezone-aware (UTC); got a naive datetime")
+        return t.timestamp()
+    return float(t)
+
+
+def find_rise_set(target, station: Station, start, end, min_el_deg: float | None = None,
+                  step_s: float | None = None) -> list[RiseSet]:
+    """Rise, transit and set of a slow target (Sun, Moon, planet, fixed source, schedule).
+
+    Coarse samples every ``step_s`` (default by kind, :data:`SEARCH_STEP_S`) in one
+    vectorised observe call; horizon crossings (min elevation + mask) are refined by
+    vectorised bisection to 0.05 s and upper transits by the hour angle's zero crossing.
+    Handles hours-long passes, targets already up at ``start`` or still up at ``end``,
+    circumpolar targets (spans cut at lower culmination) and targets that never rise.
+    ``start``/``end`` are aware datetimes or POSIX seconds.
+    """
+    from dataclasses import replace
+
+    t0_s, t1_s = _to_s(start), _to_s(end)
+    if not t1_s > t0_s:
+        raise ValueError("end must be after start")
+    if min_el_deg is not None:
+        station = replace(station, min_el_deg=float(min_el_deg))
+    kind = getattr(target, "kind", "")
+    step_s = float(step_s or SEARCH_STEP_S.get(kind, 60.0))
+    n = int(np.ceil((t1_s - t0_s) / step_s)) + 1
+    t_s = np.linspace(t0_s, t1_s, n)
+    knots = getattr(target, "t_s", None)  # a schedule's own points are where el turns
+    if kind == "schedule" and knots is not None:
+        inside = np.asarray(knots)[(knots > t0_s) & (knots < t1_s)]
+        # Also one sample just before/after each knot edge, so span ends are bracketed.
+        t_s = np.unique(np.concatenate([t_s, inside]))
+
+    def f(t):
+        return _margin(target, station, np.asarray(t, dtype=float))[0]
+
+    margin, _track = _margin(target, station, t_s)
+    up = margin >= 0.0
+    change = np.flatnonzero(up[1:] != up[:-1])
+    cross_s = _bisect(f, t_s[change], t_s[change + 1], up[change])
+    rising = ~up[change]
+    edges = [(float(c), bool(r)) for c, r in zip(cross_s, rising, strict=True)]
+
+    spans: list[tuple[float, float, bool, bool]] = []
+    begin = t0_s if up[0] else None
+    rises = False
+    for c, is_rise in edges:
+        if is_rise:
+            begin, rises = c, True
+        elif begin is not None:
+            spans.append((begin, c, rises, True))
+            begin = None
+    if begin is not None:
+        spans.append((begin, t1_s, rises, False))
+
+    hour_angle = getattr(target, "hour_angle_deg", None)
+    out: list[RiseSet] = []
+    for s0, s1, r, st in spans:
+        out.extend(_split_and_describe(target, station, f, hour_angle, s0, s1, r, st, step_s))
+    return out
+
+
+def _split_and_describe(target, station, f, hour_angle, s0, s1, rises, sets, step_s):
+    """RiseSet(s) for one continuous visible span; cut at lower culminations if needed."""
+    transits: list[float] = []
+    cuts: list[float] = []
+    if hour_angle is not None:
+        t = np.linspace(s0, s1, max(3, int(np.ceil((s1 - s0) / step_s)) + 1))
+        ha = hour_angle(station, t)
+        d = np.diff(ha)
+        up_cross = np.flatnonzero((ha[:-1] < 0) & (ha[1:] >= 0) & (d < 180))
+        low_cross = np.flatnonzero(d < -180)  # HA wraps +180 -> -180: lower culmination
+
+        def ha_f(tt):
+            return -hour_angle(station, tt)  # >= 0 while before transit
+
+        transits = list(_bisect(ha_f, t[up_cross], t[up_cross + 1],
+                                np.ones(up_cross.size, bool)))
+        if len(transits) > 1:
+            def wrap_f(tt):
+                return np.where(hour_angle(station, tt) > 0, 0.0, -1.0)
+
+            cuts = list(_bisect(wrap_f, t[low_cross], t[low_cross + 1],
+                                np.ones(low_cross.size, bool)))
+    bounds = [s0, *cuts, s1]
+    pieces = []
+    for i in range(len(bounds) - 1):
+        a, b = bounds[i], bounds[i + 1]
+        r = rises if i == 0 else False
+        s = sets if i == len(bounds) - 2 else False
+        inside = [x for x in transits if a <= x <= b]
+        if inside:
+            tt = inside[0]
+        else:
+            grid = np.linspace(a, b, max(3, int(np.ceil((b - a) / step_s)) + 1))
+            k = int(np.argmax(f(grid)))
+            lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
+            if k in (0, grid.size - 1):
+                tt = float(grid[k])  # highest at a span end (window edge or a cut)
+            else:
+                tt = float(_refine_max(f, np.array([lo]), np.array([hi]))[0])
+        samples = target.observe(station, np.array([a, tt, b]) if a < tt < b
+                                 else np.array([a, b]))
+        if samples.t_s.size == 3:
+            az_r, az_t, az_s = samples.az_deg
+            el_t = samples.el_deg[1]
+        else:
+            az_r, az_s = samples.az_deg
+            az_t = az_r if tt <= a else az_s
+            el_t = samples.el_deg[0] if tt <= a else samples.el_deg[1]
+        el_max = float(np.nanmax(target.observe(
+            station, np.linspace(a, b, max(3, int(np.ceil((b - a) / step_s)) + 1))).el_deg))
+        pieces.append(RiseSet(target.name, target.kind, float(a), float(tt), float(b),
+                              float(az_r), float(az_t), float(az_s),
+                              max(float(el_t), el_max), r, s))
+    return pieces

@@ -1,0 +1,169 @@
+"""Shared command-line options: station, config, catalogue, target and "as of" time.
+
+Every command that needs a station, a target or the time builds on these helpers so the
+flags mean the same everywhere::
+
+    add_station_args(parser)    --config FILE --station NAME --lat --lon --alt --min-el --mask
+    add_target_args(parser)     --tle FILE (repeatable) --group G
+    add_time_args(parser)       --at UTC-ISO (run "as of" a fixed time)
+
+``config_from_args`` / ``station_from_args`` / ``catalog_from_args`` / ``target_from_args`` /
+``clock_from_args`` turn the parsed flags into values. Flags override the config file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from dataclasses import replace
+from datetime import datetime, timezone
+from typing import TYPE_CHECKING
+
+from tracker.errors import ConfigError
+
+if TYPE_CHECKING:  # pragma: no cover - typing only
+    from tracker.clock import Clock
+    from tracker.config import Config
+    from tracker.station import Station
+    from tracker.targets import Target
+
+
+def add_config_arg(parser: argparse.ArgumentParser) -> None:
+    """``--config FILE`` alone (for commands that need no station)."""
+    if any("--config" in a.option_strings for a in parser._actions):
+        return
+    parser.add_argument("--config", metavar="FILE",
+                        help="config file (default: $TRACKER_CONFIG or the user config dir)")
+
+
+def add_station_args(parser: argparse.ArgumentParser) -> None:
+    """Station options; each overrides the matching key of the config file's [station]."""
+    add_config_arg(parser)
+    g = parser.add_argument_group("station (overrides the config file)")
+    g.add_argument("--station", metavar="NAME",
+                   help="use the [station.NAME] section of the config file")
+    g.add_argument("--lat", type=float, metavar="DEG", help="latitude, degrees north")
+    g.add_argument("--lon", type=float, metavar="DEG", help="longitude, degrees east")
+    g.add_argument("--alt", type=float, metavar="M", help="altitude above the ellipsoid, m")
+    g.add_argument("--min-el", type=float, metavar="DEG", dest="min_el",
+                   help="minimum elevation, degrees (the horizon mask adds to it)")
+    g.add_argument("--mask", metavar="FILE",
+                   help="horizon mask file: 'azimuth_deg elevation_deg' per line")
+
+
+def add_target_args(parser: argparse.ArgumentParser) -> None:
+    """Element-source options: extra TLE/OMM files and a catalogue group."""
+    g = parser.add_argument_group("elements")
+    g.add_argument("--tle", action="append", default=[], metavar="FILE",
+                   help="TLE/3LE/OMM file to use instead of the cached/bundled catalogue "
+                        "(repeatable)")
+    g.add_argument("--group", metavar="G",
+                   help="catalogue group (e.g. amateur, weather, stations, visual)")
+
+
+def add_time_args(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--at", metavar="UTC",
+                        help="run as of this UTC time instead of now, e.g. 2026-08-23T12:00Z")
+
+
+def parse_utc(text: str) -> datetime:
+    """Parse an ISO-8601 time (``Z``/offset optional; no offset means UTC) to aware UTC."""
+    raw = text.strip()
+    s = raw.replace(" ", "T", 1) if "T" not in raw and " " in raw else raw
+    if s.endswith(("Z", "z")):
+        s = s[:-1] + "+00:00"
+    try:
+        t = datetime.fromisoformat(s)
+    except ValueError:
+        raise ConfigError(f"cannot read the time {text!r}; use ISO-8601 UTC such as "
+                          f"2026-08-23T12:00:00Z or '2026-08-23 12:00'") from None
+    if t.tzinfo is None:
+        t = t.replace(tzinfo=timezone.utc)
+    return t.astimezone(timezone.utc)
+
+
+def clock_from_args(args: argparse.Namespace, manual: bool = False) -> Clock:
+    """The clock for a command: ``--at`` starts a simulated clock there, else real time.
+
+    ``manual=True`` gives a :class:`~tracker.clock.ManualClock` that stands still (for
+    commands that only read the time once, so output is exactly reproducible); otherwise a
+    :class:`~tracker.clock.SimClock` at speed 1 that runs on from ``--at``.
+    """
+    from tracker.clock import ManualClock, SimClock, SystemClock
+
+    at = getattr(args, "at", None)
+    if not at:
+        return SystemClock()
+    start = parse_utc(at)
+    return ManualClock(start) if manual else SimClock(start, speed=1.0)
+
+
+def config_from_args(args: argparse.Namespace) -> Config:
+    """The effective config (cached on ``args``): ``--config``, ``$TRACKER_CONFIG`` or default."""
+    cached = getattr(args, "_config", None)
+    if cached is not None:
+        return cached
+    from tracker.config import load_config
+
+    config = load_config(getattr(args, "config", None))
+    try:
+        args._config = config
+    except AttributeError:  # pragma: no cover - exotic namespaces
+        pass
+    return config
+
+
+def station_from_args(args: argparse.Namespace, quiet: bool = False) -> Station:
+    """The station: config file ([station] or [station.NAME]) overridden by flags."""
+    from tracker.station import HorizonMask
+
+    config = config_from_args(args)
+    station = config.station_named(getattr(args, "station", None))
+    changes: dict = {}
+    for flag, key in (("lat", "lat_deg"), ("lon", "lon_deg"), ("alt", "alt_m"),
+                      ("min_el", "min_el_deg")):
+        value = getattr(args, flag, None)
+        if value is not None:
+            changes[key] = float(value)
+    if getattr(args, "mask", None):
+        changes["mask"] = HorizonMask.load(args.mask)
+    if changes:
+        try:
+            station = replace(station, **changes)
+        except ConfigError as e:
+            raise ConfigError(f"command line: {e}") from None
+    if (config.station_is_default and not getattr(args, "station", None)
+            and "lat_deg" not in changes and not quiet):
+        print(f"tracker: note: no station configured, using {station.name} "
+              f"(lat {station.lat_deg}, lon {station.lon_deg}); run `tracker config init` "
+              f"or pass --lat/--lon", file=sys.stderr)
+    return station
+
+
+def catalog_from_args(args: argparse.Namespace):
+    """The element catalogue: ``--tle`` files if given, else the cache/bundled default.
+
+    With ``--group G`` the catalogue is narrowed to that group.
+    """
+    cached = getattr(args, "_catalog", None)
+    if cached is not None:
+        return cached
+    from tle.catalog import Catalog
+
+    files = list(getattr(args, "tle", None) or [])
+    catalog = Catalog.load(files) if files else Catalog.default()
+    group = getattr(args, "group", None)
+    if group:
+        catalog = catalog.group(group)
+    try:
+        args._catalog = catalog
+    except AttributeError:  # pragma: no cover
+        pass
+    return catalog
+
+
+def target_from_args(name: str, args: argparse.Namespace) -> Target:
+    """Resolve ``name``: registered resolvers (Sun, Moon, ...) first, then the catalogue."""
+    from tracker.targets import resolve_target
+
+    return resolve_target(name, lambda: catalog_from_args(args))

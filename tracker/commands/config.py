@@ -1,0 +1,62 @@
+"""``tracker config init|show|path``: write the commented template, print the effective config."""
+
+from __future__ import annotations
+
+import argparse
+
+from tracker.commands._common import add_config_arg, add_station_args
+
+
+def register(sub) -> None:
+    p = sub.add_parser("config", help="create or show the config file",
+                       description="Manage the TOML config file (station, rotators, "
+                                   "tracking defaults).")
+    csub = p.add_subparsers(dest="config_command", metavar="ACTION")
+    init = csub.add_parser("init", help="write a commented template config file")
+    init.add_argument("--force", action="store_true",
+                      help="overwrite an existing file (otherwise it is never touched)")
+    add_config_arg(init)
+    init.set_defaults(func=run_init)
+    show = csub.add_parser("show", help="print the effective config as TOML "
+                                        "(file + command-line overrides)")
+    add_station_args(show)
+    show.set_defaults(func=run_show)
+    path = csub.add_parser("path", help="print where the config file is read from")
+    add_config_arg(path)
+    path.set_defaults(func=run_path)
+    p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
+
+
+def _path(args: argparse.Namespace):
+    from pathlib import Path
+
+    from tracker.config import default_config_path
+
+    return Path(args.config).expanduser() if args.config else default_config_path()
+
+
+def run_init(args: argparse.Namespace) -> int:
+    from tracker.config import write_template
+
+    path = write_template(_path(args), force=args.force)
+    print(f"wrote {path}; edit [station] (lat_deg, lon_deg, alt_m) and [rotator.home]")
+    return 0
+
+
+def run_show(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from tracker.commands._common import config_from_args, station_from_args
+
+    config = config_from_args(args)
+    station = station_from_args(args, quiet=True)
+    if config.station_is_default and station == config.station:
+        print("# no config file: built-in default station; run `tracker config init`")
+    print(replace(config, station=station).to_toml(), end="")
+    return 0
+
+
+def run_path(args: argparse.Namespace) -> int:
+    path = _path(args)
+    print(f"{path}{'' if path.exists() else '  (does not exist yet)'}")
+    return 0

@@ -1,0 +1,84 @@
+"""``tracker emulate``: run a virtual GS-232 controller on a pty or a TCP port."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "emulate", help="run a virtual rotator controller on a pty or TCP port",
+        description="Serve an emulated GS-232A/GS-232B/K3NG controller driving a simulated "
+                    "rotator. Prints the port (/dev/pts/N or socket://host:port), then a live "
+                    "status line. Ctrl-C stops it.")
+    p.add_argument("--protocol", default="gs232b",
+                   help="gs232b (default), gs232b-manual, gs232a, gs23 or k3ng")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--pty", action="store_true", help="serve on a new pseudo-terminal "
+                       "(default)")
+    where.add_argument("--tcp", type=int, metavar="PORT", help="listen on TCP PORT (0 = any)")
+    p.add_argument("--bind", default="127.0.0.1", help="TCP address (default 127.0.0.1)")
+    p.add_argument("--rotator", default="G-5500", help="rotator preset (default G-5500)")
+    p.add_argument("--mains", type=int, default=60, choices=(50, 60), help="mains frequency")
+    p.add_argument("--speed", type=float, default=1.0,
+                   help="run the motors this many times faster than real time")
+    p.add_argument("--az", type=float, default=None, help="initial azimuth (mechanical deg)")
+    p.add_argument("--el", type=float, default=None, help="initial elevation deg")
+    p.add_argument("--strict-acks", action="store_true",
+                   help="send CR after every set command, as the manual says")
+    p.add_argument("--one-space", action="store_true", help="C2 reply with one space")
+    p.add_argument("--readback-360", action="store_true", help="report 0-359 in 450 mode")
+    p.add_argument("--end", choices=("stay", "clear"), default=None,
+                   help="after the last table point: stay there or clear the list")
+    p.add_argument("--autobaud", action="store_true",
+                   help="wait for CRs and answer 'Connect OK' first (GS-232B power-up)")
+    p.add_argument("--duration", type=float, default=None,
+                   help="exit after this many real seconds (default: until Ctrl-C)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    import time
+
+    from tracker.clock import SimClock, SystemClock
+    from tracker.emulator import EmulatorOptions, Gs232Controller, serve_pty, serve_tcp
+    from tracker.errors import ConfigError
+    from tracker.mount import preset
+
+    if not args.speed > 0:
+        raise ConfigError(f"--speed {args.speed} is invalid; use a number > 0")
+    spec = preset(args.rotator, args.mains)
+    clock = SimClock(SystemClock().now(), speed=args.speed)
+    opts = EmulatorOptions(strict_acks=args.strict_acks, one_space=args.one_space,
+                           readback_360=args.readback_360, end_behaviour=args.end,
+                           autobaud=args.autobaud)
+    ctrl = Gs232Controller(args.protocol, spec, clock, opts, az_deg=args.az, el_deg=args.el)
+    if args.tcp is not None:
+        try:
+            server = serve_tcp(ctrl, args.tcp, args.bind)
+        except OSError as e:
+            raise ConfigError(f"cannot listen on {args.bind}:{args.tcp}: {e}; choose another "
+                              f"--tcp port") from e
+    else:
+        server = serve_pty(ctrl)
+    print(server.url, flush=True)
+    tty = sys.stdout.isatty()
+    started = time.monotonic()
+    last = ""
+    try:
+        while args.duration is None or time.monotonic() - started < args.duration:
+            line = ctrl.status_line()
+            if tty:
+                print("\r" + line.ljust(100), end="", flush=True)
+            elif line != last:
+                print(line, flush=True)
+            last = line
+            time.sleep(0.2 if tty else 1.0)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        server.close()
+        if tty:
+            print()
+    return 0

@@ -1,0 +1,259 @@
+"""``tracker passes``: list the passes of satellites (or the Sun, Moon, ...) over the station.
+
+Output formats (``--format``):
+
+* ``table`` (default): rich table on a terminal, aligned plain text otherwise — AOS in local
+  time and UTC, duration, max elevation, AOS/LOS azimuth with compass point, sunlit/visible.
+* ``csv``: one row per pass, columns :data:`CSV_COLUMNS` (times ISO-8601 UTC, angles in
+  degrees, durations in seconds, flags true/false).
+* ``json``: ``{"station": {...}, "window": {"start", "end"}, "passes": [{CSV_COLUMNS...}]}``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import sys
+from datetime import datetime, timedelta
+
+from tracker.commands._common import (
+    add_station_args,
+    add_target_args,
+    add_time_args,
+    catalog_from_args,
+    clock_from_args,
+    station_from_args,
+    target_from_args,
+)
+
+CSV_COLUMNS = ("target", "kind", "aos_utc", "tca_utc", "los_utc", "duration_s", "max_el_deg",
+               "aos_az_deg", "tca_az_deg", "los_az_deg", "aos_compass", "los_compass",
+               "sunlit", "visible", "in_progress_at_start", "aos_known", "los_known",
+               "always_up")
+MAX_AGE_LINES = 3  # more stale targets than this get one summary line
+
+
+def register(sub) -> None:
+    p = sub.add_parser("passes", help="list upcoming passes over the station",
+                       description="List the passes of one or more targets (satellite names, "
+                                   "NORAD ids, or e.g. Sun/Moon) or a whole --group.")
+    p.add_argument("targets", nargs="*", metavar="TARGET",
+                   help='satellite name or NORAD id, e.g. "ISS (ZARYA)" or 25544')
+    window = p.add_mutually_exclusive_group()
+    window.add_argument("--hours", type=float, metavar="H", help="window length in hours")
+    window.add_argument("--days", type=float, metavar="D",
+                        help="window length in days (default 1)")
+    p.add_argument("--format", choices=("table", "csv", "json"), default="table",
+                   help="output format (default: table)")
+    add_station_args(p)
+    add_target_args(p)
+    add_time_args(p)
+    p.set_defaults(func=run)
+
+
+def window_s(args: argparse.Namespace) -> float:
+    from tracker.errors import ConfigError
+
+    if args.hours is not None:
+        seconds = args.hours * 3600.0
+    elif args.days is not None:
+        seconds = args.days * 86400.0
+    else:
+        seconds = 86400.0
+    if not (0 < seconds <= 60 * 86400.0):
+        raise ConfigError(f"the window must be more than 0 and at most 60 days; got "
+                          f"{seconds / 3600.0:g} hours")
+    return seconds
+
+
+def targets_from_args(args: argparse.Namespace, now: datetime) -> list:
+    """Named targets, or every satellite of --group; prints element-age warnings."""
+    from tracker.errors import ConfigError
+    from tracker.targets import SatelliteTarget
+
+    if args.targets:
+        targets = [target_from_args(name, args) for name in args.targets]
+    elif getattr(args, "group", None):
+        targets = [SatelliteTarget(es) for es in catalog_from_args(args)]
+    else:
+        raise ConfigError('name a target, e.g. tracker passes "ISS (ZARYA)", or a group, '
+                          "e.g. tracker passes --group amateur")
+    warn_element_age(targets, now)
+    return targets
+
+
+def warn_element_age(targets, now: datetime) -> None:
+    """Element-age warnings on stderr: one line per target, or a summary for many."""
+    from tle.catalog import age_warning
+
+    warnings = []
+    oldest = 0.0
+    for t in targets:
+        es = getattr(t, "elements", None)
+        if es is None or not hasattr(es, "age_days"):
+            continue
+        w = age_warning(es, now)
+        if w:
+            warnings.append(w)
+            oldest = max(oldest, es.age_days(now))
+    if len(warnings) <= MAX_AGE_LINES:
+        for w in warnings:
+            print(f"tracker: {w}", file=sys.stderr)
+    else:
+        print(f"tracker: WARNING: {len(warnings)} of {len(targets)} element sets are more than "
+              f"7 days old (oldest {oldest:.0f} days): predictions may be off; run "
+              f"`tracker tle update`", file=sys.stderr)
+
+
+def collect_passes(targets, station, start: datetime, end: datetime) -> list:
+    """Passes of every target, sorted by AOS. With several targets a satellite whose elements
+    fail to propagate is skipped with a note (it must not hide the others)."""
+    from tracker.errors import PropagationError
+    from tracker.passes import find_passes
+
+    out = []
+    for target in targets:
+        try:
+            out.extend(find_passes(target, station, start, end))
+        except PropagationError as e:
+            if len(targets) == 1:
+                raise
+            print(f"tracker: skipped: {e}", file=sys.stderr)
+    out.sort(key=lambda p: (p.aos, p.target_name))
+    return out
+
+
+def run(args: argparse.Namespace) -> int:
+    from tracker.targets import ephemeris_note
+
+    clock = clock_from_args(args, manual=True)
+    now = clock.now()
+    station = station_from_args(args, quiet=args.format != "table")
+    targets = targets_from_args(args, now)
+    end = now + timedelta(seconds=window_s(args))
+    passes = collect_passes(targets, station, now, end)
+    note = ephemeris_note()
+    if note and args.format == "table":
+        print(f"tracker: note: {note}", file=sys.stderr)
+    if args.format == "csv":
+        write_csv(passes, sys.stdout)
+    elif args.format == "json":
+        write_json(passes, station, now, end, sys.stdout)
+    else:
+        write_table(passes, station, targets, now, end, sys.stdout)
+    return 0
+
+
+def pass_row(p) -> dict:
+    from tracker.passes import compass_point
+
+    d = p.as_dict()
+    return {"target": p.target_name, "kind": p.kind, "aos_utc": d["aos"],
+            "tca_utc": d["tca"], "los_utc": d["los"],
+            "duration_s": round(p.duration_s, 1), "max_el_deg": round(p.max_el_deg, 2),
+            "aos_az_deg": round(p.aos_az_deg, 2), "tca_az_deg": round(p.tca_az_deg, 2),
+            "los_az_deg": round(p.los_az_deg, 2), "aos_compass": compass_point(p.aos_az_deg),
+            "los_compass": compass_point(p.los_az_deg), "sunlit": p.sunlit,
+            "visible": p.visible, "in_progress_at_start": p.in_progress_at_start,
+            "aos_known": p.aos_known, "los_known": p.los_known, "always_up": p.always_up}
+
+
+def write_csv(passes, out) -> None:
+    w = csv.DictWriter(out, fieldnames=CSV_COLUMNS, lineterminator="\n")
+    w.writeheader()
+    for p in passes:
+        row = pass_row(p)
+        w.writerow({k: (str(v).lower() if isinstance(v, bool) else v) for k, v in row.items()})
+
+
+def write_json(passes, station, start: datetime, end: datetime, out) -> None:
+    doc = {
+        "station": {"name": station.name, "lat_deg": station.lat_deg,
+                    "lon_deg": station.lon_deg, "alt_m": station.alt_m,
+                    "min_el_deg": station.min_el_deg, "mask": station.mask is not None},
+        "window": {"start": _iso(start), "end": _iso(end)},
+        "passes": [pass_row(p) for p in passes],
+    }
+    json.dump(doc, out, indent=2)
+    out.write("\n")
+
+
+def _iso(t: datetime) -> str:
+    return t.isoformat().replace("+00:00", "Z")
+
+
+def format_duration(seconds: float) -> str:
+    """Compact duration: 45s, 4m12s, 1h23m, 2d03h."""
+    s = round(max(seconds, 0.0))
+    if s < 60:
+        return f"{s}s"
+    if s < 3600:
+        return f"{s // 60}m{s % 60:02d}s"
+    if s < 86400:
+        return f"{s // 3600}h{(s % 3600) // 60:02d}m"
+    return f"{s // 86400}d{(s % 86400) // 3600:02d}h"
+
+
+def _az(az_deg: float) -> str:
+    from tracker.passes import compass_point
+
+    return f"{az_deg:5.1f} {compass_point(az_deg):<3}"
+
+
+def table_rows(passes, show_target: bool) -> tuple[list[str], list[list[str]]]:
+    header = ["AOS local", "AOS UTC", "Duration", "Max El", "AOS Az", "LOS Az", "Vis"]
+    if show_target:
+        header.insert(0, "Target")
+    rows = []
+    for p in passes:
+        local = p.aos.astimezone()
+        aos_local = local.strftime("%a %Y-%m-%d %H:%M:%S %Z")
+        aos_utc = p.aos.strftime("%H:%M:%S")
+        if p.always_up:
+            aos_local, aos_utc = "always up", "-"
+        elif not p.aos_known:
+            aos_local += " (up at start)"
+        elif p.in_progress_at_start:
+            aos_local += " *"
+        dur = format_duration(p.duration_s) + ("" if p.los_known else "+")
+        vis = "visible" if p.visible else ("sunlit" if p.sunlit else "")
+        row = [aos_local, aos_utc, dur, f"{p.max_el_deg:5.1f}°", _az(p.aos_az_deg),
+               _az(p.los_az_deg), vis]
+        if show_target:
+            row.insert(0, p.target_name)
+        rows.append(row)
+    return header, rows
+
+
+def write_table(passes, station, targets, start: datetime, end: datetime, out) -> None:
+    names = ", ".join(t.name for t in targets[:3]) + (
+        f" and {len(targets) - 3} more" if len(targets) > 3 else "")
+    where = (f"{station.name} ({station.lat_deg:.4f}, {station.lon_deg:.4f}), "
+             f"min el {station.min_el_deg:g}°" + (" + horizon mask" if station.mask else ""))
+    title = (f"Passes of {names} over {where}, "
+             f"{start.strftime('%Y-%m-%d %H:%M')} .. {end.strftime('%Y-%m-%d %H:%M')} UTC")
+    if not passes:
+        print(f"{title}: no passes.", file=out)
+        return
+    header, rows = table_rows(passes, show_target=len(targets) > 1)
+    if out.isatty():
+        from rich.console import Console
+        from rich.table import Table
+
+        table = Table(title=title, title_justify="left")
+        for h in header:
+            table.add_column(h, justify="right" if h in ("Duration", "Max El") else "left")
+        for r in rows:
+            table.add_row(*r)
+        Console(file=out).print(table)
+    else:
+        print(title, file=out)
+        widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(header)]
+        print("  ".join(h.ljust(w) for h, w in zip(header, widths, strict=True)).rstrip(),
+              file=out)
+        for r in rows:
+            print("  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip(),
+                  file=out)
+    if any(p.in_progress_at_start for p in passes):
+        print("* already in progress at the window start (real AOS shown)", file=out)

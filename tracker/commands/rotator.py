@@ -1,0 +1,56 @@
+"""``tracker rotator``: a small rotctl-like tool to check wiring on real ports and emulators."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "rotator", help="talk to a rotator controller: position, goto, stop, park, raw",
+        description="Send one command to a controller on any pyserial URL (/dev/ttyUSB0, COM3, "
+                    "socket://host:port, /dev/pts/N of 'tracker emulate').")
+    p.add_argument("--port", required=True, help="serial device or pyserial URL")
+    p.add_argument("--protocol", default="gs232b",
+                   help="gs232b (default), gs232b-manual, gs232a, gs23, k3ng")
+    p.add_argument("--baud", type=int, default=None, help="baud rate (default: profile's)")
+    p.add_argument("--timeout", type=float, default=1.0, help="reply timeout in seconds")
+    p.add_argument("--az-only", action="store_true", help="azimuth-only rotator (C / M)")
+    p.add_argument("--autobaud", action="store_true",
+                   help="GS-232B power-up: send CR until 'Connect OK' first")
+    p.add_argument("--park-az", type=float, default=0.0, help="park azimuth (default 0)")
+    p.add_argument("--park-el", type=float, default=0.0, help="park elevation (default 0)")
+    act = p.add_subparsers(dest="action", metavar="ACTION", required=True)
+    act.add_parser("position", help="print az el as the controller reports them")
+    g = act.add_parser("goto", help="start turning to AZ [EL] (wire degrees) and return")
+    g.add_argument("az", type=float)
+    g.add_argument("el", type=float, nargs="?")
+    act.add_parser("stop", help="all stop")
+    act.add_parser("park", help="turn to the park position")
+    r = act.add_parser("raw", help="send one command line, print the reply bytes")
+    r.add_argument("cmd")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from tracker.protocols import open_driver
+
+    kw = {"timeout_s": args.timeout, "autobaud": args.autobaud,
+          "has_elevation": not args.az_only}
+    if args.baud:
+        kw["baudrate"] = args.baud
+    with open_driver(args.port, args.protocol, **kw) as drv:
+        # A rotctl-like tool leaves a started move running; only "stop" stops.
+        drv.stop_on_exit = False
+        if args.action == "position":
+            az, el = drv.position()
+            print(f"{az:g}" if el is None else f"{az:g} {el:g}")
+        elif args.action == "goto":
+            drv.goto(args.az, args.el)
+        elif args.action == "park":
+            drv.goto(args.park_az, None if args.az_only else args.park_el)
+        elif args.action == "stop":
+            drv.stop()
+        elif args.action == "raw":
+            print(repr(drv.raw(args.cmd)))
+    return 0

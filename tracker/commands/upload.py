@@ -1,0 +1,209 @@
+"""``tracker upload TARGET``: compile a pass into a GS-232 step table, upload it, send T on time.
+
+Without ``--port`` the built-in GS-232B emulator runs in-process on a simulated clock (a
+demonstration: nothing real moves). ``--dry-run`` only prints the exact lines; ``--from FILE``
+sends a plan file written by ``tracker plan --steptable FILE``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from tracker.commands._common import (
+    add_station_args,
+    add_target_args,
+    add_time_args,
+    clock_from_args,
+    station_from_args,
+    target_from_args,
+)
+
+DEMO_SPEED = 20.0
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "upload", help="upload a pass as a timed step table (W/M + T) to the controller",
+        description="Compile the next pass of TARGET into a GS-232 long-form step table, "
+                    "pre-position before AOS, send T on time and watch the controller step "
+                    "through it (N, C2). Without --port: a simulation on the built-in "
+                    "emulator.")
+    p.add_argument("target", metavar="TARGET", nargs="?",
+                   help="satellite name or NORAD id, or e.g. Moon (not needed with --from)")
+    p.add_argument("--pass", dest="pass_no", type=int, default=1, metavar="N",
+                   help="which upcoming pass: 1 = the next one (default)")
+    p.add_argument("--days", type=float, default=2.0, metavar="D",
+                   help="search window for passes (default 2 days)")
+    p.add_argument("--rotator", default="G-5500", help="rotator preset (default G-5500)")
+    p.add_argument("--mains", type=int, default=60, choices=(50, 60),
+                   help="mains frequency for AC motor rates (default 60)")
+    p.add_argument("--port", metavar="URL",
+                   help="serial device or pyserial URL; omitted: simulate on the built-in "
+                        "emulator")
+    p.add_argument("--protocol", default="gs232b",
+                   help="controller profile: gs232a, gs232b or k3ng (default gs232b)")
+    p.add_argument("--baud", type=int, default=9600, help="baud rate (default 9600)")
+    how = p.add_mutually_exclusive_group()
+    how.add_argument("--interval", type=int, metavar="S",
+                     help="step interval sss in whole seconds, 1-999 (K3NG steps every S+1)")
+    how.add_argument("--max-error", type=float, metavar="DEG", dest="max_error",
+                     help="largest interval whose predicted pointing error stays within DEG")
+    p.add_argument("--detach", action="store_true",
+                   help="exit right after T; the controller steps by itself")
+    p.add_argument("--dry-run", action="store_true",
+                   help="print the plan header and the exact command lines; send nothing")
+    p.add_argument("--from", dest="from_file", metavar="FILE",
+                   help="send a plan file from `tracker plan --steptable FILE`")
+    p.add_argument("--now", action="store_true",
+                   help="with --from: the T time has passed; resume from the current point")
+    p.add_argument("--speed", type=float, default=DEMO_SPEED,
+                   help=f"simulation speed without --port (default {DEMO_SPEED:g}x)")
+    add_station_args(p)
+    add_target_args(p)
+    add_time_args(p)
+    p.set_defaults(func=run)
+
+
+def build_program(args: argparse.Namespace, now_s: float, current=None):
+    """Find the pass and compile it; returns (program, header dict)."""
+    from datetime import datetime, timedelta, timezone
+
+    from tracker.commands.passes import warn_element_age
+    from tracker.errors import ConfigError
+    from tracker.mount import preset
+    from tracker.passes import find_passes
+    from tracker.steptable import compile_pass
+
+    if not args.target:
+        raise ConfigError("give a TARGET (e.g. 'ISS') or --from FILE")
+    if not (0 < args.days <= 30):
+        raise ConfigError(f"--days must be more than 0 and at most 30; got {args.days:g}")
+    if args.pass_no < 1:
+        raise ConfigError(f"--pass must be 1 or more (1 = the next pass); got {args.pass_no}")
+    spec = preset(args.rotator, args.mains)
+    station = station_from_args(args, quiet=True)
+    target = target_from_args(args.target, args)
+    now = datetime.fromtimestamp(now_s, timezone.utc)
+    warn_element_age([target], now)
+    passes = find_passes(target, station, now, now + timedelta(days=args.days))
+    passes = [p for p in passes if p.los.timestamp() > now_s + 10.0]
+    if len(passes) < args.pass_no:
+        raise ConfigError(f"{target.name}: only {len(passes)} pass(es) in the next "
+                          f"{args.days:g} days; choose --pass 1..{len(passes)} or a longer "
+                          f"--days")
+    ps = passes[args.pass_no - 1]
+    track = ps.track(1.0, pad_s=60.0)
+    sat = getattr(target, "satellite", None)
+    epoch = sat.epoch.utc_iso() if sat is not None and hasattr(sat, "epoch") else "n/a"
+    header = {"station": f"{station.name} lat {station.lat_deg:g} lon {station.lon_deg:g} "
+                         f"alt {station.alt_m:g} m",
+              "target": target.name, "element_epoch": epoch,
+              "aos_utc": ps.aos.isoformat(), "max_el_deg": f"{ps.max_el_deg:.1f}"}
+    program = compile_pass(track, spec, station, args.protocol, current=current,
+                           interval_s=args.interval, max_error_deg=args.max_error,
+                           baud=args.baud, meta=header)
+    return program, header
+
+
+def run(args: argparse.Namespace) -> int:
+    from tracker.errors import ConfigError
+    from tracker.steptable import format_plan_file, read_plan_file, table_profile
+    from tracker.upload import resume_schedule
+
+    table_profile(args.protocol)  # refuse a protocol without tables up front
+    if args.now and not args.from_file:
+        raise ConfigError("--now only applies to --from FILE")
+    clock = clock_from_args(args)
+    simulate = not args.port and not args.dry_run
+    if args.from_file:
+        plan = read_plan_file(args.from_file)
+        tables = list(plan.tables)
+        if plan.header.get("profile") and args.protocol != "gs232b" and \
+                plan.header["profile"] != table_profile(args.protocol).name:
+            raise ConfigError(f"{args.from_file} was written for {plan.header['profile']}, "
+                              f"not {args.protocol}")
+        if args.dry_run:
+            sys.stdout.write(open(args.from_file).read())
+            return 0
+        now = clock.timestamp() if not simulate else tables[0].upload_t_s - 1.0
+        if args.port and tables[0].start_t_s < now:
+            if not args.now:
+                late = now - tables[0].start_t_s
+                raise ConfigError(f"{args.from_file}: its T time passed {late:.0f} s ago; "
+                                  f"make a new plan, or add --now to resume from the point "
+                                  f"due now")
+            tables = resume_schedule(tables, now, args.baud)
+        return _send(args, tables, clock, simulate, plan.header.get("rotator", args.rotator))
+
+    now_s = clock.timestamp()
+    program, header = build_program(args, now_s)
+    if args.dry_run:
+        sys.stdout.write(format_plan_file(program, header))
+        return 0
+    print(program.summary())
+    tables = list(program.tables)
+    if args.port:
+        tables = resume_schedule(tables, clock.timestamp(), args.baud)
+    return _send(args, tables, clock, simulate, program.spec.name)
+
+
+def _send(args, tables, clock, simulate: bool, rotator: str) -> int:
+    from datetime import datetime, timezone
+
+    from tracker.clock import SimClock
+    from tracker.errors import ConfigError
+    from tracker.mount import preset
+    from tracker.protocols import open_driver
+    from tracker.upload import TableRunner
+
+    name = rotator.split("@")[0]
+    try:
+        spec = preset(name, args.mains)
+    except ConfigError:
+        spec = preset(args.rotator, args.mains)
+    server = None
+    if simulate:
+        from tracker.emulator import Gs232Controller, serve_pty
+
+        if not args.speed > 0:
+            raise ConfigError(f"--speed {args.speed} is invalid; use a number > 0")
+        start = tables[0].upload_t_s - 1.0
+        clock = SimClock(datetime.fromtimestamp(start, timezone.utc), speed=args.speed)
+        ctrl = Gs232Controller(args.protocol, spec, clock=clock)
+        server = serve_pty(ctrl)
+        print(f"SIMULATION: no --port given, so this runs against the built-in "
+              f"{args.protocol} emulator on {server.url} with a simulated clock at "
+              f"{args.speed:g}x, starting just before the upload time. Nothing real moves.",
+              flush=True)
+        url = server.url
+    else:
+        url = args.port
+    az_max = 450.0 if spec.az_span_deg > 360.0 else 360.0
+    try:
+        driver = open_driver(url, args.protocol, baudrate=args.baud,
+                             has_elevation=spec.has_elevation, az_max_deg=az_max)
+    except BaseException:
+        if server is not None:
+            server.close()
+        raise
+    driver.stop_on_exit = False  # the runner decides: all-stop on every path but --detach
+    try:
+        runner = TableRunner(driver, clock, baud=args.baud,
+                             log=lambda m: print(f"{_utc(clock)}  {m}", flush=True))
+        report = runner.run(tables, detach=args.detach)
+    finally:
+        driver.close()
+        if server is not None:
+            server.close()
+    for u in report.uploads:
+        print(f"upload {u['what']}: {u['bytes']} bytes, {u['upload_s']:.2f} s "
+              f"(wire time at {args.baud} baud: {u['wire_s']:.2f} s)")
+    late = ", ".join(f"{x * 1000:+.0f} ms" for x in report.t_late_s)
+    print(f"T timing: {late}; resyncs: {len(report.resyncs)}"
+          + ("; detached, the controller steps on by itself" if report.detached else ""))
+    return 0
+
+
+def _utc(clock) -> str:
+    return clock.now().strftime("%H:%M:%S")

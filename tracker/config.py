@@ -1,0 +1,420 @@
+"""The config file: one TOML file with the station(s), rotators and tracking defaults.
+
+Where it is: ``--config FILE``, else ``$TRACKER_CONFIG``, else ``config.toml`` in the
+platformdirs user config dir (``~/.config/tracker/config.toml`` on Linux). If there is no
+file, :data:`DEFAULT_STATION` is used and commands say so.
+
+Sections::
+
+    [station]                 name, lat_deg, lon_deg, alt_m, min_el_deg, mask (file path)
+    [station.NAME]            more stations, chosen with --station NAME / [tracking] station
+    [rotator.NAME]            preset = "G-5500", mains_hz = 50, + any RotatorSpec field
+    [tracking]                rotator, station, protocol, port, baudrate, park_after_pass, ...
+
+Every invalid value raises :class:`~tracker.errors.ConfigError` naming
+``file: [section] key = value`` and what is allowed; unknown keys are rejected by name.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from tracker.errors import ConfigError
+from tracker.mount import PRESETS, RotatorSpec, preset
+from tracker.station import HorizonMask, Station
+
+ENV_VAR = "TRACKER_CONFIG"
+FILE_NAME = "config.toml"
+
+# Used when no config file exists: a documented, obviously-placeholder location (the Dutch
+# coast, near Leiden) so pass times are plausible for a European user and easy to recognise.
+DEFAULT_STATION = Station(name="default-52.0N-4.4E", lat_deg=52.0, lon_deg=4.4, alt_m=0.0,
+                          min_el_deg=0.0)
+
+_STATION_RANGES: dict[str, tuple[float, float]] = {
+    "lat_deg": (-90.0, 90.0), "lon_deg": (-180.0, 180.0), "alt_m": (-500.0, 9000.0),
+    "min_el_deg": (-5.0, 90.0)}
+
+# [tracking] keys: name -> (type(s), description of what is allowed). Other parts of the
+# program read these through Config.tracking; an unknown key is a typo and is rejected.
+TRACKING_KEYS: dict[str, tuple[tuple[type, ...], str]] = {
+    "rotator": ((str,), "a [rotator.NAME] section or a preset name"),
+    "station": ((str,), "a [station.NAME] section name"),
+    "protocol": ((str,), "a controller protocol name such as gs232a, gs232b, k3ng, rotorez"),
+    "port": ((str,), "a serial port or pyserial URL, e.g. /dev/ttyUSB0 or socket://host:4533"),
+    "baudrate": ((int,), "a positive integer, e.g. 9600"),
+    "park_after_pass": ((bool,), "true or false"),
+    "deadband_deg": ((int, float), "0 to 30 degrees"),
+    "lead_s": ((int, float), "0 to 60 seconds"),
+    "update_interval_s": ((int, float), "0.1 to 60 seconds"),
+    "timeout_s": ((int, float), "0.1 to 60 seconds"),
+    "min_el_deg": ((int, float), "-5 to 90 degrees"),
+    "mains_hz": ((int,), "50 or 60"),
+}
+_TRACKING_RANGES = {"deadband_deg": (0.0, 30.0), "lead_s": (0.0, 60.0),
+                    "update_interval_s": (0.1, 60.0), "timeout_s": (0.1, 60.0),
+                    "min_el_deg": (-5.0, 90.0), "baudrate": (1, 10_000_000)}
+
+_ROTATOR_FIELDS = {f.name: f for f in dataclasses.fields(RotatorSpec)
+                   if f.name not in ("name", "extra")}
+
+
+def default_config_path() -> Path:
+    """``$TRACKER_CONFIG`` or the platformdirs user config file."""
+    env = os.environ.get(ENV_VAR)
+    if env:
+        return Path(env).expanduser()
+    from platformdirs import user_config_dir
+
+    return Path(user_config_dir("tracker")) / FILE_NAME
+
+
+@dataclass(frozen=True)
+class Config:
+    """The effective configuration.
+
+    ``station`` is the default station; ``stations`` holds every named one (the default too,
+    under its name). ``rotators`` holds the presets and every ``[rotator.NAME]`` section.
+    ``tracking`` is the validated ``[tracking]`` table. ``path`` is the file read, or None.
+    """
+
+    station: Station = DEFAULT_STATION
+    stations: dict[str, Station] = field(default_factory=dict)
+    rotators: dict[str, RotatorSpec] = field(default_factory=lambda: dict(PRESETS))
+    tracking: dict[str, Any] = field(default_factory=dict)
+    path: Path | None = None
+    station_is_default: bool = True
+    mask_paths: dict[str, str] = field(default_factory=dict)  # station name -> mask file
+
+    def station_named(self, name: str | None = None) -> Station:
+        """The named station (``[station.NAME]``), or the default one for None."""
+        if not name:
+            return self.station
+        if name in self.stations:
+            return self.stations[name]
+        known = ", ".join(sorted(self.stations)) or "none"
+        raise ConfigError(f"no station {name!r} in {self.path or 'the config'}; "
+                          f"known stations: {known} (add a [station.{name}] section)")
+
+    def rotator(self, name: str | None = None) -> RotatorSpec:
+        """The named rotator, else ``[tracking] rotator``, else the G-5500 preset."""
+        name = name or self.tracking.get("rotator") or "G-5500"
+        if name in self.rotators:
+            return self.rotators[name]
+        lowered = {k.lower(): v for k, v in self.rotators.items()}
+        if name.lower() in lowered:
+            return lowered[name.lower()]
+        return preset(name, int(self.tracking.get("mains_hz", 60)))
+
+    def to_toml(self) -> str:
+        """The effective config as TOML (what ``tracker config show`` prints)."""
+        lines = [f"# effective config; file: {self.path or '(none: built-in defaults)'}", ""]
+        masks = self.mask_paths
+        lines += ["[station]", *_station_lines(self.station, masks.get(self.station.name))]
+        for name, st in self.stations.items():
+            if st is self.station and name == self.station.name:
+                continue
+            lines += ["", f"[station.{_key(name)}]", *_station_lines(st, masks.get(name))]
+        if self.tracking:
+            lines += ["", "[tracking]"]
+            lines += [f"{k} = {_toml_value(v)}" for k, v in self.tracking.items()]
+        for name, spec in self.rotators.items():
+            lines += ["", f"[rotator.{_key(name)}]"]
+            for fname in _ROTATOR_FIELDS:
+                value = getattr(spec, fname)
+                if value is None:
+                    value = "none"
+                lines.append(f"{fname} = {_toml_value(value)}")
+        return "\n".join(lines) + "\n"
+
+
+def _key(name: str) -> str:
+    bare = name.replace("-", "").replace("_", "").isalnum()
+    return name if bare else _toml_value(name)
+
+
+def _toml_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, float)):
+        return repr(v)
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    s = str(v).replace("\\", "\\\\").replace('"', '\\"')
+    return f'"{s}"'
+
+
+def _station_lines(st: Station, mask_path: str | None = None) -> list[str]:
+    out = [f"name = {_toml_value(st.name)}"]
+    out += [f"{k} = {_toml_value(float(getattr(st, k)))}" for k in _STATION_RANGES]
+    if mask_path:
+        out.append(f"mask = {_toml_value(mask_path)}")
+    if st.mask is not None:
+        src = mask_path
+        pts = ", ".join(f"{a:g} {e:g}" for a, e in zip(st.mask.az_deg, st.mask.min_el_deg,
+                                                          strict=True))
+        out.append(f"# mask{' from ' + str(src) if src else ''}: {pts}")
+    return out
+
+
+def _read_toml(path: Path) -> dict:
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:  # pragma: no cover - Python 3.10
+        import tomli as tomllib
+    try:
+        data = path.read_bytes()
+    except OSError as e:
+        raise ConfigError(f"cannot read config file {path}: {e.strerror}") from e
+    try:
+        return tomllib.loads(data.decode("utf-8"))
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path}: not UTF-8 text; is this a TOML config file?") from None
+    except tomllib.TOMLDecodeError as e:
+        raise ConfigError(f"{path}: invalid TOML: {e}; see `tracker config init` for the "
+                          f"format") from None
+
+
+def _number(path: Path, section: str, key: str, value: Any, lo: float, hi: float) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(
+            value) or not (lo <= value <= hi):
+        raise ConfigError(f"{path}: [{section}] {key} = {_toml_value(value)} is invalid; "
+                          f"allowed: a number from {lo:g} to {hi:g}")
+    return float(value)
+
+
+def _parse_station(path: Path, section: str, table: dict, name_default: str,
+                   mask_paths: dict[str, str] | None = None) -> Station:
+    kwargs: dict[str, Any] = {"name": name_default}
+    mask_file = None
+    for key, value in table.items():
+        if isinstance(value, dict):
+            continue  # a nested [station.NAME], handled by the caller
+        if key == "name":
+            if not isinstance(value, str) or not value.strip():
+                raise ConfigError(f"{path}: [{section}] name = {_toml_value(value)} is "
+                                  f"invalid; allowed: a non-empty string")
+            kwargs["name"] = value
+        elif key in _STATION_RANGES:
+            kwargs[key] = _number(path, section, key, value, *_STATION_RANGES[key])
+        elif key == "mask":
+            if not isinstance(value, str):
+                raise ConfigError(f"{path}: [{section}] mask = {_toml_value(value)} is "
+                                  f"invalid; allowed: a path to a horizon mask file")
+            mask_path = Path(value).expanduser()
+            if not mask_path.is_absolute():
+                mask_path = path.parent / mask_path
+            kwargs["mask"] = HorizonMask.load(mask_path)
+            mask_file = str(mask_path)
+        else:
+            allowed = ", ".join(["name", *_STATION_RANGES, "mask"])
+            raise ConfigError(f"{path}: [{section}] unknown key {key!r}; allowed keys: "
+                              f"{allowed}")
+    for key in ("lat_deg", "lon_deg"):
+        if key not in kwargs:
+            raise ConfigError(f"{path}: [{section}] {key} is missing; add e.g. "
+                              f"{key} = {getattr(DEFAULT_STATION, key)}")
+    if mask_file and mask_paths is not None:
+        mask_paths[name_default if section != "station" else kwargs["name"]] = mask_file
+    return Station(**kwargs)
+
+
+def _parse_rotator(path: Path, name: str, table: dict, mains_hz: int) -> RotatorSpec:
+    section = f"rotator.{name}"
+    if not isinstance(table, dict):
+        raise ConfigError(f"{path}: rotator = {_toml_value(table)}: use a [rotator.NAME] "
+                          f"table")
+    table = dict(table)
+    base_name = table.pop("preset", None)
+    hz = table.pop("mains_hz", mains_hz)
+    if hz not in (50, 60) or isinstance(hz, bool):
+        raise ConfigError(f"{path}: [{section}] mains_hz = {_toml_value(hz)} is invalid; "
+                          f"allowed: 50 or 60")
+    if base_name is not None:
+        if not isinstance(base_name, str):
+            raise ConfigError(f"{path}: [{section}] preset = {_toml_value(base_name)} is "
+                              f"invalid; allowed: {', '.join(PRESETS)}")
+        try:
+            base = preset(base_name, hz)
+        except ConfigError as e:
+            raise ConfigError(f"{path}: [{section}] preset: {e}") from None
+    else:
+        base = None
+    changes: dict[str, Any] = {}
+    for key, value in table.items():
+        if key not in _ROTATOR_FIELDS:
+            raise ConfigError(f"{path}: [{section}] unknown key {key!r}; allowed keys: "
+                              f"preset, mains_hz, {', '.join(_ROTATOR_FIELDS)}")
+        if key in ("el_max_deg", "el_rate_deg_s") and (value is False or value == "none"):
+            value = None  # azimuth-only rotator
+        elif key == "az_speed_rates_deg_s":
+            if not isinstance(value, list):
+                raise ConfigError(f"{path}: [{section}] {key} = {_toml_value(value)} is "
+                                  f"invalid; allowed: a list of rates, e.g. [1.5, 3, 4.5, 6]")
+            value = tuple(value)
+        elif key in ("description",):
+            if not isinstance(value, str):
+                raise ConfigError(f"{path}: [{section}] {key} must be a string")
+        elif key == "controller_maps_south":
+            if not isinstance(value, bool):
+                raise ConfigError(f"{path}: [{section}] {key} = {_toml_value(value)} is "
+                                  f"invalid; allowed: true or false")
+        elif isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError(f"{path}: [{section}] {key} = {_toml_value(value)} is invalid; "
+                              f"allowed: a number")
+        changes[key] = value
+    try:
+        if base is not None:
+            return base.with_(name=name, **changes)
+        return RotatorSpec(name=name, **changes)
+    except ConfigError as e:
+        raise ConfigError(f"{path}: [{section}] {e}") from None
+    except TypeError as e:  # a value of the wrong kind deep inside validation
+        raise ConfigError(f"{path}: [{section}] {e}") from None
+
+
+def _parse_tracking(path: Path, table: dict) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, value in table.items():
+        if key not in TRACKING_KEYS:
+            raise ConfigError(f"{path}: [tracking] unknown key {key!r}; allowed keys: "
+                              f"{', '.join(TRACKING_KEYS)}")
+        types, allowed = TRACKING_KEYS[key]
+        ok = isinstance(value, types) and not (isinstance(value, bool) and bool not in types)
+        if ok and key in _TRACKING_RANGES:
+            lo, hi = _TRACKING_RANGES[key]
+            ok = math.isfinite(value) and lo <= value <= hi
+        if ok and key == "mains_hz":
+            ok = value in (50, 60)
+        if not ok:
+            raise ConfigError(f"{path}: [tracking] {key} = {_toml_value(value)} is invalid; "
+                              f"allowed: {allowed}")
+        out[key] = value
+    return out
+
+
+def parse_config(data: dict, path: Path) -> Config:
+    """Validate a parsed TOML document into a :class:`Config`."""
+    known = {"station", "rotator", "tracking"}
+    for key in data:
+        if key not in known:
+            raise ConfigError(f"{path}: unknown section or key {key!r}; allowed sections: "
+                              f"[station], [station.NAME], [rotator.NAME], [tracking]")
+    tracking = _parse_tracking(path, data.get("tracking", {}))
+    mains_hz = int(tracking.get("mains_hz", 60))
+
+    stations: dict[str, Station] = {}
+    mask_paths: dict[str, str] = {}
+    station_table = data.get("station", {})
+    if not isinstance(station_table, dict):
+        raise ConfigError(f"{path}: station must be a [station] table")
+    has_top = any(not isinstance(v, dict) for v in station_table.values())
+    top = None
+    if has_top:
+        top = _parse_station(path, "station", station_table, "home", mask_paths)
+        stations[top.name] = top
+    for name, sub in station_table.items():
+        if isinstance(sub, dict):
+            st = _parse_station(path, f"station.{name}", sub, name, mask_paths)
+            stations[name] = st
+    chosen = tracking.get("station")
+    if chosen:
+        if chosen not in stations:
+            raise ConfigError(f"{path}: [tracking] station = {_toml_value(chosen)} is "
+                              f"invalid; allowed: {', '.join(stations) or 'define a station'}")
+        default = stations[chosen]
+    elif top is not None:
+        default = top
+    elif stations:
+        default = next(iter(stations.values()))
+    else:
+        default = None
+
+    rotators = dict(PRESETS)
+    rot_table = data.get("rotator", {})
+    if not isinstance(rot_table, dict):
+        raise ConfigError(f"{path}: rotator must be [rotator.NAME] tables")
+    for name, table in rot_table.items():
+        rotators[name] = _parse_rotator(path, name, table, mains_hz)
+    rot_name = tracking.get("rotator")
+    if rot_name and rot_name not in rotators and rot_name.lower() not in {
+            k.lower() for k in rotators}:
+        raise ConfigError(f"{path}: [tracking] rotator = {_toml_value(rot_name)} is invalid; "
+                          f"allowed: {', '.join(rotators)}")
+    return Config(station=default or DEFAULT_STATION, stations=stations, rotators=rotators,
+                  tracking=tracking, path=path, station_is_default=default is None,
+                  mask_paths=mask_paths)
+
+
+def load_config(path: str | Path | None = None) -> Config:
+    """Read the config file. An explicit ``path`` must exist; the default location may not."""
+    explicit = path is not None or bool(os.environ.get(ENV_VAR))
+    p = Path(path).expanduser() if path is not None else default_config_path()
+    if not p.exists():
+        if explicit:
+            raise ConfigError(f"config file {p} does not exist; create it with "
+                              f"`tracker config init --config {p}`")
+        return Config()
+    return parse_config(_read_toml(p), p)
+
+
+TEMPLATE = """\
+# tracker config file (TOML). Written by `tracker config init`; edit freely.
+# Command-line flags (--lat, --lon, --min-el, --station, ...) override these values.
+
+[station]
+name = "home"
+lat_deg = 52.0          # degrees north (-90 to 90)
+lon_deg = 4.4           # degrees east (-180 to 180); west is negative
+alt_m = 0.0             # metres above the WGS84 ellipsoid (-500 to 9000)
+min_el_deg = 0.0        # passes count from this elevation up (-5 to 90)
+# mask = "horizon.txt"  # optional horizon mask: 'azimuth_deg elevation_deg' per line,
+#                       # linear in between; relative paths are next to this file
+
+# More stations: choose one with --station portable (or [tracking] station = "portable").
+# [station.portable]
+# lat_deg = 51.5
+# lon_deg = -0.1
+# min_el_deg = 5.0
+
+[tracking]
+rotator = "home"        # a [rotator.NAME] below, or a preset: G-5500, generic-k3ng
+# protocol = "gs232b"   # controller dialect
+# port = "/dev/ttyUSB0" # or socket://host:port, rfc2217://host:port
+# baudrate = 9600
+# park_after_pass = true
+# deadband_deg = 4.0
+# mains_hz = 60         # 50 Hz mains turns Yaesu AC motors 5/6 as fast
+
+# A rotator: start from a preset and override any field.
+[rotator.home]
+preset = "G-5500"
+# az_span_deg = 450       # 360 to 450
+# stop_bearing_deg = 0    # 0 = north stop, 180 = south stop
+# el_max_deg = 180        # 90 or 180 (flip); "none" for azimuth-only
+# az_rate_deg_s = 6.2
+# el_rate_deg_s = 2.7
+# deadband_deg = 4.0
+"""
+
+
+def write_template(path: Path, force: bool = False) -> Path:
+    """Write :data:`TEMPLATE` to ``path``; refuses to overwrite unless ``force``."""
+    path = Path(path).expanduser()
+    if path.exists() and not force:
+        raise ConfigError(f"{path} already exists; not overwriting it (use --force to "
+                          f"replace it, or edit it)")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(path.name + ".tmp")
+        tmp.write_text(TEMPLATE)
+        os.replace(tmp, path)
+    except OSError as e:
+        raise ConfigError(f"cannot write {path}: {e.strerror}") from e
+    return path

@@ -1,0 +1,461 @@
+"""A virtual GS-232-class controller: bytes in, bytes out, antenna moved by the motor model.
+
+One :class:`Gs232Controller` is one box (one antenna, one memory); each connection gets a
+:class:`Session` with its own line buffer, like a second terminal on the same unit. Time comes
+from an injected Clock: stepping tables and motor motion are evaluated at exact clock times, so
+a SimClock with ``speed`` > 1 replays a pass quickly and a ManualClock makes tests exact.
+
+Where the manuals are silent (PROTOCOLS.md §4.1, §10) the choices are: after the last table
+point the antenna stays there (``end_behaviour``), S stops stepping, a short M/W stops stepping
+but keeps the list, N answers with the current point while a list is loaded.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Literal
+
+from tracker.clock import Clock, SystemClock
+from tracker.emulator.help_text import help_screen
+from tracker.mount import MotorModel, RotatorSpec, preset
+from tracker.protocols.framing import LineFramer
+from tracker.protocols.gs232 import (
+    ERROR_REPLY,
+    Gs232Profile,
+    format_position,
+    format_table_status,
+    get_profile,
+)
+
+# What a GS-232B reads while the rotator's own control box is switched off (PROTOCOLS §3.2).
+OFF_AZ, OFF_EL = -1, -2
+FULL_SCALE_INTERVAL_S = 0.5
+
+
+@dataclass
+class EmulatorOptions:
+    """Deviations from the profile's defaults (the byte-faithful real-unit behaviour).
+
+    ``strict_acks``: CR after every set command, as the manual says. ``one_space``: C2 with one
+    space (the manual's text). ``readback_360``: C reports 0-359 even in 450 mode.
+    ``end_behaviour``: "stay" on the last table point or "clear" the list (K3NG).
+    ``autobaud``: ignore input until CRs arrive, then answer "Connect OK" (GS-232B power-up).
+    """
+
+    strict_acks: bool = False
+    one_space: bool = False
+    readback_360: bool = False
+    end_behaviour: Literal["stay", "clear"] | None = None
+    autobaud: bool = False
+    autobaud_crs: int = 2
+    max_line: int = 65536
+
+
+@dataclass
+class Faults:
+    """Fault hooks; the server consults them on every exchange.
+
+    ``silent``: read and act on commands but never answer. ``reply_filter``: transform every
+    reply (drop or garble bytes). ``deaf``: ignore all input.
+    """
+
+    silent: bool = False
+    deaf: bool = False
+    reply_filter: Callable[[bytes], bytes] | None = None
+
+
+@dataclass
+class _Table:
+    interval_s: int
+    points: list[tuple[int, int | None]]
+    index: int = 0            # 0-based current point
+    running: bool = False
+    next_t: float = 0.0
+
+
+@dataclass
+class _SessionState:
+    calibration: str | None = None   # "O"/"O2" waiting for Y, "F"/"F2" streaming
+    next_stream_t: float = 0.0
+    connected: bool = True
+    crs_seen: int = 0
+    out: bytearray = field(default_factory=bytearray)
+
+
+class Gs232Controller:
+    """The controller state machine for one profile, driving :class:`MotorModel`."""
+
+    def __init__(self, profile: str | Gs232Profile = "gs232b", spec: RotatorSpec | None = None,
+                 clock: Clock | None = None, options: EmulatorOptions | None = None,
+                 az_deg: float | None = None, el_deg: float | None = None):
+        self.profile = get_profile(profile)
+        self.options = options or EmulatorOptions()
+        self.spec = spec or preset("G-5500")
+        self.clock = clock or SystemClock()
+        self.faults = Faults()
+        self._lock = threading.RLock()
+        self.motor = MotorModel(self.spec, az_deg, el_deg, t_s=self.clock.monotonic())
+        self.mode_450 = self.spec.az_span_deg > 360.0
+        self.south_centre = bool(self.spec.controller_maps_south)
+        self.speed_step = 4
+        self.rotator_on = True
+        self.table: _Table | None = None
+        self.commands_seen = 0
+        self.log: list[tuple[float, bytes, bytes]] = []   # (t, line, reply), last 200
+        self._end = self.options.end_behaviour or self.profile.end_behaviour
+        if self.options.one_space and self.profile.family == "b":
+            self.profile = self.profile.with_(c2_separator=b" ")
+        if self.options.strict_acks and not self.profile.set_ack:
+            self.profile = self.profile.with_(set_ack=b"\r")
+
+    # Sessions ----------------------------------------------------------------------------------
+
+    def open_session(self) -> Session:
+        return Session(self)
+
+    # Fault injection and power -----------------------------------------------------------------
+
+    def jam(self, axis: Literal["az", "el"] = "az", jammed: bool = True) -> None:
+        """The named axis stops turning (motor stalled): commands are accepted, nothing moves."""
+        with self._lock:
+            motor = self.motor.az if axis == "az" else self.motor.el
+            if motor is None:
+                raise ValueError("this rotator has no elevation axis")
+            motor.jam(self._now(), jammed)
+
+    def set_rotator_power(self, on: bool) -> None:
+        """Switch the rotator's control box off/on: the interface then reads AZ=-001 EL=-002."""
+        with self._lock:
+            t = self._now()
+            if not on:
+                self.motor.stop(t)
+                if self.table:
+                    self.table.running = False
+            self.rotator_on = on
+
+    def power_cycle(self) -> None:
+        """Interface off and on again: memory and stepping lost, motors stopped."""
+        with self._lock:
+            self.motor.stop(self._now())
+            self.table = None
+            self.speed_step = 4
+            self._apply_speed(self._now())
+
+    # Introspection (tests, live status) --------------------------------------------------------
+
+    def _now(self) -> float:
+        return self.clock.monotonic()
+
+    def antenna(self) -> tuple[float, float | None]:
+        """Mechanical (az, el) of the simulated antenna now, after any due table steps."""
+        with self._lock:
+            t = self._now()
+            self._advance(t)
+            az, el = self.motor.position(t)
+            return float(az), (float(el) if self.motor.el is not None else None)
+
+    def moving(self) -> bool:
+        with self._lock:
+            t = self._now()
+            self._advance(t)
+            return self.motor.moving(t)
+
+    def status_line(self) -> str:
+        az, el = self.antenna()
+        tab = ""
+        if self.table:
+            tab = (f"  table {self.table.index + 1}/{len(self.table.points)}"
+                   f"{' running' if self.table.running else ''}")
+        el_s = "" if el is None else f"  el {el:6.1f}"
+        state = "moving" if self.moving() else "idle"
+        power = "" if self.rotator_on else "  [rotator OFF]"
+        return (f"{self.profile.name}  az {az:6.1f}{el_s}  X{self.speed_step}  {state}"
+                f"  {'450' if self.mode_450 else '360'}{tab}  cmds {self.commands_seen}{power}")
+
+    # Frames: wire degrees <-> mechanical ------------------------------------------------------
+
+    def _wire_az_max(self) -> int:
+        return 450 if self.mode_450 else 360
+
+    def _mech_of_wire(self, az: int) -> float:
+        if self.south_centre and not self.mode_450:
+            return float((az - 180) % 360)
+        return float(az)
+
+    def _wire_of_mech(self, m: float) -> int:
+        w = round(m)
+        if self.south_centre and not self.mode_450:
+            return (w + 180) % 360
+        if self.mode_450:
+            return w % 360 if self.options.readback_360 else w
+        return w if w <= 360 else w % 360
+
+    def _readback(self, t: float) -> tuple[int, int]:
+        if not self.rotator_on:
+            return OFF_AZ, OFF_EL
+        az, el = self.motor.position(t)
+        return self._wire_of_mech(az), round(el) if self.motor.el is not None else 0
+
+    # Motion ------------------------------------------------------------------------------------
+
+    def _apply_speed(self, t: float) -> None:
+        rates = self.spec.az_speed_rates_deg_s
+        if rates:
+            self.motor.az.set_rate(rates[min(self.speed_step, len(rates)) - 1], t)
+
+    def _goto(self, t: float, az: int | None, el: int | None) -> None:
+        if not self.rotator_on:
+            return
+        if az is not None:
+            self.motor.az.command(self._mech_of_wire(az), t)
+        if el is not None and self.motor.el is not None:
+            self.motor.el.command(el, t)
+
+    def _advance(self, now: float) -> None:
+        """Apply every table step due up to ``now`` at its exact scheduled time."""
+        tab = self.table
+        period = (tab.interval_s + self.profile.table_period_extra_s) if tab else 0.0
+        while tab is not None and tab.running and now >= tab.next_t:
+            t = tab.next_t
+            tab.index += 1
+            self._goto(t, *tab.points[tab.index])
+            if tab.index >= len(tab.points) - 1:
+                tab.running = False
+                if self._end == "clear":
+                    self.table = None
+                break
+            tab.next_t = t + period
+
+    # Command interpreter ----------------------------------------------------------------------
+
+    def handle_line(self, line: bytes, state: _SessionState) -> bytes:
+        """One CR-terminated request (without the CR) → the exact reply bytes."""
+        with self._lock:
+            t = self._now()
+            self._advance(t)
+            self.commands_seen += 1
+            reply = self._dispatch(line, state, t)
+            self.log.append((t, line, reply))
+            del self.log[:-200]
+            return reply
+
+    def _err(self) -> bytes:
+        return ERROR_REPLY + b"\r\n"
+
+    def _ack(self, k3ng_text: bytes = b"") -> bytes:
+        if self.profile.k3ng_messages and k3ng_text:
+            return k3ng_text + b"\r\n"
+        return self.profile.set_ack
+
+    def _data(self, payload: bytes) -> bytes:
+        return payload + self.profile.reply_eol
+
+    def _dispatch(self, raw: bytes, st: _SessionState, t: float) -> bytes:
+        p = self.profile
+        if len(raw) > p.max_line_chars:
+            return self._err()
+        try:
+            line = raw.decode("ascii").strip().upper()
+        except UnicodeDecodeError:
+            return self._err()
+
+        if st.calibration in ("O", "O2"):
+            st.calibration = None
+            if line == "Y":
+                return b"Completed.\r\n"
+            return self._err()
+        if st.calibration in ("F", "F2"):
+            if line == "":
+                st.calibration = None
+                return self._ack()
+            return b""
+
+        if line == "":
+            return self._err()
+        head, args = line[0], line[1:].split()
+        if line in ("C", "C2", "B"):
+            if line == "B" and self.motor.el is None and p.family == "b":
+                return self._err()
+            az, el = self._readback(t)
+            return self._data(format_position(p, line, az, el))
+        if line in ("S", "A", "E"):
+            if line == "S":
+                if self.rotator_on:
+                    self.motor.stop(t)
+                if self.table:
+                    self.table.running = False
+                    if p.k3ng_messages:
+                        self.table = None
+            elif line == "A" and self.rotator_on:
+                self.motor.az.stop(t)
+            elif line == "E" and self.motor.el is not None and self.rotator_on:
+                self.motor.el.stop(t)
+            return self._ack()
+        if line in ("R", "L", "U", "D"):
+            if not self.rotator_on:
+                return self._ack()
+            if line in ("R", "L"):
+                hi = float(min(self._wire_az_max(), self.spec.az_span_deg))
+                if self.south_centre and not self.mode_450:
+                    hi = 360.0
+                self.motor.az.command(hi if line == "R" else 0.0, t)
+            elif self.motor.el is not None:
+                self.motor.el.command(self.motor.el.max_deg if line == "U"
+                                      else self.motor.el.min_deg, t)
+            return b"\n\r\n" if (line == "R" and p.k3ng_messages) else self._ack()
+        if head == "X" and line[1:] in ("1", "2", "3", "4"):
+            self.speed_step = int(line[1])
+            self._apply_speed(t)
+            return self._ack(b"Speed " + line.encode())
+        if line in ("P36", "P45") and p.b_commands:
+            self.mode_450 = line == "P45"
+            return self._ack(b"Mode 450 degree" if self.mode_450 else b"Mode 360 degree")
+        if line == "Z" and p.b_commands:
+            if not self.mode_450:     # ignored in 450 mode (manual)
+                self.south_centre = not self.south_centre
+            return self._ack(b"S Center" if self.south_centre else b"N Center")
+        if line in ("O", "O2"):
+            st.calibration = line
+            return b"are you sure?\r\n"
+        if line in ("F", "F2"):
+            st.calibration = line
+            st.next_stream_t = t
+            return b""
+        if line in ("H", "H2", "H3"):
+            page = line[1:]
+            if page not in p.help_pages:
+                return self._err()
+            return help_screen(p.family, page, self.mode_450, self.south_centre)
+        if line == "T":
+            return self._start_table(t)
+        if line == "N":
+            if self.table is None:
+                return self._err()
+            return self._data(format_table_status(p, self.table.index + 1,
+                                                  len(self.table.points)))
+        if head in ("M", "W"):
+            return self._set_command(head, args, t)
+        return self._err()
+
+    def _parse_ints(self, args: list[str], lo: int, hi: int) -> list[int] | None:
+        out = []
+        for a in args:
+            if not (a.isdigit() and len(a) <= 3):
+                return None
+            v = int(a)
+            if not lo <= v <= hi:
+                return None
+            out.append(v)
+        return out
+
+    def _set_command(self, head: str, args: list[str], t: float) -> bytes:
+        p = self.profile
+        az_max = self._wire_az_max()
+        if not args:
+            self.table = None               # manual: "?>" returned, memories still cleared
+            return self._err()
+        short = (head == "M" and len(args) == 1) or (head == "W" and len(args) == 2)
+        if short:
+            az = self._parse_ints(args[:1], 0, az_max)
+            el = self._parse_ints(args[1:], 0, 180)
+            if az is None or el is None:
+                return self._err()
+            if self.table:
+                self.table.running = False
+                if p.k3ng_messages:
+                    self.table = None
+            self._goto(t, az[0], el[0] if el else None)
+            return self._ack()
+        interval = self._parse_ints(args[:1], 1, 999)
+        values = args[1:]
+        if head == "M":
+            angles = self._parse_ints(values, 0, az_max)
+            ok = angles is not None and p.min_table_points <= len(values) <= p.max_table_points
+            points = [(a, None) for a in (angles or [])]
+        else:
+            ok = len(values) % 2 == 0 and 1 <= len(values) // 2 <= p.max_table_pairs
+            az = self._parse_ints(values[0::2], 0, az_max)
+            el = self._parse_ints(values[1::2], 0, 180)
+            ok = ok and az is not None and el is not None
+            points = list(zip(az or [], el or [], strict=False))
+        if interval is None or not ok:
+            self.table = None
+            return self._err()
+        if head == "W" and p.k3ng_messages and self.table is not None \
+                and not self.table.running:
+            # K3NG firmware: long-form W does not clear the list, it appends (PROTOCOLS.md
+            # §4.2), so a 20-pair table arrives as several <= 50-char lines.
+            points = self.table.points + points
+            if len(points) > p.max_table_pairs:
+                self.table = None
+                return self._err()
+        self.table = _Table(interval_s=interval[0], points=points)
+        self._goto(t, *points[0])
+        return self._ack()
+
+    def _start_table(self, t: float) -> bytes:
+        tab = self.table
+        if tab is None:
+            return self._err()
+        tab.index = min(1, len(tab.points) - 1)
+        self._goto(t, *tab.points[tab.index])
+        tab.running = tab.index < len(tab.points) - 1
+        tab.next_t = t + tab.interval_s + self.profile.table_period_extra_s
+        if not tab.running and self._end == "clear":
+            self.table = None
+        return self._ack()
+
+    def poll(self, state: _SessionState) -> bytes:
+        """Unsolicited output due now (F/F2 calibration streams the reading)."""
+        with self._lock:
+            t = self._now()
+            self._advance(t)
+            if state.calibration not in ("F", "F2") or t < state.next_stream_t:
+                return b""
+            state.next_stream_t = t + FULL_SCALE_INTERVAL_S
+            az, el = self._readback(t)
+            if state.calibration == "F":
+                return b"AZ=%03d\r\n" % az
+            return b"AZ=%03dEL=%03d\r\n" % (az, el)
+
+
+class Session:
+    """One connection to the controller: its own line buffer and dialogue state."""
+
+    def __init__(self, controller: Gs232Controller):
+        self.controller = controller
+        opts = controller.options
+        if controller.profile.lf_is_command:
+            self._framer = LineFramer(b"\r\n", max_line=opts.max_line)
+        else:
+            # Real GS-232B: LF is not a terminator and is ignored (PROTOCOLS §0.1).
+            self._framer = LineFramer(b"\r", ignore=b"\n", max_line=opts.max_line)
+        self.state = _SessionState(connected=not opts.autobaud)
+
+    def feed(self, data: bytes) -> bytes:
+        """Bytes from the client → reply bytes (possibly empty)."""
+        ctrl = self.controller
+        if ctrl.faults.deaf:
+            return b""
+        out = bytearray()
+        for line in self._framer.feed(data):
+            if not self.state.connected:
+                if line == b"":
+                    self.state.crs_seen += 1
+                    if self.state.crs_seen >= ctrl.options.autobaud_crs:
+                        self.state.connected = True
+                        out += b"Connect OK\r\n"
+                continue
+            out += ctrl.handle_line(line, self.state)
+        return self._filter(bytes(out))
+
+    def poll(self) -> bytes:
+        return self._filter(self.controller.poll(self.state))
+
+    def _filter(self, reply: bytes) -> bytes:
+        f = self.controller.faults
+        if f.silent or not reply:
+            return b""
+        return f.reply_filter(reply) if f.reply_filter else reply

@@ -1,0 +1,269 @@
+"""Serve an emulated controller on a real pseudo-terminal or a real TCP socket.
+
+``serve_pty(controller)`` returns a server whose ``url`` is ``/dev/pts/N``: any program opens
+it like a serial port (rotctl, pyserial, minicom). ``serve_tcp(controller)`` listens on
+127.0.0.1 and its ``url`` is ``socket://127.0.0.1:N`` for pyserial. Both run one background
+thread with a selector; ``close()`` stops it and closes every descriptor (``closed`` tells
+whether that happened, for leak checks). Writes are non-blocking with an output queue, so a
+client that stops reading never wedges the server.
+"""
+
+from __future__ import annotations
+
+import os
+import selectors
+import socket
+import threading
+import tty
+
+from tracker.emulator.gs232_controller import Gs232Controller, Session
+
+POLL_S = 0.02
+MAX_QUEUED_OUTPUT = 1 << 20
+
+
+class _Conn:
+    def __init__(self, fd_or_sock, session: Session, is_socket: bool):
+        self.obj = fd_or_sock
+        self.session = session
+        self.is_socket = is_socket
+        self.out = bytearray()
+
+    def fileno(self) -> int:
+        return self.obj.fileno() if self.is_socket else self.obj
+
+    def read(self) -> bytes:
+        return self.obj.recv(65536) if self.is_socket else os.read(self.obj, 65536)
+
+    def write(self, data: bytes) -> int:
+        return self.obj.send(data) if self.is_socket else os.write(self.obj, data)
+
+    def close(self) -> None:
+        if self.is_socket:
+            self.obj.close()
+        else:
+            os.close(self.obj)
+
+
+class _Server:
+    """Selector loop shared by the pty and TCP servers."""
+
+    kind = "server"
+
+    def __init__(self, controller: Gs232Controller):
+        self.controller = controller
+        self._sel = selectors.DefaultSelector()
+        self._wake_r, self._wake_w = socket.socketpair()
+        self._wake_r.setblocking(False)
+        self._sel.register(self._wake_r, selectors.EVENT_READ, None)
+        self._conns: list[_Conn] = []
+        self._stop = threading.Event()
+        self._pending: list = []          # callables run in the loop thread
+        self._lock = threading.Lock()
+        self._fds: list[int] = []         # every descriptor we own, for the leak check
+        self.thread = threading.Thread(target=self._run, name=f"emulator-{self.kind}",
+                                       daemon=True)
+        self.closed = False
+        self.url = ""
+
+    def _start(self) -> None:
+        self.thread.start()
+
+    def _call_in_loop(self, fn) -> None:
+        with self._lock:
+            self._pending.append(fn)
+        self._wake()
+
+    def _wake(self) -> None:
+        try:
+            self._wake_w.send(b"x")
+        except OSError:
+            pass
+
+    def _add_conn(self, conn: _Conn) -> None:
+        self._conns.append(conn)
+        self._sel.register(conn.fileno(), selectors.EVENT_READ, conn)
+
+    def _drop_conn(self, conn: _Conn) -> None:
+        if conn in self._conns:
+            self._conns.remove(conn)
+            self._sel.unregister(conn.fileno())
+            conn.close()
+
+    def _on_accept(self) -> None:  # TCP only
+        raise NotImplementedError
+
+    def _on_eof(self, conn: _Conn) -> None:
+        self._drop_conn(conn)
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            for key, events in self._sel.select(POLL_S):
+                if key.data is None:
+                    try:
+                        self._wake_r.recv(4096)
+                    except BlockingIOError:
+                        pass
+                    continue
+                if key.data == "listen":
+                    self._on_accept()
+                    continue
+                conn: _Conn = key.data
+                if conn not in self._conns:
+                    continue
+                if events & selectors.EVENT_READ:
+                    try:
+                        data = conn.read()
+                    except BlockingIOError:
+                        data = None
+                    except OSError:
+                        data = b""
+                    if data == b"":
+                        self._on_eof(conn)
+                        continue
+                    if data:
+                        conn.out += conn.session.feed(data)
+            with self._lock:
+                pending, self._pending = self._pending, []
+            for fn in pending:
+                fn()
+            for conn in list(self._conns):
+                conn.out += conn.session.poll()
+                self._flush_out(conn)
+        for conn in list(self._conns):
+            self._drop_conn(conn)
+
+    def _flush_out(self, conn: _Conn) -> None:
+        if not conn.out:
+            return
+        try:
+            n = conn.write(bytes(conn.out[:65536]))
+            del conn.out[:n]
+        except BlockingIOError:
+            pass
+        except OSError:
+            self._on_eof(conn)
+            return
+        if len(conn.out) > MAX_QUEUED_OUTPUT:   # client stopped reading: behave like an
+            conn.out.clear()                     # overrun UART rather than grow forever
+
+    def close(self) -> None:
+        """Stop the thread and close every descriptor. Idempotent."""
+        if self.closed:
+            return
+        self._stop.set()
+        self._wake()
+        if self.thread.is_alive():
+            self.thread.join(timeout=5.0)
+        self._sel.close()
+        self._wake_r.close()
+        self._wake_w.close()
+        self._close_own()
+        self.closed = True
+
+    def _close_own(self) -> None:
+        pass
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def __str__(self) -> str:
+        return self.url
+
+    @property
+    def connections(self) -> int:
+        return len(self._conns)
+
+
+class PtyServer(_Server):
+    """The controller on the master side of a pseudo-terminal; ``url`` is the slave path."""
+
+    kind = "pty"
+
+    def __init__(self, controller: Gs232Controller):
+        super().__init__(controller)
+        master, slave = os.openpty()
+        # Raw slave: no echo, no CR/LF translation; we hold the slave open so the master does
+        # not see EIO between clients (like a UART that is always there).
+        tty.setraw(slave)
+        os.set_blocking(master, False)
+        self._master, self._slave = master, slave
+        self._fds = [master, slave]
+        self.url = os.ttyname(slave)
+        self._conn = _Conn(master, controller.open_session(), is_socket=False)
+        self._add_conn(self._conn)
+        self._start()
+
+    def _on_eof(self, conn: _Conn) -> None:
+        # On a pty a read error means no client right now; keep serving.
+        pass
+
+    def _drop_conn(self, conn: _Conn) -> None:
+        if conn in self._conns:
+            self._conns.remove(conn)
+            self._sel.unregister(conn.fileno())
+            # the master is closed in _close_own (or by hangup)
+
+    def hangup(self) -> None:
+        """Fault: the device disappears (USB unplug); clients get an I/O error."""
+        def do() -> None:
+            self._drop_conn(self._conn)
+            fds, self._fds = self._fds, []
+            for fd in fds:
+                _close_fd(fd)
+        self._call_in_loop(do)
+
+    def _close_own(self) -> None:
+        for fd in self._fds:
+            _close_fd(fd)
+
+
+class TcpServer(_Server):
+    """The controller on a TCP port; every client gets its own session on the same box."""
+
+    kind = "tcp"
+
+    def __init__(self, controller: Gs232Controller, port: int = 0, bind: str = "127.0.0.1"):
+        super().__init__(controller)
+        self._listen = socket.create_server((bind, port))
+        self._listen.setblocking(False)
+        self._sel.register(self._listen, selectors.EVENT_READ, "listen")
+        host, self.port = self._listen.getsockname()[:2]
+        self.url = f"socket://{host}:{self.port}"
+        self._start()
+
+    def _on_accept(self) -> None:
+        try:
+            sock, _addr = self._listen.accept()
+        except BlockingIOError:
+            return
+        sock.setblocking(False)
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self._add_conn(_Conn(sock, self.controller.open_session(), is_socket=True))
+
+    def drop_connections(self) -> None:
+        """Fault: close every client connection (the listener stays, clients may reconnect)."""
+        self._call_in_loop(lambda: [self._drop_conn(c) for c in list(self._conns)])
+
+    def _close_own(self) -> None:
+        self._listen.close()
+
+
+def _close_fd(fd: int) -> None:
+    try:
+        os.close(fd)
+    except OSError:
+        pass
+
+
+def serve_pty(controller: Gs232Controller) -> PtyServer:
+    """Serve ``controller`` on a new pseudo-terminal; ``.url`` is ``/dev/pts/N``."""
+    return PtyServer(controller)
+
+
+def serve_tcp(controller: Gs232Controller, port: int = 0, bind: str = "127.0.0.1") -> TcpServer:
+    """Serve ``controller`` on TCP; ``.url`` is ``socket://127.0.0.1:N`` (port 0 = any)."""
+    return TcpServer(controller, port, bind)

@@ -1,0 +1,386 @@
+"""Pass prediction: when a target is above the station's horizon (min elevation + mask).
+
+:func:`find_passes` returns :class:`Pass` values for a window. Satellites start from
+skyfield's ``find_events`` on a window padded by one orbit (so a pass in progress at the start
+gets its real AOS and one straddling the end its real LOS) at the *lowest* horizon level, and
+every other target (Sun, Moon, radio sources, schedules) from coarse vectorised sampling of
+``target.observe``. Both then share one refinement:
+
+* rise/set: the crossings of ``g(t) = el(t) - station.horizon_at(az(t))`` are bracketed on a
+  grid and bisected to :data:`TIME_TOL_S`, all brackets at once (one vectorised call per step);
+* maximum: golden-section search on the elevation around the grid maximum, all passes at once.
+
+So a horizon mask cuts a pass where the target really meets the obstruction, and a pass that
+dips behind an obstruction splits in two. Event codes follow skyfield: 0 rise, 1 culminate,
+2 set.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field, replace
+from datetime import datetime
+from typing import Any
+
+import numpy as np
+
+from tracker.skytrack import SkyTrack
+from tracker.station import Station
+from tracker.targets import SatelliteTarget, Target, _ephemeris_or_none
+from tracker.timescale import DAY_S, to_datetime, to_posix
+
+TIME_TOL_S = 0.01          # rise/set/TCA refinement tolerance
+VISIBLE_SUN_EL_DEG = -6.0  # civil twilight: darker than this, a sunlit satellite is visible
+_EDGE_S = 3.0              # margin around find_events crossings (they are good to 0.5 s)
+_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+
+# Coarse sampling steps for the generic finder, by target kind: fast enough to catch every
+# rise of a target moving at most ~15 deg/h, while a whole day costs a few hundred samples.
+GENERIC_STEP_S = {"sun": 300.0, "moon": 300.0, "planet": 300.0, "radio": 300.0,
+                  "star": 300.0, "satellite": 10.0, "schedule": 10.0}
+DEFAULT_GENERIC_STEP_S = 60.0
+GENERIC_PAD_S = DAY_S      # a Sun/Moon pass in progress may have risen up to a day earlier
+
+
+@dataclass(frozen=True)
+class Pass:
+    """One pass of a target over a station, against the station's horizon (min el + mask).
+
+    Times are aware UTC datetimes. ``aos_known`` is False when the target was already up at
+    the start of the searched (padded) span — then ``aos`` is the window start; likewise
+    ``los_known`` and the window end. ``always_up`` marks a target above the horizon over the
+    whole search (GEO). ``in_progress_at_start`` means AOS is before the window start.
+    ``sunlit`` is True if the target is sunlit at any time in the pass; ``visible`` if a
+    sunlit satellite is above the horizon while the Sun is below -6 deg at the station.
+    """
+
+    target_name: str
+    kind: str
+    aos: datetime
+    tca: datetime
+    los: datetime
+    max_el_deg: float
+    aos_az_deg: float
+    tca_az_deg: float
+    los_az_deg: float
+    duration_s: float
+    sunlit: bool = False
+    visible: bool = False
+    in_progress_at_start: bool = False
+    aos_known: bool = True
+    los_known: bool = True
+    always_up: bool = False
+    target: Any = field(default=None, compare=False, repr=False)
+    station: Station | None = field(default=None, compare=False, repr=False)
+
+    def track(self, step_s: float = 1.0, pad_s: float = 0.0) -> SkyTrack:
+        """The target sampled every ``step_s`` from AOS - pad to LOS + pad (one observe call).
+
+        The last sample is exactly LOS + pad.
+        """
+        if self.target is None or self.station is None:
+            raise ValueError("this Pass has no target/station attached (built by hand?)")
+        if not step_s > 0:
+            raise ValueError(f"step_s must be > 0, got {step_s}")
+        t0 = self.aos.timestamp() - pad_s
+        t1 = self.los.timestamp() + pad_s
+        t = np.arange(t0, t1, step_s)
+        if len(t) == 0 or t1 - t[-1] > 1e-6:
+            t = np.append(t, t1)
+        return self.target.observe(self.station, t)
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain values for CSV/JSON (times as ISO-8601 UTC strings)."""
+        d = asdict(replace(self, target=None, station=None))
+        d.pop("target")
+        d.pop("station")
+        for key in ("aos", "tca", "los"):
+            d[key] = d[key].isoformat().replace("+00:00", "Z")
+        return d
+
+
+# Sampling helpers ------------------------------------------------------------------------------
+
+
+def _azel_fn(target: Target, station: Station):
+    """A vectorised ``t_s -> (az_deg, el_deg)`` for the target (cheapest available call)."""
+    if isinstance(target, SatelliteTarget) or callable(getattr(target, "elevation", None)):
+        return lambda t_s: target.elevation(station, t_s)
+
+    def fn(t_s):
+        track, inverse = _observe_any_order(target, station, t_s)
+        return (np.asarray(track.az_deg, dtype=float)[inverse],
+                np.asarray(track.el_deg, dtype=float)[inverse])
+
+    return fn
+
+
+def _observe_any_order(target: Target, station: Station, t_s):
+    """``target.observe`` for times in any order with repeats (a SkyTrack needs strictly
+    increasing times): returns the track at the sorted unique times and the index array that
+    maps them back to ``t_s``."""
+    t = np.asarray(t_s, dtype=float)
+    unique, inverse = np.unique(t.ravel(), return_inverse=True)
+    return target.observe(station, unique), inverse.reshape(t.shape)
+
+
+def _margin_fn(azel, station: Station):
+    """``g(t) = el - horizon(az)``: > 0 while the target counts as up. NaN counts as down."""
+
+    def g(t_s):
+        az, el = azel(t_s)
+        out = el - station.horizon_at(az)
+        return np.where(np.isfinite(out), out, -1.0)
+
+    return g
+
+
+def _bisect_crossings(g, lo: np.ndarray, hi: np.ndarray, up_lo: np.ndarray) -> np.ndarray:
+    """Refine sign changes of ``g`` in ``[lo, hi]`` (``up_lo`` = g(lo) > 0), all at once.
+
+    Returns the end of the final bracket on the *up* side, so the target is never below the
+    horizon at a reported AOS/LOS (it matters to whoever points an antenna there).
+    """
+    lo = lo.astype(float).copy()
+    hi = hi.astype(float).copy()
+    if lo.size == 0:
+        return lo
+    width = float(np.max(hi - lo))
+    for _ in range(max(1, math.ceil(math.log2(max(width, TIME_TOL_S) / TIME_TOL_S)))):
+        mid = 0.5 * (lo + hi)
+        same = (g(mid) > 0) == up_lo
+        lo = np.where(same, mid, lo)
+        hi = np.where(same, hi, mid)
+    return np.where(up_lo, lo, hi)
+
+
+def _golden_max(el_fn, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Golden-section maximisation of ``el_fn`` on each ``[lo, hi]`` (vectorised)."""
+    a = lo.astype(float).copy()
+    b = hi.astype(float).copy()
+    if a.size == 0:
+        return a
+    width = float(np.max(b - a))
+    n = max(1, math.ceil(math.log(max(width, TIME_TOL_S) / TIME_TOL_S) / -math.log(_GOLDEN)))
+    c = b - _GOLDEN * (b - a)
+    d = a + _GOLDEN * (b - a)
+    fc, fd = el_fn(c), el_fn(d)
+    for _ in range(n):
+        left = fc > fd  # the maximum is in [a, d]
+        b = np.where(left, d, b)
+        a = np.where(left, a, c)
+        # Recompute both interior points: simpler than reusing one when the choice differs
+        # between passes, and still one vectorised call per iteration.
+        c = b - _GOLDEN * (b - a)
+        d = a + _GOLDEN * (b - a)
+        both = el_fn(np.concatenate([c, d]))
+        fc, fd = both[: len(c)], both[len(c):]
+    return 0.5 * (a + b)
+
+
+# Candidate spans --------------------------------------------------------------------------------
+
+
+def _lowest_horizon(station: Station) -> float:
+    """The lowest horizon level anywhere (the mask is piecewise linear: check its vertices)."""
+    if station.mask is None:
+        return float(station.min_el_deg)
+    return float(np.min(station.horizon_at(np.asarray(station.mask.az_deg))))
+
+
+def _satellite_spans(target: SatelliteTarget, station: Station, t0: float, t1: float
+                     ) -> tuple[list[tuple[float, float, bool, bool]], float, float]:
+    """Spans above the lowest horizon level from find_events: (start, end, start_is_rise,
+    end_is_set), plus the padded search limits."""
+    from tracker.timescale import posix_from_time, time_from_posix
+
+    pad = min(max(target.period_s, 3600.0), 1.5 * DAY_S)
+    s0, s1 = t0 - pad, t1 + pad
+    low = _lowest_horizon(station)
+    times, events = target.satellite.find_events(
+        station.topos(), time_from_posix(s0), time_from_posix(s1), altitude_degrees=low)
+    t_ev = np.atleast_1d(posix_from_time(times)) if len(events) else np.zeros(0)
+    spans: list[tuple[float, float, bool, bool]] = []
+    start: float | None = None
+    start_is_rise = False
+    # Loop over events (a handful per day), never over samples.
+    for t_e, code in zip(t_ev.tolist(), np.asarray(events).tolist(), strict=True):
+        if code == 0:
+            start, start_is_rise = t_e, True
+        elif code == 2:
+            if start is None:
+                start, start_is_rise = s0, False
+            spans.append((start, t_e, start_is_rise, True))
+            start = None
+        elif start is None:  # a culmination with no rise before it: up at the span start
+            start, start_is_rise = s0, False
+    if start is not None:
+        spans.append((start, s1, start_is_rise, False))
+    if not len(events):
+        _, el = target.elevation(station, np.array([0.5 * (s0 + s1)]))
+        if el[0] > low:
+            spans.append((s0, s1, False, False))
+    return spans, s0, s1
+
+
+def _generic_spans(target: Target, station: Station, g, t0: float, t1: float
+                   ) -> tuple[list[tuple[float, float, bool, bool]], float, float]:
+    step = float(getattr(target, "search_step_s", 0) or GENERIC_STEP_S.get(
+        target.kind, DEFAULT_GENERIC_STEP_S))
+    pad = float(getattr(target, "search_pad_s", 0) or GENERIC_PAD_S)
+    s0, s1 = t0 - pad, t1 + pad
+    n = max(3, math.ceil((s1 - s0) / step) + 1)
+    t = np.linspace(s0, s1, n)
+    up = g(t) > 0
+    return _spans_from_grid(t, up, g), s0, s1
+
+
+def _spans_from_grid(t: np.ndarray, up: np.ndarray, g
+                     ) -> list[tuple[float, float, bool, bool]]:
+    """Turn a sampled up/down mask into refined spans (edges of the grid = unknown)."""
+    change = np.flatnonzero(up[1:] != up[:-1])
+    cross = _bisect_crossings(g, t[change], t[change + 1], up[change])
+    rising = ~up[change]
+    spans = []
+    start: float | None = float(t[0]) if up[0] else None
+    start_known = False
+    for tc, r in zip(cross.tolist(), rising.tolist(), strict=True):
+        if r:
+            start, start_known = tc, True
+        elif start is not None:
+            spans.append((start, tc, start_known, True))
+            start = None
+    if start is not None:
+        spans.append((start, float(t[-1]), start_known, False))
+    return spans
+
+
+def _refine_against_mask(spans, g, s0: float, s1: float):
+    """Split/trim the lowest-level spans where ``g`` (the real horizon) says down."""
+    out = []
+    for a, b, a_known, b_known in spans:
+        lo = a - _EDGE_S if a_known else a
+        hi = b + _EDGE_S if b_known else b
+        lo, hi = max(lo, s0), min(hi, s1)
+        step = 5.0 if hi - lo < 7200.0 else (hi - lo) / 1500.0
+        n = max(3, math.ceil((hi - lo) / step) + 1)
+        t = np.linspace(lo, hi, n)
+        up = g(t) > 0
+        for c, d, c_known, d_known in _spans_from_grid(t, up, g):
+            out.append((c, d, c_known or (c > lo), d_known or (d < hi)))
+    return out
+
+
+# The finder --------------------------------------------------------------------------------------
+
+
+def find_passes(target: Target, station: Station, start: datetime | float,
+                end: datetime | float, min_el_deg: float | None = None) -> list[Pass]:
+    """Passes of ``target`` over ``station`` that overlap ``[start, end]``, sorted by AOS.
+
+    ``min_el_deg`` overrides the station's minimum elevation (the mask still applies). A pass
+    in progress at ``start`` is included with its real AOS; one running past ``end`` with its
+    real LOS. A target that never rises gives ``[]``; one that is up the whole time (GEO)
+    gives one Pass with ``always_up=True`` spanning the window. Raises
+    :class:`~tracker.errors.PropagationError` for elements that cannot be propagated.
+    """
+    t0, t1 = to_posix(start), to_posix(end)
+    if not t1 > t0:
+        raise ValueError(f"the window end must be after its start ({start} .. {end})")
+    if min_el_deg is not None:
+        station = replace(station, min_el_deg=float(min_el_deg))
+    azel = _azel_fn(target, station)
+    g = _margin_fn(azel, station)
+    if isinstance(target, SatelliteTarget):
+        spans, s0, s1 = _satellite_spans(target, station, t0, t1)
+        spans = _refine_against_mask(spans, g, s0, s1)
+    else:
+        spans, s0, s1 = _generic_spans(target, station, g, t0, t1)
+    spans = [s for s in spans if s[1] > t0 and s[0] < t1]
+    if not spans:
+        return []
+    return _build_passes(target, station, spans, azel, t0, t1)
+
+
+def _build_passes(target, station, spans, azel, t0: float, t1: float) -> list[Pass]:
+    a = np.array([s[0] for s in spans])
+    b = np.array([s[1] for s in spans])
+    a_known = np.array([s[2] for s in spans])
+    b_known = np.array([s[3] for s in spans])
+    # The reported interval: real AOS/LOS when known, else the window edge.
+    aos = np.where(a_known, a, np.maximum(a, t0))
+    los = np.where(b_known, b, np.minimum(b, t1))
+
+    # Maximum: coarse grid over each pass (highest of several culminations), then golden
+    # section on the neighbourhood of the best grid point; all passes in one call per step.
+    n_grid = 64
+    frac = np.linspace(0.0, 1.0, n_grid)
+    grid = aos[:, None] + (los - aos)[:, None] * frac[None, :]
+    _, el_grid = azel(grid.ravel())
+    el_grid = np.where(np.isfinite(el_grid), el_grid, -np.inf).reshape(grid.shape)
+    best = np.argmax(el_grid, axis=1)
+    rows = np.arange(len(spans))
+    lo = grid[rows, np.maximum(best - 1, 0)]
+    hi = grid[rows, np.minimum(best + 1, n_grid - 1)]
+    tca = _golden_max(lambda t: azel(t)[1], lo, hi)
+    end_vals = np.concatenate([aos, tca, los])
+    az_all, el_all = azel(end_vals)
+    k = len(spans)
+    aos_az, tca_az, los_az = az_all[:k], az_all[k:2 * k], az_all[2 * k:]
+    tca_el = el_all[k:2 * k]
+    # The golden search is bracketed by grid neighbours; keep the grid maximum if it was higher.
+    grid_max = el_grid[rows, best]
+    use_grid = grid_max > tca_el
+    tca = np.where(use_grid, grid[rows, best], tca)
+    max_el = np.maximum(tca_el, grid_max)
+    if np.any(use_grid):
+        tca_az = np.where(use_grid, azel(tca)[0], tca_az)
+
+    sunlit, visible = _sunlit_visible(target, station, aos, los)
+    passes = []
+    for i in range(k):
+        always = not a_known[i] and not b_known[i]
+        passes.append(Pass(
+            target_name=target.name, kind=target.kind,
+            aos=to_datetime(aos[i]), tca=to_datetime(tca[i]), los=to_datetime(los[i]),
+            max_el_deg=float(max_el[i]), aos_az_deg=float(aos_az[i]),
+            tca_az_deg=float(tca_az[i]), los_az_deg=float(los_az[i]),
+            duration_s=float(los[i] - aos[i]), sunlit=bool(sunlit[i]),
+            visible=bool(visible[i]), in_progress_at_start=bool(a[i] < t0),
+            aos_known=bool(a_known[i]), los_known=bool(b_known[i]), always_up=always,
+            target=target, station=station))
+    passes.sort(key=lambda p: p.aos)
+    return passes
+
+
+def _sunlit_visible(target, station: Station, aos: np.ndarray, los: np.ndarray):
+    """Per pass: sunlit at any sample, and visible (sunlit, up, Sun below -6 deg)."""
+    k = len(aos)
+    no = np.zeros(k, dtype=bool)
+    if target.kind != "satellite" or _ephemeris_or_none() is None:
+        return no, no.copy()
+    n = 40
+    frac = np.linspace(0.0, 1.0, n)
+    t = (aos[:, None] + (los - aos)[:, None] * frac[None, :]).ravel()
+    track, inverse = _observe_any_order(target, station, t)
+    lit = np.asarray(track.sunlit, dtype=bool)[inverse].reshape(k, n)
+    sun_el = _sun_elevation(station, t).reshape(k, n)
+    dark = sun_el < VISIBLE_SUN_EL_DEG
+    return lit.any(axis=1), (lit & dark).any(axis=1)
+
+
+def _sun_elevation(station: Station, t_s: np.ndarray) -> np.ndarray:
+    from tracker.timescale import time_from_posix
+
+    eph = _ephemeris_or_none()
+    t = time_from_posix(t_s)
+    observer = eph["earth"] + station.topos()
+    alt, _, _ = observer.at(t).observe(eph["sun"]).apparent().altaz()
+    return np.atleast_1d(alt.degrees)
+
+
+def compass_point(az_deg: float) -> str:
+    """16-point compass name for a bearing (N, NNE, NE, ... NNW)."""
+    names = ("N", "NNE", "NE", "ENE", "E", "ESE", "SE", "SSE",
+             "S", "SSW", "SW", "WSW", "W", "WNW", "NW", "NNW")
+    return names[int(((float(az_deg) % 360.0) + 11.25) // 22.5) % 16]

@@ -1,0 +1,44 @@
+"""Rotator protocol drivers and their registry.
+
+``DRIVERS`` maps a protocol name (what ``--protocol`` accepts) to a factory
+``(url, **kw) -> RotatorDriver``. A new protocol module registers itself with
+:func:`register_driver`; :func:`open_driver` opens any pyserial URL with the right one.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from tracker.errors import ConfigError
+from tracker.protocols.base import Capabilities, RotatorDriver
+
+DriverFactory = Callable[..., RotatorDriver]
+DRIVERS: dict[str, DriverFactory] = {}
+
+
+def register_driver(name: str, factory: DriverFactory) -> None:
+    DRIVERS[name.lower()] = factory
+
+
+def _gs232_factory(profile: str) -> DriverFactory:
+    def open_gs232(url: str, **kw) -> RotatorDriver:
+        from tracker.protocols.gs232 import Gs232Driver
+
+        return Gs232Driver.from_url(url, profile, **kw)
+    return open_gs232
+
+
+for _name in ("gs232a", "gs23", "gs232b", "gs232b-manual", "k3ng"):
+    register_driver(_name, _gs232_factory(_name))
+
+
+def open_driver(url: str, protocol: str = "gs232b", **kw) -> RotatorDriver:
+    """Open ``url`` (``/dev/ttyUSB0``, ``socket://host:port``, ...) with ``protocol``'s driver.
+    Keyword arguments go to the driver (``baudrate``, ``timeout_s``, ``has_elevation``, ...)."""
+    factory = DRIVERS.get(protocol.lower())
+    if factory is None:
+        raise ConfigError(f"unknown protocol {protocol!r}; known: {', '.join(sorted(DRIVERS))}")
+    return factory(url, **kw)
+
+
+__all__ = ["DRIVERS", "Capabilities", "RotatorDriver", "open_driver", "register_driver"]

@@ -1,0 +1,531 @@
+"""GS-232 family (Yaesu GS-23/GS-232/GS-232A/GS-232B, K3NG): dialect profiles, codec, driver.
+
+The codec (``encode_*`` / ``parse_*`` / ``format_*``) is shared by the driver and the emulator,
+so what one sends the other understands by construction. Byte-level facts and their sources
+are in ``shared/reference/PROTOCOLS.md``; the profile table is in DESIGN.md.
+"""
+
+from __future__ import annotations
+
+import re
+import threading
+from collections.abc import Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, replace
+from typing import Literal
+
+import serial
+
+from tracker.clock import Clock, SystemClock
+from tracker.errors import (
+    ConfigError,
+    LimitError,
+    PortLostError,
+    ProtocolError,
+    RotatorTimeout,
+)
+from tracker.protocols.base import Capabilities, Direction, RotatorDriver
+from tracker.protocols.framing import LineFramer
+
+CR = b"\r"
+ERROR_REPLY = b"?>"
+
+try:  # tcflush/tcsetattr on a vanished tty raise termios.error, which is not an OSError
+    import termios
+
+    _PORT_ERRORS: tuple[type[BaseException], ...] = (serial.SerialException, OSError,
+                                                     termios.error)
+except ImportError:  # Windows
+    _PORT_ERRORS = (serial.SerialException, OSError)
+
+
+# Profiles -------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Gs232Profile:
+    """One dialect: what the controller sends (emulator) and what the driver expects.
+
+    ``family`` "a" answers ``+0aaa+0eee``; "b" answers ``AZ=aaa{c2_separator}EL=eee``.
+    ``set_ack`` is what a set/move command gets back (real GS-232B: nothing; manual: CR;
+    K3NG: CR LF). ``n_style`` "plus" answers N with ``+nnnn+mmmm``, "count" with the bare
+    number of points (K3NG). ``end_behaviour`` is what stepping does after the last point.
+    """
+
+    name: str
+    family: Literal["a", "b"]
+    description: str = ""
+    c2_separator: bytes = b"  "
+    reply_eol: bytes = b"\r\n"
+    set_ack: bytes = b""
+    k3ng_messages: bool = False
+    max_table_points: int = 3800
+    max_table_pairs: int = 1900
+    min_table_points: int = 2
+    max_line_chars: int = 65536
+    table_period_extra_s: float = 0.0
+    end_behaviour: Literal["stay", "clear"] = "stay"
+    n_style: Literal["plus", "count"] = "plus"
+    rtscts: bool = False
+    pace_cmd_s: float = 0.0
+    b_commands: bool = False
+    help_pages: tuple[str, ...] = ("", "2")
+    baudrate: int = 9600
+    lf_is_command: bool = False
+
+    def with_(self, **changes) -> Gs232Profile:
+        return replace(self, **changes)
+
+    def capabilities(self, has_elevation: bool = True, az_max_deg: float = 450.0,
+                     el_max_deg: float = 180.0) -> Capabilities:
+        return Capabilities(
+            has_elevation=has_elevation, has_step_tables=True,
+            max_table_points=self.max_table_points,
+            max_table_pairs=self.max_table_pairs if has_elevation else 0,
+            max_line_chars=self.max_line_chars,
+            table_period_extra_s=self.table_period_extra_s,
+            has_450_mode=self.b_commands, has_centre_toggle=self.b_commands,
+            az_max_deg=az_max_deg, el_max_deg=el_max_deg)
+
+
+PROFILES: dict[str, Gs232Profile] = {
+    "gs232a": Gs232Profile(
+        name="gs232a", family="a", set_ack=CR, pace_cmd_s=0.05,
+        description="Yaesu GS-232A (and GS-23/GS-232 Kenpro): +0aaa+0eee, CR acks, no "
+                    "handshake"),
+    "gs23": Gs232Profile(
+        name="gs23", family="a", set_ack=CR, pace_cmd_s=0.05,
+        description="Kenpro GS-23/GS-232 (V1.2): as gs232a, the original help screens"),
+    "gs232b": Gs232Profile(
+        name="gs232b", family="b", c2_separator=b"  ", set_ack=b"", rtscts=True,
+        b_commands=True, help_pages=("", "2", "3"),
+        description="Yaesu GS-232B as real units behave: AZ=aaa  EL=eee, silent set "
+                    "commands, ?> for blank/invalid lines, CTS flow control"),
+    "gs232b-manual": Gs232Profile(
+        name="gs232b-manual", family="b", c2_separator=b" ", set_ack=CR, rtscts=True,
+        b_commands=True, help_pages=("", "2", "3"),
+        description="GS-232B exactly as the manual reads: AZ=aaa EL=eee, CR after every "
+                    "command"),
+    "k3ng": Gs232Profile(
+        name="k3ng", family="b", c2_separator=b"", set_ack=b"\r\n", k3ng_messages=True,
+        max_table_points=20, max_table_pairs=20, min_table_points=1, max_line_chars=50,
+        table_period_extra_s=1.0, end_behaviour="clear", n_style="count", pace_cmd_s=0.05,
+        b_commands=True, help_pages=(),
+        description="K3NG Arduino rotator controller in GS-232B emulation: AZ=aaaEL=eee, "
+                    "CR LF after every command, 20-point timed buffer, 50-char lines"),
+}
+
+
+def get_profile(name: str | Gs232Profile) -> Gs232Profile:
+    if isinstance(name, Gs232Profile):
+        return name
+    p = PROFILES.get(str(name).lower())
+    if p is None:
+        raise ConfigError(f"unknown GS-232 profile {name!r}; known: {', '.join(PROFILES)}")
+    return p
+
+
+# Codec: encoding -----------------------------------------------------------------------------
+
+
+def fmt3(value: float, what: str, lo: float, hi: float) -> bytes:
+    """``value`` rounded (half to even, like Hamlib's rint) as 3 zero-padded digits."""
+    try:
+        n = round(float(value))
+    except (TypeError, ValueError, OverflowError) as e:
+        raise LimitError(f"{what} {value!r} is not a number") from e
+    if not (lo <= n <= hi):
+        raise LimitError(f"{what} {value!r} deg is outside the controller range "
+                         f"{lo:g}..{hi:g} deg; nothing was sent")
+    return b"%03d" % n
+
+
+def encode_goto(az_deg: float, el_deg: float | None = None, *, az_max_deg: float = 450.0,
+                el_max_deg: float = 180.0) -> bytes:
+    """``Waaa eee\\r`` (az/el) or ``Maaa\\r`` (azimuth only)."""
+    a = fmt3(az_deg, "azimuth", 0, az_max_deg)
+    if el_deg is None:
+        return b"M" + a + CR
+    return b"W" + a + b" " + fmt3(el_deg, "elevation", 0, el_max_deg) + CR
+
+
+def encode_table(interval_s: int, points: Sequence, *, az_max_deg: float = 450.0,
+                 el_max_deg: float = 180.0) -> bytes:
+    """Long form: ``Msss aaa bbb ...\\r`` for a list of azimuths, ``Wsss aaa eee ...\\r`` for a
+    list of (az, el) pairs."""
+    if isinstance(interval_s, float) and not interval_s.is_integer():
+        raise LimitError(f"table interval {interval_s!r} s must be a whole number of seconds")
+    parts = [fmt3(interval_s, "table interval", 1, 999)]
+    if not len(points):
+        raise LimitError("a step table needs at least one point")
+    pairs = not isinstance(points[0], (int, float))
+    for p in points:
+        if pairs:
+            az, el = p
+            parts += [fmt3(az, "azimuth", 0, az_max_deg), fmt3(el, "elevation", 0, el_max_deg)]
+        else:
+            parts.append(fmt3(p, "azimuth", 0, az_max_deg))
+    return (b"W" if pairs else b"M") + b" ".join(parts) + CR
+
+
+# Codec: replies --------------------------------------------------------------------------------
+
+_AZEL_RE = re.compile(rb"^AZ=\s*([+-]?\d{1,4})\s*(?:EL=\s*([+-]?\d{1,4}))?$")
+_EL_RE = re.compile(rb"^EL=\s*([+-]?\d{1,4})$")
+_PLUS_RE = re.compile(rb"^([+-])(\d{3,5})(?:([+-])(\d{3,5}))?$")
+_N_RE = re.compile(rb"^[+=](\d{1,4})[+=](\d{1,4})$")
+
+
+def is_error_reply(line: bytes) -> bool:
+    """``?>`` (real units), ``? >`` (some clones) or a lone ``>``."""
+    return line.strip().replace(b" ", b"") in (b"?>", b">")
+
+
+def parse_position(line: bytes) -> tuple[float, float | None]:
+    """Parse a C/C2 reply: ``AZ=aaa  EL=eee`` (any spacing, negatives, 4-digit az),
+    ``AZ=aaa``, ``+0aaa+0eee`` or ``+0aaa``; raises :class:`ProtocolError`."""
+    s = line.strip()
+    m = _AZEL_RE.match(s)
+    if m:
+        return float(int(m.group(1))), None if m.group(2) is None else float(int(m.group(2)))
+    m = _PLUS_RE.match(s)
+    if m:
+        az = int(m.group(2)) * (-1 if m.group(1) == b"-" else 1)
+        el = None if m.group(3) is None else int(m.group(4)) * (-1 if m.group(3) == b"-" else 1)
+        return float(az), None if el is None else float(el)
+    raise ProtocolError("not a GS-232 position reply (expected AZ=aaa EL=eee or +0aaa+0eee)",
+                        line)
+
+
+def parse_elevation(line: bytes) -> float:
+    s = line.strip()
+    m = _EL_RE.match(s)
+    if m:
+        return float(int(m.group(1)))
+    m = _PLUS_RE.match(s)
+    if m and m.group(3) is None:
+        return float(int(m.group(2)) * (-1 if m.group(1) == b"-" else 1))
+    raise ProtocolError("not a GS-232 elevation reply (expected EL=eee or +0eee)", line)
+
+
+def parse_table_status(line: bytes) -> tuple[int | None, int]:
+    """N reply → (current point 1-based, total). ``+nnnn+mmmm`` per the manuals, ``=nnnn=mmmm``
+    (the GS-232B manual's OCR, copied by clones); K3NG answers the total only → (None, total)."""
+    s = line.strip()
+    m = _N_RE.match(s)
+    if m:
+        return int(m.group(1)), int(m.group(2))
+    if s.isdigit():
+        return None, int(s)
+    raise ProtocolError("not a GS-232 N reply (expected +nnnn+mmmm)", line)
+
+
+def _signed3(v: int) -> bytes:
+    return (b"-" if v < 0 else b"") + b"%03d" % abs(v)
+
+
+def format_position(profile: Gs232Profile, cmd: str, az: int, el: int) -> bytes:
+    """The controller's reply line (without EOL) to C, C2 or B."""
+    if profile.family == "a":
+        def f(v: int) -> bytes:
+            return (b"-0" if v < 0 else b"+0") + b"%03d" % abs(v)
+        return {"C": f(az), "B": f(el), "C2": f(az) + f(el)}[cmd]
+    a, e = b"AZ=" + _signed3(az), b"EL=" + _signed3(el)
+    return {"C": a, "B": e, "C2": a + profile.c2_separator + e}[cmd]
+
+
+def format_table_status(profile: Gs232Profile, current: int, total: int) -> bytes:
+    if profile.n_style == "count":
+        return b"%d" % total
+    return b"+%04d+%04d" % (current, total)
+
+
+# Driver ----------------------------------------------------------------------------------------
+
+_DIRECTIONS: dict[str, bytes] = {"cw": b"R", "ccw": b"L", "up": b"U", "down": b"D",
+                                 "right": b"R", "left": b"L"}
+
+
+class Gs232Driver(RotatorDriver):
+    """Driver for one GS-232-class controller on an open port.
+
+    One request at a time (a lock); stale input is flushed before each request; each read is
+    bounded by ``timeout_s`` (measured here, on ``clock``); queries are retried ``retries``
+    times on ``?>`` or silence; set commands are never retried (a repeated move is not
+    harmless). Profiles without handshake get at least ``pace_cmd_s`` between commands and
+    optionally ``pace_char_s`` between bytes.
+    """
+
+    def __init__(self, port, profile: str | Gs232Profile = "gs232b", *, timeout_s: float = 1.0,
+                 retries: int = 2, has_elevation: bool = True, az_max_deg: float = 450.0,
+                 el_max_deg: float = 180.0, pace_cmd_s: float | None = None,
+                 pace_char_s: float = 0.0, ack_timeout_s: float = 0.3,
+                 clock: Clock | None = None):
+        self.port = port
+        self.profile = get_profile(profile)
+        self.timeout_s = float(timeout_s)
+        self.retries = int(retries)
+        self.az_max_deg = float(az_max_deg)
+        self.el_max_deg = float(el_max_deg)
+        self.pace_cmd_s = self.profile.pace_cmd_s if pace_cmd_s is None else float(pace_cmd_s)
+        self.pace_char_s = float(pace_char_s)
+        self.ack_timeout_s = float(ack_timeout_s)
+        self.clock = clock or SystemClock()
+        self.capabilities = self.profile.capabilities(has_elevation, az_max_deg, el_max_deg)
+        self.stop_on_exit = True
+        self._lock = threading.RLock()
+        self._framer = LineFramer(b"\r\n", keep_empty=True)
+        self._lines: list[bytes] = []
+        self._last_write = -1e9
+        self._closed = False
+
+    @classmethod
+    def from_url(cls, url: str, profile: str | Gs232Profile = "gs232b", *,
+                 baudrate: int | None = None, rtscts: bool | None = None,
+                 autobaud: bool = False, **kw) -> Gs232Driver:
+        """Open ``url`` (any pyserial URL) with the profile's serial settings."""
+        from tracker.transport import open_port
+
+        prof = get_profile(profile)
+        port = open_port(url, baudrate=baudrate or prof.baudrate, timeout_s=0.05,
+                         rtscts=prof.rtscts if rtscts is None else rtscts)
+        drv = cls(port, prof, **kw)
+        if autobaud:
+            try:
+                drv.autobaud()
+            except BaseException:
+                drv.close()
+                raise
+        return drv
+
+    # Low-level I/O: the only place pyserial errors are translated --------------------------
+
+    @contextmanager
+    def _io(self, what: str):
+        if self._closed:
+            raise PortLostError(f"{what}: the port is closed")
+        try:
+            yield
+        except serial.SerialTimeoutException as e:
+            raise RotatorTimeout(f"{what}: write timed out (flow control holding? cable?)") \
+                from e
+        except _PORT_ERRORS as e:
+            raise PortLostError(f"{what}: port lost: {e}") from e
+
+    def _write(self, data: bytes) -> None:
+        wait = self._last_write + self.pace_cmd_s - self.clock.monotonic()
+        if wait > 0:
+            self.clock.sleep(wait)
+        with self._io(f"writing {data!r}"):
+            if self.pace_char_s > 0:
+                for i in range(len(data)):
+                    self.port.write(data[i:i + 1])
+                    self.port.flush()
+                    self.clock.sleep(self.pace_char_s)
+            else:
+                self.port.write(data)
+                self.port.flush()
+        self._last_write = self.clock.monotonic()
+
+    def _read_some(self, remaining_s: float) -> bytes:
+        with self._io("reading"):
+            self.port.timeout = max(0.001, min(remaining_s, 0.05))
+            n = self.port.in_waiting
+            return self.port.read(n if n > 0 else 1)
+
+    def _flush(self) -> None:
+        with self._io("flushing input"):
+            self.port.reset_input_buffer()
+        self._framer.clear()
+        self._lines.clear()
+
+    def _next_line(self, deadline: float, *, skip_empty: bool = True) -> bytes | None:
+        """The next line before ``deadline`` (monotonic), or None on timeout."""
+        while True:
+            while self._lines:
+                line = self._lines.pop(0)
+                if line or not skip_empty:
+                    return line
+            remaining = deadline - self.clock.monotonic()
+            if remaining <= 0:
+                return None
+            chunk = self._read_some(remaining)
+            if chunk:
+                self._lines.extend(self._framer.feed(chunk))
+
+    # Requests ----------------------------------------------------------------------------------
+
+    def _query(self, cmd: bytes) -> bytes:
+        """Send ``cmd`` and return its one-line reply; retries on ``?>`` and silence."""
+        name = cmd.decode("ascii", "replace")
+        last: Exception | None = None
+        with self._lock:
+            for _attempt in range(1 + self.retries):
+                self._flush()
+                self._write(cmd + CR)
+                line = self._next_line(self.clock.monotonic() + self.timeout_s)
+                if line is None:
+                    partial = self._framer.pending
+                    last = RotatorTimeout(
+                        f"no reply to {name} within {self.timeout_s:g} s"
+                        + (f" (partial line {partial!r})" if partial else "")
+                        + "; check the port, baud rate and that the controller is on")
+                    continue
+                if is_error_reply(line):
+                    last = ProtocolError(f"controller rejected {name} with ?>", line)
+                    continue
+                if line.strip().upper() == cmd.upper():
+                    raise ProtocolError(f"controller echoed {name}; echo is not GS-232 "
+                                        f"behaviour (wrong protocol or a local-echo adapter?)",
+                                        line)
+                return line
+        assert last is not None
+        raise last
+
+    def _command(self, cmd: bytes) -> None:
+        """Send a set/move command; profiles that acknowledge get their ack consumed."""
+        with self._lock:
+            self._flush()
+            self._write(cmd + CR)
+            if not self.profile.set_ack and not self.profile.k3ng_messages:
+                return
+            line = self._next_line(self.clock.monotonic() + self.ack_timeout_s,
+                                   skip_empty=False)
+            if line is not None and is_error_reply(line):
+                raise ProtocolError(f"controller rejected {cmd.decode('ascii', 'replace')}",
+                                    line)
+
+    # Public API --------------------------------------------------------------------------------
+
+    def position(self) -> tuple[float, float | None]:
+        if self.capabilities.has_elevation:
+            line = self._query(b"C2")
+            az, el = parse_position(line)
+            if el is None:
+                raise ProtocolError("C2 reply has no elevation", line)
+            return az, el
+        return parse_position(self._query(b"C"))[0], None
+
+    def elevation(self) -> float:
+        return parse_elevation(self._query(b"B"))
+
+    def goto(self, az_deg: float, el_deg: float | None = None) -> None:
+        if not self.capabilities.has_elevation:
+            el_deg = None
+        self._command(encode_goto(az_deg, el_deg, az_max_deg=self.az_max_deg,
+                                  el_max_deg=self.el_max_deg)[:-1])
+
+    def stop(self) -> None:
+        self._command(b"S")
+
+    def stop_axis(self, axis: Literal["az", "el"]) -> None:
+        if axis not in ("az", "el"):
+            raise ValueError(f"axis must be 'az' or 'el', got {axis!r}")
+        self._command(b"A" if axis == "az" else b"E")
+
+    def move(self, direction: Direction) -> None:
+        """Start turning cw/ccw/up/down until stopped or at the end of travel."""
+        cmd = _DIRECTIONS.get(str(direction).lower())
+        if cmd is None:
+            raise ValueError(f"direction must be one of cw, ccw, up, down; got {direction!r}")
+        self._command(cmd)
+
+    def set_speed(self, step: int) -> None:
+        """Azimuth speed X1 (slowest) .. X4 (fastest)."""
+        if step not in (1, 2, 3, 4):
+            raise LimitError(f"speed step {step!r} is invalid; allowed 1..4")
+        self._command(b"X%d" % step)
+
+    def _need_b(self, what: str) -> None:
+        if not self.profile.b_commands:
+            raise ConfigError(f"{what} is a GS-232B command; profile {self.profile.name} "
+                              f"does not have it")
+
+    def set_mode_450(self, enabled: bool = True) -> None:
+        self._need_b("P45/P36")
+        self._command(b"P45" if enabled else b"P36")
+
+    def toggle_centre(self) -> None:
+        self._need_b("Z")
+        self._command(b"Z")
+
+    def upload_table(self, interval_s: int, points: Sequence) -> None:
+        """Long-form M (azimuths) or W ((az, el) pairs); the controller turns to point 1."""
+        n = len(points)
+        pairs = n > 0 and not isinstance(points[0], (int, float))
+        limit = self.profile.max_table_pairs if pairs else self.profile.max_table_points
+        if pairs and not self.capabilities.has_elevation:
+            raise LimitError("this rotator has no elevation: upload azimuths (M), not pairs")
+        lo = 1 if pairs else self.profile.min_table_points
+        if not (lo <= n <= limit):
+            raise LimitError(f"{n} table points; profile {self.profile.name} takes "
+                             f"{lo}..{limit} {'pairs' if pairs else 'angles'}")
+        line = encode_table(interval_s, points, az_max_deg=self.az_max_deg,
+                            el_max_deg=self.el_max_deg)
+        if len(line) - 1 > self.profile.max_line_chars:
+            raise LimitError(f"table line of {len(line) - 1} chars exceeds the "
+                             f"{self.profile.max_line_chars}-char limit of "
+                             f"{self.profile.name}; split the table")
+        self._command(line[:-1])
+
+    def start_table(self) -> None:
+        self._command(b"T")
+
+    def table_status(self) -> tuple[int | None, int]:
+        return parse_table_status(self._query(b"N"))
+
+    def _collect(self, cmd: bytes, quiet_s: float) -> bytes:
+        """Send ``cmd`` and gather raw bytes until ``quiet_s`` without input or the timeout."""
+        with self._lock:
+            self._flush()
+            self._write(cmd)
+            out = bytearray()
+            start = self.clock.monotonic()
+            last = start
+            while True:
+                now = self.clock.monotonic()
+                if now - start >= self.timeout_s or (out and now - last >= quiet_s):
+                    return bytes(out)
+                chunk = self._read_some(min(quiet_s, self.timeout_s - (now - start)))
+                if chunk:
+                    out += chunk
+                    last = self.clock.monotonic()
+
+    def help(self, page: int = 1) -> str:
+        if page not in (1, 2, 3):
+            raise ValueError("help page must be 1, 2 or 3")
+        cmd = b"H" if page == 1 else b"H%d" % page
+        return self._collect(cmd + CR, 0.2).decode("ascii", "replace")
+
+    def raw(self, cmd: str | bytes, quiet_s: float = 0.2) -> bytes:
+        """Send one command line (CR added) and return whatever came back, maybe b''."""
+        data = cmd.encode("ascii") if isinstance(cmd, str) else bytes(cmd)
+        if not data.endswith(CR):
+            data += CR
+        return self._collect(data, quiet_s)
+
+    def autobaud(self, attempts: int = 10, interval_s: float = 0.3) -> None:
+        """GS-232B power-up autobaud: send CR until the unit says Connect OK (bounded)."""
+        with self._lock:
+            self._flush()
+            seen = bytearray()
+            for _ in range(attempts):
+                self._write(CR)
+                deadline = self.clock.monotonic() + interval_s
+                while self.clock.monotonic() < deadline:
+                    seen += self._read_some(deadline - self.clock.monotonic())
+                    if b"CONNECT OK" in seen.upper():
+                        self._flush()
+                        return
+            raise RotatorTimeout(f"no 'Connect OK' after {attempts} CRs; power-cycle the "
+                                 f"GS-232B and retry within 15 s (received {bytes(seen)!r})")
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self.port.close()
+        except _PORT_ERRORS:
+            # The port is already gone (unplugged, peer closed); closing cannot fail usefully.
+            return

@@ -1,0 +1,643 @@
+"""Live tracking: follow a MountPlan on a real (or emulated) rotator.
+
+Two layers, so the decisions can be tested and benchmarked without any port:
+
+* :class:`TrackCore` — pure decision logic. It is fed the time and each read-back, and answers
+  what to command (pre-position, a deadband/aim-point move from :mod:`tracker.aim`, park, or
+  nothing). It keeps the loop's belief of the motors in THE motor model
+  (:class:`tracker.mount.AxisMotor`), interprets read-back against the commanded mechanical
+  position (never trusting read-back alone to tell which side of the overlap the antenna is
+  on), and detects stalls and read-back that contradicts the plan.
+* :func:`run_pass` — the I/O loop on a :class:`~tracker.clock.Clock`: one request at a time,
+  read back every cycle, reconnect with backoff when the port vanishes and resume at the
+  current point of the plan, and all-stop on every way out (Ctrl-C, SIGTERM, exceptions).
+
+Works with any :class:`~tracker.protocols.base.RotatorDriver` (``position``/``goto``/``stop``).
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from enum import Enum
+
+import numpy as np
+
+from tracker.aim import Aim, AimPath, angle_between_deg, choose_aim, needs_command, pointing_enu
+from tracker.clock import Clock
+from tracker.errors import (
+    PortLostError,
+    ProtocolError,
+    RotatorIOError,
+    RotatorTimeout,
+    StallError,
+    TrackerError,
+)
+from tracker.mount import AxisMotor, MotorModel, RotatorSpec
+from tracker.skytrack import SkyTrack
+from tracker.station import Station
+
+
+class Phase(str, Enum):
+    WAIT = "wait"                  # before the pre-position time
+    PREPOSITION = "preposition"    # moving to / waiting at the AOS point
+    TRACK = "track"                # AOS..LOS: deadband + aim point
+    PARK = "park"                  # after LOS, going to park
+    DONE = "done"
+
+
+@dataclass(frozen=True)
+class StreamSettings:
+    """Tuning of the live loop; defaults suit a G-5500 behind a GS-232B."""
+
+    deadband_deg: float = 4.0
+    cycle_s: float = 0.5
+    park_after_pass: bool = True
+    stall_travel_deg: float = 3.0     # expected travel with no motion seen → stall
+    contradiction_deg: float = 20.0   # read-back this far from belief → not trusted
+    settle_readings: int = 2          # agreeing read-backs needed after a contradiction
+    reconnect_initial_s: float = 0.5
+    reconnect_max_s: float = 8.0
+    reconnect_give_up_s: float | None = None   # None: keep trying until the pass ends
+    timeouts_before_lost: int = 3
+    aim_step_s: float = 0.5
+    park_timeout_s: float = 180.0
+
+
+@dataclass(frozen=True)
+class Command:
+    """One move the core wants: mechanical azimuth, elevation (None for az-only)."""
+
+    az_m_deg: float
+    el_deg: float | None
+    reason: str                      # preposition / track / park / resume
+    aim: Aim | None = None
+    clamped: str = ""                # non-empty when a limit or the mask changed the target
+
+
+@dataclass(frozen=True)
+class Status:
+    """Everything a UI shows for one cycle."""
+
+    t_s: float
+    phase: Phase
+    mode: str
+    target_az_deg: float
+    target_el_deg: float
+    antenna_az_m_deg: float | None
+    antenna_el_deg: float | None
+    antenna_bearing_deg: float | None
+    command_az_m_deg: float | None
+    command_el_deg: float | None
+    error_deg: float | None
+    aos_s: float
+    los_s: float
+    progress: float                  # 0..1 through AOS..LOS
+    commands: int
+    note: str = ""
+
+
+def wire_of(spec: RotatorSpec, az_m_deg: float) -> float:
+    """Mechanical azimuth → what the controller takes on the wire (DESIGN.md, Frames)."""
+    if spec.controller_maps_south:
+        return float(spec.bearing_of(az_m_deg))
+    return float(az_m_deg)
+
+
+def mech_candidates_of_wire(spec: RotatorSpec, wire_az_deg: float) -> list[float]:
+    """Every mechanical azimuth a read-back can mean: controllers fold 0-450 into 0-359 or
+    report their own scale, so each reading names up to two positions."""
+    if spec.controller_maps_south:
+        return spec.mech_candidates(wire_az_deg % 360.0) or [float(spec.mech_of(wire_az_deg))]
+    out = [m for m in (wire_az_deg - 360.0, wire_az_deg, wire_az_deg + 360.0)
+           if -2.0 <= m <= spec.az_span_deg + 2.0]
+    return out or [min(max(wire_az_deg, 0.0), spec.az_span_deg)]
+
+
+def moving_axis(template: AxisMotor, position_deg: float, target_deg: float, t_s: float,
+                moving: bool) -> AxisMotor:
+    """An axis like ``template`` standing at ``position_deg`` at ``t_s``; when ``moving`` it is
+    already running toward ``target_deg`` at ``t_s`` (its start delay is behind it)."""
+    delay = template.start_delay_s
+    a = AxisMotor(template.min_deg, template.max_deg, template.rate_deg_s, delay,
+                  template.resolution_deg, position_deg, t_s - delay)
+    if moving and abs(target_deg - position_deg) > 1e-9:
+        a.command(target_deg, t_s - delay)  # the start delay ends exactly at t_s
+    return a
+
+
+class _AxisWatch:
+    """Stall bookkeeping for one axis: where it was when motion was last seen."""
+
+    def __init__(self) -> None:
+        self.ref_t_s: float | None = None
+        self.ref_pos_deg = 0.0
+        self.expect: AxisMotor | None = None
+
+    def start(self, axis: AxisMotor, t_s: float, readback_deg: float) -> None:
+        self.ref_t_s, self.ref_pos_deg = t_s, readback_deg
+        self.expect = copy.copy(axis)
+
+    def check(self, t_s: float, readback_deg: float, resolution_deg: float,
+              stall_travel_deg: float) -> float | None:
+        """Seconds without motion when the axis counts as stalled, else None."""
+        if self.expect is None or self.ref_t_s is None:
+            return None
+        moved = abs(readback_deg - self.ref_pos_deg)
+        if moved >= resolution_deg - 1e-9:
+            # Motion seen: restart the expectation from here, already running.
+            self.expect = moving_axis(self.expect, readback_deg, self.expect.target_deg, t_s,
+                                      self.expect.moving(t_s))
+            self.ref_t_s, self.ref_pos_deg = t_s, readback_deg
+            return None
+        expected = abs(float(self.expect.position(t_s)) - float(self.expect.position(
+            self.ref_t_s)))
+        if expected >= stall_travel_deg:
+            return t_s - self.ref_t_s
+        if not self.expect.moving(t_s) and expected < stall_travel_deg:
+            self.expect = None  # the move was too small to judge; nothing to watch
+        return None
+
+
+def pass_window(track: SkyTrack, station: Station) -> tuple[float, float]:
+    """AOS and LOS (UTC POSIX s) of ``track`` against the station's horizon and mask."""
+    up = track.el_deg >= station.horizon_at(track.az_deg)
+    if not up.any():
+        mid = float(track.t_s[int(np.argmax(track.el_deg))])
+        return mid, mid
+    idx = np.flatnonzero(up)
+    return float(track.t_s[idx[0]]), float(track.t_s[idx[-1]])
+
+
+class TrackCore:
+    """The loop's decisions for one pass; no I/O, no clock.
+
+    ``plan`` is a :class:`tracker.planner.MountPlan` (or anything with ``t_s``,
+    ``cmd_az_deg``, ``cmd_el_deg``, ``mode``, ``preposition_t_s``, ``preposition``).
+    Call :meth:`observe` with each read-back, then :meth:`decide`; after a command went out,
+    :meth:`commanded`. :meth:`resync` after a reconnect.
+    """
+
+    def __init__(self, plan, track: SkyTrack, spec: RotatorSpec, station: Station,
+                 settings: StreamSettings | None = None):
+        self.plan = plan
+        self.track = track
+        self.spec = spec
+        self.station = station
+        self.settings = settings or StreamSettings(deadband_deg=spec.deadband_deg)
+        self.path = AimPath.from_plan(plan, spec)
+        self.mode = str(getattr(plan, "mode", "normal"))
+        self.aos_s, self.los_s = pass_window(track, station)
+        self.track_from_s = max(self.path.start_s,
+                                self.aos_s - 2 * self.settings.cycle_s - spec.start_delay_s)
+        pre = getattr(plan, "preposition", None)
+        if pre is None:
+            pre = (float(self.path.az_m_deg[0]), float(self.path.el_deg[0]))
+        self.preposition_t_s = float(getattr(plan, "preposition_t_s", self.path.start_s))
+        # The planner's mask-safe move sequences (elevation up, azimuth across, elevation
+        # down); a plan without them gets one direct move.
+        self.pre_moves = self._moves(getattr(plan, "preposition_moves", None),
+                                     (self.preposition_t_s, pre[0], pre[1]))
+        self.preposition_t_s = min(self.preposition_t_s, self.pre_moves[0][0])
+        park_moves = getattr(plan, "park_moves", None)
+        self.park_moves = self._moves(park_moves, (self.los_s, spec.park_az_deg,
+                                                   spec.park_el_deg))
+        self._move_i = 0
+        self.motor: MotorModel | None = None       # belief of where the motors are/go
+        self.phase = Phase.WAIT
+        self.last_command: Command | None = None
+        self.commands = 0
+        self.antenna: tuple[float, float | None] | None = None   # mechanical read-back
+        self.untrusted = 0          # agreeing read-backs still needed after a contradiction
+        self.note = ""
+        self._watch = {"az": _AxisWatch(), "el": _AxisWatch()}
+        self._phase_commanded: Phase | None = None
+        self._hold_until_s = -math.inf
+        self._hold_level_deg = self.settings.deadband_deg
+        self._park_sent_s: float | None = None
+
+    # Read-back ---------------------------------------------------------------------------
+
+    def observe(self, t_s: float, wire_az_deg: float, wire_el_deg: float | None) -> str:
+        """Take one read-back; returns "ok", "controller_off" or "contradiction".
+
+        Raises :class:`StallError` when a commanded axis has not moved although the motor
+        model says it should have travelled ``stall_travel_deg`` by now.
+        """
+        spec = self.spec
+        if wire_az_deg < 0 and (wire_el_deg is None or wire_el_deg < 0):
+            # GS-232 reads AZ=-001 EL=-002 when the rotator's control box is off.
+            self.note = "controller reports no position (control box off?) - waiting"
+            self.motor = None
+            self.untrusted = self.settings.settle_readings
+            return "controller_off"
+        expected_az = (float(self.motor.az.position(t_s)) if self.motor is not None
+                       else (self.antenna[0] if self.antenna else wire_of(spec, wire_az_deg)))
+        cands = mech_candidates_of_wire(spec, wire_az_deg)
+        m_az = min(cands, key=lambda m: abs(m - expected_az))
+        el = None
+        if spec.has_elevation:
+            el = float(wire_el_deg if wire_el_deg is not None else 0.0)
+        prev = self.antenna
+        self.antenna = (m_az, el)
+        if self.untrusted:
+            # After a contradiction or a dead controller: trust only agreeing read-backs.
+            same = prev is not None and abs(prev[0] - m_az) <= spec.resolution_deg and (
+                el is None or prev[1] is None or abs(prev[1] - el) <= spec.resolution_deg)
+            self.untrusted = self.untrusted - 1 if same else self.settings.settle_readings
+        if self.motor is None:
+            self._sync_motor(t_s, moving=False)
+            return "contradiction" if self.untrusted else "ok"
+        off_az = abs(m_az - expected_az)
+        off_el = 0.0 if el is None else abs(el - float(self.motor.el.position(t_s)))
+        if max(off_az, off_el) > self.settings.contradiction_deg:
+            # Not where it can be if it obeyed us: someone turned it by hand, the controller
+            # was recalibrated, or it folded its scale. Stop believing; wait for it to settle.
+            self.note = (f"read-back az {wire_az_deg:.0f} el {wire_el_deg} is "
+                         f"{max(off_az, off_el):.0f} deg from where the rotator should be; "
+                         f"re-syncing before the next move")
+            self.untrusted = self.settings.settle_readings
+            self.motor = None
+            self._sync_motor(t_s, moving=False)
+            for w in self._watch.values():
+                w.expect = None
+            return "contradiction"
+        if self.untrusted:
+            return "contradiction"
+        self._check_stall(t_s)
+        # Keep the belief honest: read-back is integer degrees and a cycle late, so only
+        # re-sync when the two clearly disagree.
+        if off_az > 1.5 * spec.resolution_deg or off_el > 1.5 * spec.resolution_deg:
+            self._sync_motor(t_s, moving=True)
+        return "ok"
+
+    def _sync_motor(self, t_s: float, moving: bool) -> None:
+        az, el = self.antenna
+        if self.motor is None:
+            self.motor = MotorModel(self.spec, az_deg=az, el_deg=el, t_s=t_s)
+            return
+        self.motor.az = moving_axis(self.motor.az, az, self.motor.az.target_deg, t_s,
+                                    moving and self.motor.az.moving(t_s))
+        if self.motor.el is not None and el is not None:
+            self.motor.el = moving_axis(self.motor.el, el, self.motor.el.target_deg, t_s,
+                                        moving and self.motor.el.moving(t_s))
+
+    def _check_stall(self, t_s: float) -> None:
+        az, el = self.antenna
+        for name, pos in (("azimuth", az), ("elevation", el)):
+            if pos is None:
+                continue
+            watch = self._watch["az" if name == "azimuth" else "el"]
+            stuck_s = watch.check(t_s, pos, self.spec.resolution_deg,
+                                  self.settings.stall_travel_deg)
+            if stuck_s is not None:
+                target = watch.expect.target_deg if watch.expect is not None else float("nan")
+                raise StallError(
+                    f"{name} did not move for {stuck_s:.1f} s although it was commanded from "
+                    f"{watch.ref_pos_deg:.0f} to {target:.0f} deg: the rotator was stopped. "
+                    f"Check the motor, brake, cable and the control box, then restart")
+
+    # Decisions -------------------------------------------------------------------------------
+
+    def _phase_at(self, t_s: float) -> Phase:
+        if self.phase is Phase.DONE:
+            return Phase.DONE
+        if t_s > self.los_s:
+            return Phase.PARK
+        if t_s >= self.track_from_s:
+            return Phase.TRACK
+        if t_s >= self.preposition_t_s:
+            return Phase.PREPOSITION
+        return Phase.WAIT
+
+    def decide(self, t_s: float) -> Command | None:
+        """What to send now (None: nothing). Call after :meth:`observe` each cycle."""
+        phase = self._phase_at(t_s)
+        if phase is not self.phase:
+            self.phase = phase
+        if self.motor is None or self.untrusted:
+            return None       # no trusted position: never a blind move
+        if phase is Phase.WAIT or phase is Phase.DONE:
+            return None
+        if phase is Phase.PREPOSITION:
+            return self._next_move(t_s, self.pre_moves, "preposition")
+        if phase is Phase.PARK:
+            if not self.settings.park_after_pass:
+                self.phase = Phase.DONE
+                return None
+            cmd = self._next_move(t_s, self.park_moves, "park")
+            if cmd is not None:
+                return cmd
+            arrived = self._move_i >= len(self.park_moves) and not self.motor.moving(t_s)
+            timed_out = (self._park_sent_s is not None
+                         and t_s - self._park_sent_s > self.settings.park_timeout_s)
+            if arrived or timed_out:
+                self.phase = Phase.DONE
+            return None
+        # TRACK
+        s = self.settings
+        level = s.deadband_deg if t_s >= self._hold_until_s else self._hold_level_deg
+        lookahead = s.cycle_s + self.spec.start_delay_s + 0.5
+        if self._phase_commanded is Phase.TRACK and not needs_command(
+                self.path, self.motor.az, self.motor.el, t_s, level, lookahead):
+            return None
+        aim = choose_aim(self.path, self.motor.az, self.motor.el, t_s, s.deadband_deg,
+                         step_s=s.aim_step_s)
+        cmd = self._safe(aim.az_m_deg, aim.el_deg, "track", aim)
+        if self._phase_commanded is Phase.TRACK and self.last_command is not None and (
+                abs(cmd.az_m_deg - self.last_command.az_m_deg) < 1e-9
+                and (cmd.el_deg is None or abs(cmd.el_deg - self.last_command.el_deg) < 1e-9)
+                and self.motor.moving(t_s)):
+            return None   # already on its way there: a repeat would only cost a relay click
+        return cmd
+
+    def _moves(self, moves, fallback) -> list[tuple[float, float, float | None]]:
+        out = [(float(m.t_s), float(m.az_deg), float(m.el_deg)) for m in (moves or ())]
+        if not out:
+            out = [(float(fallback[0]), float(fallback[1]), float(fallback[2]))]
+        if not self.spec.has_elevation:
+            out = [(t, a, None) for t, a, _e in out]
+        return out
+
+    def _next_move(self, t_s: float, moves, reason: str) -> Command | None:
+        """The next of a move sequence: each waits for the previous one to arrive."""
+        if self._phase_commanded is not self.phase:
+            self._move_i = 0
+        if self._move_i >= len(moves):
+            return None
+        if self._move_i > 0 and self.motor.moving(t_s):
+            return None
+        if self._move_i == 0 and t_s < moves[0][0] and reason != "park":
+            return None
+        _t, az, el = moves[self._move_i]
+        return self._safe(az, el, reason)
+
+    def _safe(self, az_m: float, el: float | None, reason: str, aim: Aim | None = None
+              ) -> Command:
+        az_c, el_c, why = safe_target(self.spec, self.station, az_m, el)
+        return Command(az_c, el_c, reason, aim, why)
+
+    def commanded(self, t_s: float, cmd: Command) -> None:
+        """Record that ``cmd`` was sent at ``t_s``."""
+        if self.motor is None:
+            return
+        self.motor.command(cmd.az_m_deg, cmd.el_deg, t_s)
+        az, el = self.antenna
+        self._watch["az"].start(self.motor.az, t_s, az)
+        if self.motor.el is not None and el is not None:
+            self._watch["el"].start(self.motor.el, t_s, el)
+        self.last_command = cmd
+        self.commands += 1
+        phase = {"preposition": Phase.PREPOSITION, "track": Phase.TRACK,
+                 "park": Phase.PARK}.get(cmd.reason, self.phase)
+        if cmd.reason in ("preposition", "park"):
+            self._move_i = self._move_i + 1 if self._phase_commanded is phase else 1
+        self._phase_commanded = phase
+        if cmd.reason == "park":
+            self._park_sent_s = t_s
+        if cmd.aim is not None:
+            self._hold_until_s = t_s + cmd.aim.hold_s
+            self._hold_level_deg = max(self.settings.deadband_deg,
+                                       cmd.aim.peak_error_deg + 0.5)
+        self.note = ""
+
+    def resync(self) -> None:
+        """After a reconnect: forget the belief; the next read-back re-seeds it and the
+        current phase's move is sent again from the real position."""
+        self.motor = None
+        self._phase_commanded = None
+        for w in self._watch.values():
+            w.expect = None
+
+    def stopped(self, t_s: float) -> None:
+        """The rotator was told to stop (all-stop)."""
+        if self.motor is not None:
+            self.motor.stop(t_s)
+        self._phase_commanded = None
+
+    # Reporting ---------------------------------------------------------------------------
+
+    def status(self, t_s: float) -> Status:
+        taz, tel = self.track.direction_at(t_s)
+        ant = self.antenna
+        err = bearing = None
+        if ant is not None:
+            el = ant[1] if ant[1] is not None else 0.0
+            bearing = float(self.spec.bearing_of(ant[0]))
+            err = float(angle_between_deg(pointing_enu(ant[0], el, self.spec.stop_bearing_deg),
+                                          pointing_enu(float(taz), float(tel), 0.0)))
+        span = max(self.los_s - self.aos_s, 1e-9)
+        cmd = self.last_command
+        return Status(t_s=t_s, phase=self.phase, mode=self.mode, target_az_deg=float(taz),
+                      target_el_deg=float(tel),
+                      antenna_az_m_deg=None if ant is None else ant[0],
+                      antenna_el_deg=None if ant is None else ant[1],
+                      antenna_bearing_deg=bearing,
+                      command_az_m_deg=None if cmd is None else cmd.az_m_deg,
+                      command_el_deg=None if cmd is None else cmd.el_deg,
+                      error_deg=err, aos_s=self.aos_s, los_s=self.los_s,
+                      progress=float(min(max((t_s - self.aos_s) / span, 0.0), 1.0)),
+                      commands=self.commands, note=self.note)
+
+
+def safe_target(spec: RotatorSpec, station: Station, az_m_deg: float, el_deg: float | None
+                ) -> tuple[float, float | None, str]:
+    """Clamp a command to the rotator's limits and keep the boresight above the horizon
+    mask; returns ``(az_m, el, why)`` with ``why`` empty when nothing changed. The last
+    guard before any byte goes out, whatever the plan says."""
+    why = []
+    az = min(max(float(az_m_deg), 0.0), spec.az_span_deg)
+    if az != az_m_deg:
+        why.append(f"azimuth {az_m_deg:.1f} outside 0..{spec.az_span_deg:g}")
+    if el_deg is None or not spec.has_elevation:
+        return az, None, "; ".join(why)
+    el = min(max(float(el_deg), spec.el_min_deg), spec.el_max_deg)
+    if el != el_deg:
+        why.append(f"elevation {el_deg:.1f} outside {spec.el_min_deg:g}..{spec.el_max_deg:g}")
+    # Over the top (el > 90) the boresight looks at bearing + 180, elevation 180 - el.
+    over = el > 90.0
+    look_bearing = float(spec.bearing_of(az)) + (180.0 if over else 0.0)
+    look_el = 180.0 - el if over else el
+    floor = float(station.horizon_at(look_bearing % 360.0))
+    if look_el < floor - 1e-9:
+        res = spec.resolution_deg
+        safe_look = math.ceil(floor / res - 1e-9) * res
+        el = 180.0 - safe_look if over else safe_look
+        el = min(max(el, spec.el_min_deg), spec.el_max_deg)
+        why.append(f"raised above the horizon mask ({floor:.1f} deg at "
+                   f"{look_bearing % 360.0:.0f})")
+    return az, el, "; ".join(why)
+
+
+# I/O loop ----------------------------------------------------------------------------------
+
+
+EventSink = Callable[..., None]
+
+
+def _null_sink(kind: str, **data) -> None:
+    return None
+
+
+@dataclass
+class Link:
+    """The driver plus how to get a new one when the port vanishes."""
+
+    connect: Callable[[], object]
+    spec: RotatorSpec
+    driver: object | None = None
+    events: EventSink = _null_sink
+
+    def ensure(self):
+        if self.driver is None:
+            self.driver = self.connect()
+            self.events("state", state="connected")
+        return self.driver
+
+    def drop(self) -> None:
+        drv, self.driver = self.driver, None
+        if drv is not None:
+            try:
+                drv.close()
+            except (TrackerError, OSError):
+                pass  # the port is already gone; nothing more to release
+
+    def position(self) -> tuple[float, float | None]:
+        reply = self.ensure().position()
+        self.events("reply", az=reply[0], el=reply[1])
+        return reply
+
+    def goto(self, cmd: Command) -> None:
+        wire_az = wire_of(self.spec, cmd.az_m_deg)
+        self.ensure().goto(wire_az, cmd.el_deg)
+        self.events("command", cmd="goto", az=wire_az, el=cmd.el_deg, reason=cmd.reason,
+                    az_m=cmd.az_m_deg, clamped=cmd.clamped or None)
+
+    def stop(self) -> bool:
+        """All-stop; True if it reached the controller."""
+        if self.driver is None:
+            try:
+                self.ensure()
+            except (TrackerError, OSError):
+                self.events("state", state="stop_failed", reason="port unavailable")
+                return False
+        try:
+            self.driver.stop()
+            self.events("command", cmd="stop")
+            return True
+        except (TrackerError, OSError) as e:
+            self.events("state", state="stop_failed", reason=str(e))
+            return False
+
+
+@dataclass
+class PassResult:
+    commands: int
+    reconnects: int
+    max_error_deg: float
+    errors_deg: list[float] = field(default_factory=list)
+    final_position: tuple[float, float | None] | None = None
+    completed: bool = True
+
+
+def run_pass(core: TrackCore, link: Link, clock: Clock, on_status: Callable[[Status], None]
+             = lambda s: None, events: EventSink = _null_sink,
+             should_stop: Callable[[], bool] = lambda: False) -> PassResult:
+    """Run one pass to the end (DONE) on ``clock``; all-stop on every exit but a normal one
+    that parks or stays. Raises :class:`StallError` (after stopping) and re-raises anything
+    else after stopping; KeyboardInterrupt included."""
+    s = core.settings
+    link.events = events
+    reconnects = 0
+    timeouts = 0
+    backoff_s = s.reconnect_initial_s
+    lost_since: float | None = None
+    errors: list[float] = []
+    last_state = None
+    ok = False
+    try:
+        next_t = clock.timestamp()
+        while True:
+            t = clock.timestamp()
+            try:
+                az, el = link.position()
+                timeouts = 0
+                if lost_since is not None:
+                    events("state", state="reconnected",
+                           note=f"port back after {t - lost_since:.1f} s; resuming the plan")
+                    lost_since = None
+                    backoff_s = s.reconnect_initial_s
+                    core.resync()
+                t = clock.timestamp()
+                seen = core.observe(t, az, el)
+                if seen != "ok" and seen != last_state:
+                    events("state", state=seen, note=core.note)
+                    if link.driver is not None:
+                        link.stop()   # no motion while we do not know where it is
+                        core.stopped(t)
+                last_state = seen
+                prev_phase = core.phase
+                cmd = core.decide(t)
+                if core.phase is not prev_phase:
+                    events("state", state="phase", phase=core.phase.value)
+                if cmd is not None:
+                    link.goto(cmd)
+                    core.commanded(clock.timestamp(), cmd)
+            except StallError:
+                raise
+            except (PortLostError, RotatorTimeout, ProtocolError, RotatorIOError) as e:
+                if isinstance(e, (RotatorTimeout, ProtocolError)) and not isinstance(
+                        e, PortLostError):
+                    timeouts += 1
+                    events("state", state="no_reply", note=str(e), count=timeouts)
+                    if timeouts < s.timeouts_before_lost:
+                        clock.sleep(s.cycle_s)
+                        continue
+                if lost_since is None:
+                    lost_since = t
+                    events("state", state="port_lost", note=str(e))
+                link.drop()
+                core.resync()
+                if s.reconnect_give_up_s is not None and t - lost_since > s.reconnect_give_up_s:
+                    raise PortLostError(f"port gone for {t - lost_since:.0f} s; giving up. "
+                                        f"Last error: {e}") from e
+                if t > core.los_s + s.park_timeout_s:
+                    raise PortLostError(f"port lost and the pass is over: {e}") from e
+                events("state", state="reconnecting", wait_s=backoff_s)
+                clock.sleep(backoff_s)
+                backoff_s = min(backoff_s * 2.0, s.reconnect_max_s)
+                try:
+                    link.ensure()
+                    reconnects += 1
+                except (TrackerError, OSError) as e2:
+                    events("state", state="reconnect_failed", note=str(e2))
+                continue
+            st = core.status(t)
+            if st.error_deg is not None and core.aos_s <= t <= core.los_s:
+                errors.append(st.error_deg)
+            on_status(st)
+            if core.phase is Phase.DONE:
+                ok = True
+                break
+            if should_stop():
+                break
+            next_t += s.cycle_s
+            wait = next_t - clock.timestamp()
+            if wait < -s.cycle_s:
+                next_t = clock.timestamp()   # fell behind (slow port): do not burst
+            clock.sleep(max(wait, 0.0))
+    except StallError as e:
+        link.stop()
+        events("state", state="stall", note=str(e))
+        raise
+    finally:
+        if not ok:
+            # Ctrl-C, SIGTERM (raised as KeyboardInterrupt/SystemExit), any exception, or a
+            # stop request: the antenna must not keep turning on its own.
+            link.stop()
+            events("state", state="stopped")
+    return PassResult(commands=core.commands, reconnects=reconnects,
+                      max_error_deg=max(errors) if errors else float("nan"),
+                      errors_deg=errors, final_position=core.antenna, completed=ok)

@@ -1,0 +1,219 @@
+"""What the live tracker shows and records.
+
+* :class:`RichPanel` — a live panel on a terminal (rich): target az/el, commanded and actual
+  antenna position, pointing error, mode, AOS/LOS countdown, a progress bar, the next pass.
+* :class:`PlainLines` — timestamped lines for logs and pipes (no TTY): every state change and
+  command, and a status line every ``every_s`` seconds of (possibly simulated) time.
+* :class:`JsonLinesLog` — ``--log FILE``: one JSON object per command, reply and state change,
+  with UTC timestamps, flushed line by line so an interrupted run keeps its log.
+
+All three take the same two calls from :func:`tracker.stream.run_pass`: ``event(kind, **data)``
+and ``status(Status)``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from datetime import datetime, timezone
+from typing import IO, Any
+
+from tracker.clock import Clock
+from tracker.stream import Phase, Status
+
+
+def _hms(t_s: float) -> str:
+    return datetime.fromtimestamp(t_s, timezone.utc).strftime("%H:%M:%S")
+
+
+def _iso(t_s: float) -> str:
+    return datetime.fromtimestamp(t_s, timezone.utc).isoformat(timespec="milliseconds") \
+        .replace("+00:00", "Z")
+
+
+def _mmss(seconds: float) -> str:
+    seconds = max(0.0, seconds)
+    m, s = divmod(round(seconds), 60)
+    h, m = divmod(m, 60)
+    return f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
+
+
+def countdown(st: Status) -> str:
+    """"AOS in 1:23" / "LOS in 4:56" / "pass over"."""
+    if st.t_s < st.aos_s:
+        return f"AOS in {_mmss(st.aos_s - st.t_s)}"
+    if st.t_s <= st.los_s:
+        return f"LOS in {_mmss(st.los_s - st.t_s)}"
+    return "pass over"
+
+
+def _deg(v: float | None, width: int = 5) -> str:
+    return "-".rjust(width) if v is None or not math.isfinite(v) else f"{v:{width}.1f}"
+
+
+class JsonLinesLog:
+    """Append one JSON object per event to ``path``."""
+
+    def __init__(self, path, clock: Clock):
+        self.clock = clock
+        self._fh: IO[str] = open(path, "a", encoding="utf-8")
+
+    def event(self, kind: str, **data: Any) -> None:
+        t = self.clock.timestamp()
+        rec = {"t": _iso(t), "t_s": round(t, 3), "kind": kind}
+        rec.update({k: v for k, v in data.items() if v is not None})
+        self._fh.write(json.dumps(rec, default=str) + "\n")
+        self._fh.flush()
+
+    def status(self, st: Status) -> None:
+        return None   # replies and commands already carry the story
+
+    def close(self) -> None:
+        self._fh.close()
+
+
+class PlainLines:
+    """Timestamped lines on ``stream`` (simulated time when the clock is simulated)."""
+
+    def __init__(self, clock: Clock, stream: IO[str] | None = None, every_s: float = 10.0):
+        self.clock = clock
+        self.stream = stream or sys.stdout
+        self.every_s = every_s
+        self._last_status = -math.inf
+
+    def _line(self, text: str) -> None:
+        self.stream.write(f"{_hms(self.clock.timestamp())}  {text}\n")
+        self.stream.flush()
+
+    def event(self, kind: str, **data: Any) -> None:
+        if kind == "reply":
+            return   # one per cycle: too many for a terminal; the JSON log keeps them
+        if kind == "command":
+            if data.get("cmd") == "stop":
+                self._line("command  all-stop")
+            else:
+                el = data.get("el")
+                el_s = "" if el is None else f" el {el:5.1f}"
+                extra = f"  ({data['clamped']})" if data.get("clamped") else ""
+                self._line(f"command  {data.get('reason', ''):<11} az {data['az']:5.1f}{el_s}"
+                           f"{extra}")
+            return
+        if kind == "state":
+            state = data.get("state")
+            if state == "phase":
+                self._line(f"phase    {data.get('phase')}")
+            else:
+                note = data.get("note") or data.get("reason") or ""
+                self._line(f"state    {state}{'  ' + note if note else ''}")
+            return
+        if kind == "info":
+            self._line(str(data.get("text", "")))
+
+    def status(self, st: Status) -> None:
+        if st.t_s - self._last_status < self.every_s and st.phase is not Phase.DONE:
+            return
+        self._last_status = st.t_s
+        self._line(f"{st.phase.value:<11} target az {st.target_az_deg:5.1f} el "
+                   f"{st.target_el_deg:5.1f}  antenna az {_deg(st.antenna_bearing_deg)} el "
+                   f"{_deg(st.antenna_el_deg)}  error {_deg(st.error_deg, 4)}  "
+                   f"{countdown(st)}  cmds {st.commands}")
+
+    def close(self) -> None:
+        return None
+
+
+class RichPanel:
+    """A live panel on a terminal; falls back to nothing if rich cannot draw."""
+
+    def __init__(self, clock: Clock, title: str, banner: str = "", next_pass: str = ""):
+        from rich.console import Console
+        from rich.live import Live
+
+        self.clock = clock
+        self.title = title
+        self.banner = banner
+        self.next_pass = next_pass
+        self.console = Console()
+        self._events: list[str] = []
+        self._st: Status | None = None
+        self._live = Live(self._render(), console=self.console, refresh_per_second=8,
+                          transient=False)
+        self._live.start()
+
+    def _render(self):
+        from rich.panel import Panel
+        from rich.progress_bar import ProgressBar
+        from rich.table import Table
+
+        grid = Table.grid(padding=(0, 2))
+        grid.add_column(justify="right", style="bold")
+        grid.add_column()
+        st = self._st
+        if self.banner:
+            grid.add_row("", f"[yellow]{self.banner}[/]")
+        if st is None:
+            grid.add_row("status", "connecting...")
+        else:
+            grid.add_row("time", f"{_hms(st.t_s)} UTC   {countdown(st)}")
+            grid.add_row("phase / mode", f"{st.phase.value} / {st.mode}")
+            grid.add_row("target", f"az {st.target_az_deg:6.1f}   el {st.target_el_deg:6.1f}")
+            cmd = ("-" if st.command_az_m_deg is None else
+                   f"az {st.command_az_m_deg:6.1f}   el {_deg(st.command_el_deg, 6)}"
+                   f"   (mechanical)")
+            grid.add_row("commanded", cmd)
+            grid.add_row("antenna", f"az {_deg(st.antenna_bearing_deg, 6)}   el "
+                         f"{_deg(st.antenna_el_deg, 6)}   (mech az "
+                         f"{_deg(st.antenna_az_m_deg, 5)})")
+            err = st.error_deg
+            style = "green" if err is not None and err <= 5 else "red"
+            grid.add_row("error", f"[{style}]{_deg(err, 5)} deg[/]   commands {st.commands}")
+            bar = ProgressBar(total=1.0, completed=st.progress, width=40)
+            grid.add_row("pass", bar)
+            if st.note:
+                grid.add_row("note", f"[red]{st.note}[/]")
+        if self.next_pass:
+            grid.add_row("next pass", self.next_pass)
+        for line in self._events[-4:]:
+            grid.add_row("", f"[dim]{line}[/]")
+        return Panel(grid, title=self.title, border_style="cyan")
+
+    def event(self, kind: str, **data: Any) -> None:
+        if kind == "reply":
+            return
+        if kind == "command":
+            text = ("all-stop" if data.get("cmd") == "stop" else
+                    f"{data.get('reason')}: W az {data.get('az'):.0f} el {data.get('el')}")
+        elif kind == "state":
+            text = (f"phase {data.get('phase')}" if data.get("state") == "phase"
+                    else f"{data.get('state')} {data.get('note') or ''}".strip())
+        else:
+            text = str(data.get("text", ""))
+        self._events.append(f"{_hms(self.clock.timestamp())} {text}")
+        self._live.update(self._render())
+
+    def status(self, st: Status) -> None:
+        self._st = st
+        self._live.update(self._render())
+
+    def close(self) -> None:
+        self._live.stop()
+
+
+class Fanout:
+    """Send every call to several UIs/logs."""
+
+    def __init__(self, *sinks):
+        self.sinks = [s for s in sinks if s is not None]
+
+    def event(self, kind: str, **data: Any) -> None:
+        for s in self.sinks:
+            s.event(kind, **data)
+
+    def status(self, st: Status) -> None:
+        for s in self.sinks:
+            s.status(st)
+
+    def close(self) -> None:
+        for s in self.sinks:
+            s.close()

@@ -1,0 +1,288 @@
+"""Upload step tables and run them: pre-position, T on time, monitor, resync, all-stop.
+
+The procedure for each table of a :class:`~tracker.steptable.StepProgram` (or a plan file):
+
+1. wait on the Clock until the table's upload time (for the first table: before AOS, early
+   enough for the slew to point 1; for a chained table: one wire time before its boundary),
+   then send the long-form line(s) through the driver (its flow control and pacing);
+2. wait until the T time and send ``T``;
+3. monitor until the next table is due: ``N`` must report all the points (a short count is a
+   truncated upload) and the index the host clock expects (a different index is drift or a
+   lost step; no list at all is a power cycle); any of these → resync by uploading the
+   remaining points and sending ``T`` again at the next point's time. ``C2`` must show the
+   antenna within the span of the recently commanded points, else the rotator is stopped and
+   :class:`~tracker.errors.StallError` raised.
+
+Every exit path (end, error, Ctrl-C) sends all-stop, except ``detach`` after a successful T
+(the controller is meant to go on by itself).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tracker.clock import Clock
+from tracker.errors import ConfigError, ProtocolError, RotatorIOError, StallError, TrackerError
+from tracker.steptable import BITS_PER_BYTE, StepTable
+
+# Reading N at a step boundary may see either side; allow this much clock slack.
+INDEX_SLACK_S = 0.6
+# How many resyncs before the host gives up (stops the rotator and reports).
+MAX_RESYNCS = 5
+
+
+@dataclass
+class UploadReport:
+    """What happened, for the CLI and the tests."""
+
+    tables_sent: int = 0
+    uploads: list[dict] = field(default_factory=list)   # bytes, wire_s, upload_s
+    t_late_s: list[float] = field(default_factory=list)  # T sent minus T due (clock s)
+    resyncs: list[str] = field(default_factory=list)
+    polls: int = 0
+    detached: bool = False
+    stopped: bool = False
+    events: list[str] = field(default_factory=list)
+
+
+class TableRunner:
+    """Runs tables on one driver against one Clock (see the module docstring).
+
+    ``baud`` is used to predict the wire time of an upload (``bytes * 10 / baud``), which
+    decides when a chained table's upload must start. ``poll_s`` is the monitoring period
+    (clock seconds; default: half the step period, within 1..5 s). ``follow_tol_deg`` is how
+    far outside the recently commanded points the antenna may read before it counts as not
+    following (twice in a row → stall).
+    """
+
+    def __init__(self, driver, clock: Clock, *, baud: int = 9600, poll_s: float | None = None,
+                 follow_tol_deg: float = 4.0, follow_window_s: float = 40.0,
+                 log: Callable[[str], None] | None = None, monitor: bool = True):
+        self.driver = driver
+        self.clock = clock
+        self.baud = int(baud)
+        self.poll_s = poll_s
+        self.follow_tol_deg = float(follow_tol_deg)
+        self.follow_window_s = float(follow_window_s)
+        self.log = log or (lambda _msg: None)
+        self.monitor = monitor
+        self.report = UploadReport()
+        self._misses = 0
+
+    # Public --------------------------------------------------------------------------------
+
+    def run(self, tables: Sequence[StepTable], *, detach: bool = False) -> UploadReport:
+        if not tables:
+            raise ConfigError("nothing to upload: no tables")
+        if detach and len(tables) > 1:
+            raise ConfigError(f"--detach needs a single table but this pass needs "
+                              f"{len(tables)} chained ones (the host sends each next table); "
+                              f"use a longer --interval or stay attached")
+        for table in tables:
+            table.lines()  # refuse anything over the limits before a single byte is sent
+        ok = False
+        try:
+            if tables[0].profile.lines_append:
+                # K3NG appends W lines to whatever list is left: S clears it first.
+                self.driver.stop()
+            for k, table in enumerate(tables):
+                nxt = tables[k + 1].upload_t_s if k + 1 < len(tables) else None
+                self._run_one(table, k, len(tables), detach, nxt)
+                if self.report.detached:
+                    ok = True
+                    return self.report
+            ok = True
+            return self.report
+        finally:
+            if not (ok and self.report.detached):
+                self._all_stop(quiet=not ok)
+
+    # Steps ---------------------------------------------------------------------------------
+
+    def _run_one(self, table: StepTable, k: int, n: int, detach: bool,
+                 next_upload_t_s: float | None) -> None:
+        self._wait_until(table.upload_t_s)
+        self._upload(table, f"table {k + 1}/{n}")
+        self._send_t(table)
+        if detach:
+            self.report.detached = True
+            self.log("detached after T: the controller steps through the table by itself")
+            return
+        until = next_upload_t_s if next_upload_t_s is not None else table.end_t_s
+        if self.monitor:
+            self._monitor(table, until)
+        else:
+            self._wait_until(until)
+
+    def _upload(self, table: StepTable, what: str) -> None:
+        lines = table.lines()
+        nbytes = sum(len(line) + 1 for line in lines)
+        wire_s = nbytes * BITS_PER_BYTE / self.baud
+        t0 = self.clock.monotonic()
+        r0 = time.perf_counter()  # real elapsed time of the I/O itself, for the report
+        for line in lines:
+            self._send_line(table, line)
+        upload_s = self.clock.monotonic() - t0
+        self.report.uploads.append({"what": what, "points": len(table), "bytes": nbytes,
+                                    "wire_s": wire_s, "upload_s": upload_s,
+                                    "upload_real_s": time.perf_counter() - r0})
+        self.report.tables_sent += 1
+        self.log(f"uploaded {what}: {len(table)} points, {nbytes} bytes in "
+                 f"{upload_s:.2f} s (wire time at {self.baud} baud {wire_s:.2f} s)")
+
+    def _send_line(self, table: StepTable, line: str) -> None:
+        # The driver encodes the same line from the points (shared codec) and applies the
+        # profile's flow control and pacing; cross-check so what we logged is what went out.
+        from tracker.steptable import parse_table_line
+
+        kind, sss, nums = parse_table_line(line)
+        points = list(zip(nums[0::2], nums[1::2], strict=True)) if kind == "W" else nums
+        self.driver.upload_table(sss, points)
+
+    def _send_t(self, table: StepTable) -> None:
+        self._wait_until(table.start_t_s)
+        self.driver.start_table()
+        late = self.clock.timestamp() - table.start_t_s
+        self.report.t_late_s.append(late)
+        self.log(f"T sent ({late * 1000:+.0f} ms)")
+
+    def _monitor(self, table: StepTable, until_t_s: float) -> None:
+        active = table
+        poll = self.poll_s or float(np.clip(table.period_s / 2.0, 1.0, 5.0))
+        while True:
+            now = self.clock.timestamp()
+            if now >= until_t_s - 1e-3:
+                return
+            self.clock.sleep(min(poll, until_t_s - now))
+            now = self.clock.timestamp()
+            if now >= until_t_s - 1e-3:
+                return
+            problem = self._check_status(active, now)
+            if problem:
+                rest = self._resync(active, problem)
+                if rest is None:  # one point left, sent short-form: nothing to step through
+                    self._wait_until(until_t_s)
+                    return
+                active = rest
+                continue
+            self._check_follows(active)
+
+    def _check_status(self, table: StepTable, now: float) -> str | None:
+        """None if N agrees with the host clock, else what is wrong."""
+        if table.profile.clears_at_end and now >= table.end_t_s - INDEX_SLACK_S:
+            return None  # the list is gone after the last step by design (K3NG)
+        t_before = self.clock.timestamp()
+        try:
+            current, total = self.driver.table_status()
+        except ProtocolError as e:
+            return f"controller has no table any more (power cycle or reset?): {e}"
+        t_after = self.clock.timestamp()
+        self.report.polls += 1
+        if total != len(table):
+            return f"controller holds {total} of {len(table)} points (truncated upload)"
+        if current is None:
+            return None
+        lo = table.index_at(t_before - INDEX_SLACK_S)
+        hi = table.index_at(t_after + INDEX_SLACK_S)
+        if not lo <= current <= hi:
+            return (f"controller is on point {current}, the host clock says {lo}"
+                    + (f"..{hi}" if hi != lo else "") + " (drift or a lost step)")
+        return None
+
+    def _resync(self, table: StepTable, problem: str) -> StepTable | None:
+        self.report.resyncs.append(problem)
+        self.log(f"resync: {problem}")
+        if len(self.report.resyncs) > MAX_RESYNCS:
+            raise RotatorIOError(f"gave up after {MAX_RESYNCS} resyncs; last problem: "
+                                 f"{problem}. The rotator was stopped")
+        now = self.clock.timestamp()
+        wire_s = table.wire_time_s(self.baud)
+        rest = table.remaining_from(now, wire_s)
+        if rest is None:
+            last = table.points[-1]
+            az, el = (last if table.kind == "W" else (last, None))
+            self.driver.goto(az, el)
+            self.log("resync: one point left, sent it as a short command")
+            return None
+        self._upload(rest, f"resync ({len(rest)} remaining points)")
+        self._send_t(rest)
+        return rest
+
+    def _check_follows(self, table: StepTable) -> None:
+        """C2 must read within the span of the recently commanded points (± tolerance)."""
+        if not np.isfinite(table.end_t_s) or len(table) == 0:
+            return
+        now = self.clock.timestamp()
+        times = table.command_times()
+        if now < table.start_t_s:
+            return
+        recent = (times >= now - self.follow_window_s - table.period_s) & (times <= now)
+        recent[max(np.searchsorted(times, now, side="right") - 1, 0)] = True
+        try:
+            az, el = self.driver.position()
+        except ProtocolError as e:
+            self.log(f"C2 unreadable: {e}")
+            return
+        az_pts = np.asarray(table.az_deg)[recent].astype(float)
+        bad = _outside(az, az_pts, self.follow_tol_deg, wrap=True)
+        if table.kind == "W" and el is not None:
+            el_pts = np.asarray(table.el_deg)[recent].astype(float)
+            bad = bad or _outside(el, el_pts, self.follow_tol_deg, wrap=False)
+        self._misses = self._misses + 1 if bad else 0
+        if self._misses >= 2:
+            msg = (f"the antenna is not following the table: reads az {az:g}"
+                   + ("" if el is None else f" el {el:g}")
+                   + f", commanded az {az_pts.min():g}..{az_pts.max():g}; stopped the rotator."
+                   " Check the motors, the control box power and the cabling")
+            self._all_stop(quiet=True)
+            raise StallError(msg)
+
+    # Helpers ------------------------------------------------------------------------------
+
+    def _wait_until(self, t_s: float) -> None:
+        # Sleep in slices so a Ctrl-C lands promptly even with a long wait before AOS.
+        while True:
+            left = t_s - self.clock.timestamp()
+            if left <= 0:
+                return
+            self.clock.sleep(min(left, 1.0))
+
+    def _all_stop(self, quiet: bool) -> None:
+        try:
+            self.driver.stop()
+            self.report.stopped = True
+            self.log("all-stop sent")
+        except TrackerError:
+            if not quiet:
+                raise
+
+
+def _outside(value: float, points: np.ndarray, tol: float, wrap: bool) -> bool:
+    lo, hi = float(points.min()) - tol, float(points.max()) + tol
+    candidates = (value, value + 360.0, value - 360.0) if wrap else (value,)
+    return not any(lo <= v <= hi for v in candidates)
+
+
+
+def resume_schedule(tables: Sequence[StepTable], now_s: float, baud: int = 9600
+                    ) -> list[StepTable]:
+    """The tables still to send at ``now_s``: finished ones dropped, a started one resumed
+    from the point due when a fresh upload lands. Raises ConfigError if the pass is over."""
+    out: list[StepTable] = []
+    for table in tables:
+        if table.end_t_s <= now_s:
+            continue
+        if table.upload_t_s >= now_s:
+            out.append(table)
+            continue
+        rest = table.remaining_from(now_s, table.wire_time_s(baud))
+        if rest is not None:
+            out.append(rest)
+    if not out:
+        raise ConfigError("the pass in this plan is over; nothing left to send. Plan the next "
+                          "pass (`tracker plan ... --steptable FILE`)")
+    return out
