@@ -8,8 +8,8 @@ import time
 from datetime import datetime
 
 import pytest
+from _gs232_helpers import T0, wait_until
 
-from tests._gs232_helpers import T0, wait_until
 from tracker.clock import SimClock
 from tracker.emulator import Gs232Controller, serve_pty, serve_tcp
 from tracker.errors import LimitError, PortLostError
@@ -214,3 +214,21 @@ def test_hardware_position_and_stop():
         az, _el = d.position()
         assert -5 <= az <= 455
         d.stop()
+
+
+def test_autobaud_handshake(kind):
+    from tracker.emulator import EmulatorOptions
+    from tracker.errors import RotatorTimeout
+
+    r = Rig(kind, "gs232b", options=EmulatorOptions(autobaud=True))
+    try:
+        with open_driver(r.server.url, "gs232b", timeout_s=0.5, autobaud=True) as d:
+            assert d.position() == (0.0, 0.0)
+        r.ctrl.faults.deaf = True            # a unit that never says Connect OK
+        t0 = time.monotonic()
+        with open_driver(r.server.url, "gs232b") as d, \
+                pytest.raises(RotatorTimeout, match="Connect OK"):
+            d.autobaud(attempts=3, interval_s=0.1)
+        assert time.monotonic() - t0 < 2
+    finally:
+        r.close()

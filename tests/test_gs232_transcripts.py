@@ -10,8 +10,8 @@ import time
 from datetime import datetime
 
 import pytest
+from _gs232_helpers import T0, TRANSCRIPTS, load_transcript, wait_until
 
-from tests._gs232_helpers import T0, TRANSCRIPTS, load_transcript, wait_until
 from tracker.clock import ManualClock
 from tracker.emulator import Gs232Controller, serve_pty, serve_tcp
 from tracker.mount import preset

@@ -278,6 +278,13 @@ class AxisMotor:
 
     def position(self, t_s):
         """Position at time(s) ``t_s`` >= the last command (scalar or array)."""
+        if isinstance(t_s, (float, int)):  # scalar fast path (emulator ticks, command())
+            if self.jammed:
+                return float(self._p0)
+            dist = self._target - self._p0
+            travelled = min(max((t_s - self._t0 - self._delay) * self.rate_deg_s, 0.0),
+                            abs(dist))
+            return self._p0 + math.copysign(travelled, dist)
         t = np.asarray(t_s, dtype=float)
         if self.jammed:
             return np.full(t.shape, self._p0) if t.ndim else float(self._p0)
@@ -448,12 +455,13 @@ def predict_axis(axis: AxisMotor, cmd_t_s, cmd_deg, t_eval_s) -> tuple[np.ndarra
     k = 0
     while k < len(overlap_idx):
         j = int(overlap_idx[k])
-        _rest_at(axis, float(prev[j]), cmd_t[j])
+        _rest_at(axis, float(prev[j]), float(cmd_t[j]))
         last = j
         while last < n:
-            was = axis.direction(cmd_t[last])
-            axis.command(cmd[last], cmd_t[last])
-            if axis.direction(cmd_t[last]) not in (0, was):
+            tc = float(cmd_t[last])
+            was = axis.direction(tc)
+            axis.command(float(cmd[last]), tc)
+            if axis.direction(tc) not in (0, was):
                 starts += 1
             lo = np.searchsorted(t_eval, cmd_t[last], side="left")
             hi = np.searchsorted(t_eval, next_t[last], side="left")
@@ -468,8 +476,8 @@ def predict_axis(axis: AxisMotor, cmd_t_s, cmd_deg, t_eval_s) -> tuple[np.ndarra
             k += 1
     if not overlap[n - 1]:
         # Leave the axis where the last command put it, as simulate_commands would.
-        _rest_at(axis, float(prev[-1]), cmd_t[-1])
-        axis.command(cmd[-1], cmd_t[-1])
+        _rest_at(axis, float(prev[-1]), float(cmd_t[-1]))
+        axis.command(float(cmd[-1]), float(cmd_t[-1]))
     return out, starts
 
 

@@ -265,7 +265,7 @@ def _commanded(ctx: _Ctx, m: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.
         e = np.interp(t + ctx.lead_s, t, e)
     qa = np.clip(np.round(m / res) * res, 0.0, spec.az_span_deg)
     if not spec.has_elevation:
-        return qa, np.zeros_like(qa)
+        return qa + 0.0, np.zeros_like(qa)
     qe = np.clip(np.round(e / res) * res, spec.el_min_deg, spec.el_max_deg)
     b = spec.bearing_of(qa)
     low_side = np.ceil(np.asarray(ctx.station.horizon_at(b)) / res - 1e-9) * res
@@ -282,7 +282,7 @@ def _commanded(ctx: _Ctx, m: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.
             lift = math.ceil(ctx.mask_max_deg / res) * res
             qe[win] = np.where(qe[win] <= 90.0, np.maximum(qe[win], lift),
                                np.minimum(qe[win], 180.0 - lift))
-    return qa, np.clip(qe, spec.el_min_deg, spec.el_max_deg)
+    return qa + 0.0, np.clip(qe, spec.el_min_deg, spec.el_max_deg) + 0.0  # no -0.0
 
 
 def _evaluate(ctx: _Ctx, mode: str, m: np.ndarray, e: np.ndarray, fits: bool,
@@ -326,12 +326,16 @@ def _shifted_candidates(ctx: _Ctx, bearing: np.ndarray, el: np.ndarray,
     spec, ia, ib = ctx.spec, ctx.ia, ctx.ib
     e = _hold(el, ia, ib)
     out = []
-    for m_raw in _unwrapped(spec, bearing, ia, ib):
-        out += _shift_variants(ctx, m_raw, e, flip)
+    for i, m_raw in enumerate(_unwrapped(spec, bearing, ia, ib)):
+        out += _shift_variants(ctx, m_raw, e, flip, OTHER_WAY if i else "")
     return out
 
 
-def _shift_variants(ctx: _Ctx, m_raw: np.ndarray, e: np.ndarray, flip: bool) -> list[_Result]:
+OTHER_WAY = "turning the other way round at culmination, "
+
+
+def _shift_variants(ctx: _Ctx, m_raw: np.ndarray, e: np.ndarray, flip: bool,
+                    prefix: str = "") -> list[_Result]:
     spec, ia, ib = ctx.spec, ctx.ia, ctx.ib
     ks, fits = _shifts(spec, m_raw[ia:ib + 1])
     out = []
@@ -342,7 +346,7 @@ def _shift_variants(ctx: _Ctx, m_raw: np.ndarray, e: np.ndarray, flip: bool) -> 
             mode = "flip"
         else:
             mode = "overlap" if fits and m_vis.max() > 360.0 + 1e-6 else "normal"
-        note = (f"mech az {m_vis.min():.0f}..{m_vis.max():.0f}"
+        note = (f"{prefix}mech az {m_vis.min():.0f}..{m_vis.max():.0f}"
                 + ("" if fits else f", clamped at the stops (needs "
                    f"{m_vis.max() - m_vis.min():.0f} deg from mech {m_vis.min():.0f})"))
         if flip and spec.el_max_deg < 180.0 - 1e-9:

@@ -719,7 +719,7 @@ def format_plan_file(program: StepProgram, header: dict | None = None) -> str:
            "# every other line is sent as is, followed by CR. Send T at t_utc.",
            f"# profile: {program.profile.name}",
            f"# rotator: {program.spec.name}"]
-    for key in ("station", "target", "element_epoch"):
+    for key in ("station", "target", "element_epoch", "mode"):
         if key in info:
             out.append(f"# {key}: {info[key]}")
     out += [f"# interval_s: {program.interval_s} (steps every {program.period_s:g} s)",
@@ -786,10 +786,10 @@ def read_plan_file(path: str | Path) -> PlanFile:
         if cur is None:
             raise ConfigError(f"{where}: command line before any '# table' header")
         if line.upper() == "T":
-            tables.append(_table_from_lines(cur, profile, where))
+            tables.append(_table_from_lines(cur, profile, path, no))
             cur = None
             continue
-        cur["lines"].append(line)
+        cur["lines"].append((no, line))
     if cur is not None:
         raise ConfigError(f"{path}: the last table has no T line (file cut short?)")
     if not tables:
@@ -809,13 +809,15 @@ def parse_table_line(line: str) -> tuple[str, int, list[int]]:
     return kind, nums[0], nums[1:]
 
 
-def _table_from_lines(cur: dict, profile: TableProfile, where: str) -> StepTable:
+def _table_from_lines(cur: dict, profile: TableProfile, path: Path, t_no: int
+                      ) -> StepTable:
     kinds, intervals, values = set(), set(), []
-    for line in cur["lines"]:
+    where = f"{path}:{t_no}"
+    for no, line in cur["lines"]:
         try:
             kind, sss, nums = parse_table_line(line)
         except ValueError:
-            raise ConfigError(f"{where}: not a long-form W/M line: {line[:40]!r}; expected "
+            raise ConfigError(f"{path}:{no}: not a long-form W/M line: {line[:40]!r}; expected "
                               f"'Wsss aaa eee ...' or 'Msss aaa ...' with 3-digit numbers"
                               ) from None
         kinds.add(kind)
@@ -832,7 +834,7 @@ def _table_from_lines(cur: dict, profile: TableProfile, where: str) -> StepTable
         az, el = np.array(values), None
     table = StepTable(kind, sss, float(profile.period_s(sss)), az, el, cur["upload"],
                       cur["arrive"], cur["start"], profile)
-    if table.lines() != cur["lines"]:
+    if table.lines() != [line for _, line in cur["lines"]]:
         raise ConfigError(f"{where}: table lines are not in the controller's exact format "
                           f"(regenerate the file with `tracker plan --steptable`)")
     return table

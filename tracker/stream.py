@@ -55,7 +55,7 @@ class StreamSettings:
     deadband_deg: float = 4.0
     cycle_s: float = 0.5
     park_after_pass: bool = True
-    stall_travel_deg: float = 3.0     # expected travel with no motion seen → stall
+    stall_travel_deg: float = 2.0     # expected travel with no motion seen → stall
     contradiction_deg: float = 20.0   # read-back this far from belief → not trusted
     settle_readings: int = 2          # agreeing read-backs needed after a contradiction
     reconnect_initial_s: float = 0.5

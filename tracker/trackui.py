@@ -94,7 +94,7 @@ class PlainLines:
                 self._line("command  all-stop")
             else:
                 el = data.get("el")
-                el_s = "" if el is None else f" el {el:5.1f}"
+                el_s = "" if el is None else f" el {el + 0.0:5.1f}"
                 extra = f"  ({data['clamped']})" if data.get("clamped") else ""
                 self._line(f"command  {data.get('reason', ''):<11} az {data['az']:5.1f}{el_s}"
                            f"{extra}")

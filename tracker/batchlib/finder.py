@@ -136,10 +136,11 @@ def _sgp4_pairs(job: _Job, sat: np.ndarray, tau: np.ndarray, kind: str = "sgp4_r
     v = np.empty((m, 3))
     if m == 0:
         return err, r, v
-    order = np.argsort(sat, kind="stable")
-    s_sorted = sat[order]
+    presorted = bool(np.all(sat[1:] >= sat[:-1]))
+    order = np.arange(m) if presorted else np.argsort(sat, kind="stable")
+    s_sorted = sat if presorted else sat[order]
     jd = np.full(m, job.jd0)
-    fr = job.fr(tau[order])
+    fr = job.fr(tau if presorted else tau[order])
     cuts = np.flatnonzero(np.diff(s_sorted)) + 1
     starts = np.concatenate([[0], cuts]).tolist()
     ends = np.concatenate([cuts, [m]]).tolist()
@@ -149,7 +150,10 @@ def _sgp4_pairs(job: _Job, sat: np.ndarray, tau: np.ndarray, kind: str = "sgp4_r
     satrecs = job.satrecs
     for a, b in zip(starts, ends, strict=True):
         e_s[a:b], r_s[a:b], v_s[a:b] = satrecs[s_sorted[a]].sgp4_array(jd[a:b], fr[a:b])
-    err[order], r[order], v[order] = e_s, r_s, v_s
+    if presorted:
+        err, r, v = e_s, r_s, v_s
+    else:
+        err[order], r[order], v[order] = e_s, r_s, v_s
     job.stats[kind] = job.stats.get(kind, 0) + m
     job.note_errors(sat, tau, err)
     return err, r, v
@@ -204,6 +208,9 @@ def _solve(job: _Job, sat, st: int, lo, hi, g_lo, g_hi, guess, want_rate: bool):
     so every bracket converges. Returns (tau, el, az, r_teme) at the last evaluated point.
     """
     n = len(sat)
+    # Sorted by satellite, every iteration's SGP4 calls group without another sort.
+    order = np.argsort(sat, kind="stable")
+    sat, lo, hi, g_lo, guess = sat[order], lo[order], hi[order], g_lo[order], guess[order]
     tau = np.clip(guess, lo, hi)
     out_el, out_az, out_r = np.zeros(n), np.zeros(n), np.zeros((n, 3))
     lo, hi, g_lo = lo.copy(), hi.copy(), g_lo.copy()
@@ -236,7 +243,9 @@ def _solve(job: _Job, sat, st: int, lo, hi, g_lo, g_hi, guess, want_rate: bool):
         done = (np.abs(x_new - x) < job.tol_s) | (b_ - a_ < job.tol_s) | (g == 0)
         tau[active] = np.where(done, x, x_new)
         active = active[~done]
-    return tau, out_el, out_az, out_r
+    back = np.empty_like(order)
+    back[order] = np.arange(n)
+    return tau[back], out_el[back], out_az[back], out_r[back]
 
 
 def _coarse_candidates(job: _Job, r, valid, tau_c, coarse_s, r_apo, screenable):
@@ -398,23 +407,13 @@ def _refine_station_chunk(job: _Job, b: dict):
 
 def _assemble(job: _Job, st: int, ev: dict, mx: dict) -> np.ndarray:
     """Pair AOS with the next LOS per satellite, attach the highest maximum, set Sun flags."""
-    span = job.window_s + 1e4
-    comb = ev["sat"] * span + ev["tau"]
-    a = ev["kind"] == 0
-    a_idx = np.flatnonzero(a)[np.argsort(comb[a], kind="stable")]
-    l_idx = np.flatnonzero(~a)[np.argsort(comb[~a], kind="stable")]
-    k = np.searchsorted(comb[l_idx], comb[a_idx], "left")
-    good = k < len(l_idx)
-    k = np.minimum(k, max(len(l_idx) - 1, 0))
-    if len(l_idx):
-        good &= ev["sat"][l_idx[k]] == ev["sat"][a_idx]
-    else:
-        good[:] = False
-    # An AOS followed by another AOS before any LOS would share a LOS: keep the first only.
-    dup = np.zeros(len(a_idx), bool)
-    dup[1:] = good[1:] & good[:-1] & (k[1:] == k[:-1])
-    good &= ~dup
-    a_idx, l_idx = a_idx[good], l_idx[k[good]]
+    # Integer keys (satellite, microsecond) keep the pairing independent of how satellites
+    # are numbered in this chunk, so every chunking gives the same passes.
+    comb = ev["sat"].astype(np.int64) * 10**13 + np.round(ev["tau"] * 1e6).astype(np.int64)
+    order = np.lexsort((ev["kind"], comb))
+    kind, sat_o = ev["kind"][order], ev["sat"][order]
+    is_pass = (kind[:-1] == 0) & (kind[1:] == 1) & (sat_o[:-1] == sat_o[1:])
+    a_idx, l_idx = order[:-1][is_pass], order[1:][is_pass]
     n = len(a_idx)
     rows = np.zeros(n, PASS_DTYPE)
     rows["sat"] = ev["sat"][a_idx]
@@ -429,7 +428,8 @@ def _assemble(job: _Job, st: int, ev: dict, mx: dict) -> np.ndarray:
     rows["tca_az_deg"] = ev["az"][t_idx]
     tca_r = ev["r"][t_idx]
     if n and len(mx["sat"]):
-        m_comb = mx["sat"] * span + mx["tau"]
+        m_comb = (mx["sat"].astype(np.int64) * 10**13
+                  + np.round(mx["tau"] * 1e6).astype(np.int64))
         pa = comb[a_idx]
         order = np.argsort(pa, kind="stable")
         pi = np.searchsorted(pa[order], m_comb, "right") - 1
@@ -472,7 +472,7 @@ def _to_utc(t: datetime) -> datetime:
 
 def find_passes_block(satrecs, names, stations, start, end, min_el_deg=None, *,
                       step_s: float = 240.0, tol_s: float = 1e-3, memory_mb: float = 256.0,
-                      sat_offset: int = 0) -> PassTable:
+                      ) -> PassTable:
     """One time block of :func:`find_passes_batch` (no joining across blocks)."""
     start, end = _to_utc(start), _to_utc(end)
     window_s = (end - start).total_seconds()
@@ -507,11 +507,10 @@ def find_passes_block(satrecs, names, stations, start, end, min_el_deg=None, *,
     t0 = start.timestamp()
     for key in ("aos_s", "tca_s", "los_s"):
         passes[key] += t0
-    passes["sat"] += sat_offset
     passes = passes[np.lexsort((passes["station"], passes["sat"], passes["aos_s"]))]
     errors = []
     for s, (tau, code) in sorted(job.errors.items()):
-        errors.append(SatError(s + sat_offset, names[s], code, SGP4_ERRORS.get(code, "error"),
+        errors.append(SatError(s, names[s], code, SGP4_ERRORS.get(code, "error"),
                                t0 + tau))
     return PassTable(passes, list(names), list(stations), start, end, errors, stats)
 
@@ -556,6 +555,8 @@ def merge_tables(tables: list[PassTable], names, stations, start, end) -> PassTa
 
 def time_blocks(start: datetime, end: datetime, block_days: float):
     """Consecutive [a, b) blocks covering the window, each at most ``block_days`` long."""
+    if not (0.01 <= block_days <= 10.0):
+        raise ConfigError(f"block_days = {block_days!r} is invalid; allowed: 0.01 to 10")
     start, end = _to_utc(start), _to_utc(end)
     if not end > start:
         raise ConfigError(f"the window end {end.isoformat()} must be after its start "
@@ -570,24 +571,62 @@ def time_blocks(start: datetime, end: datetime, block_days: float):
     return out
 
 
+def remap(table: PassTable, ids, names, stations) -> PassTable:
+    """A table computed on the satellite subset ``ids`` re-indexed to the full list."""
+    ids = np.asarray(ids)
+    passes = table.passes.copy()
+    passes["sat"] = ids[passes["sat"]]
+    errors = [SatError(int(ids[e.sat]), e.name, e.code, e.message, e.first_s)
+              for e in table.errors]
+    return PassTable(passes, list(names), list(stations), table.start, table.end, errors,
+                     table.stats)
+
+
+_FORKED: tuple | None = None
+
+
+def _forked_block(task):
+    ids, a, b, kwargs = task
+    satrecs, names, stations, min_el_deg = _FORKED  # type: ignore[misc]
+    return ids, find_passes_block([satrecs[i] for i in ids], [names[i] for i in ids],
+                                  stations, a, b, min_el_deg, **kwargs)
+
+
 def find_passes_batch(satrecs, names, stations, start: datetime, end: datetime,
                       min_el_deg: float | None = None, *, step_s: float = 240.0,
-                      tol_s: float = 1e-3, memory_mb: float = 256.0,
-                      block_days: float = 7.0) -> PassTable:
+                      tol_s: float = 0.01, memory_mb: float = 256.0,
+                      block_days: float = 7.0, workers: int = 1) -> PassTable:
     """Every pass of every satellite over every station in ``[start, end]``.
 
     ``satrecs``: sgp4 ``Satrec`` objects, ``names`` their names (same order); ``stations``:
     :class:`~tracker.station.Station` list; ``min_el_deg`` overrides each station's own
     minimum elevation (the horizon mask still applies). ``step_s`` is the fine sampling step,
-    ``tol_s`` the time tolerance of AOS/TCA/LOS, ``memory_mb`` the working-set budget.
+    ``tol_s`` the time tolerance of AOS/TCA/LOS, ``memory_mb`` the working-set budget per
+    process. ``workers > 1`` splits the satellites over forked processes (POSIX); the result
+    is identical because every satellite is computed independently.
     """
+    global _FORKED
     if len(satrecs) != len(names):
         raise ConfigError(f"{len(satrecs)} satellites but {len(names)} names")
     if not stations:
         raise ConfigError("no stations given")
     if not (10.0 <= step_s <= 600.0):
         raise ConfigError(f"step_s = {step_s!r} is invalid; allowed: 10 to 600 seconds")
-    tables = [find_passes_block(satrecs, names, stations, a, b, min_el_deg, step_s=step_s,
-                                tol_s=tol_s, memory_mb=memory_mb)
-              for a, b in time_blocks(start, end, block_days)]
+    kwargs = dict(step_s=step_s, tol_s=tol_s, memory_mb=memory_mb)
+    blocks = time_blocks(start, end, block_days)
+    if workers <= 1 or len(satrecs) < 2 * workers:
+        tables = [find_passes_block(satrecs, names, stations, a, b, min_el_deg, **kwargs)
+                  for a, b in blocks]
+    else:
+        import multiprocessing
+
+        ids = np.arange(len(satrecs))
+        tasks = [(ids[w::workers], a, b, kwargs) for a, b in blocks for w in range(workers)]
+        _FORKED = (list(satrecs), list(names), list(stations), min_el_deg)
+        try:
+            with multiprocessing.get_context("fork").Pool(workers) as pool:
+                results = pool.map(_forked_block, tasks)
+        finally:
+            _FORKED = None
+        tables = [remap(t, i, names, stations) for i, t in results]
     return merge_tables(tables, names, stations, _to_utc(start), _to_utc(end))

@@ -127,6 +127,9 @@ def station_from_args(args: argparse.Namespace, quiet: bool = False) -> Station:
             changes[key] = float(value)
     if getattr(args, "mask", None):
         changes["mask"] = HorizonMask.load(args.mask)
+    if config.station_is_default and not getattr(args, "station", None) and (
+            "lat_deg" in changes or "lon_deg" in changes):
+        changes["name"] = "command-line"
     if changes:
         try:
             station = replace(station, **changes)
@@ -150,8 +153,12 @@ def catalog_from_args(args: argparse.Namespace):
         return cached
     from tle.catalog import Catalog
 
+    def warn(message: str) -> None:  # a broken set is skipped with one line naming file:line
+        print(f"tracker: warning: {message}", file=sys.stderr)
+
     files = list(getattr(args, "tle", None) or [])
-    catalog = Catalog.load(files) if files else Catalog.default()
+    catalog = (Catalog.load(files, on_warning=warn) if files
+               else Catalog.default(on_warning=warn))
     group = getattr(args, "group", None)
     if group:
         catalog = catalog.group(group)

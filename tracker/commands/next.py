@@ -70,8 +70,8 @@ def run(args: argparse.Namespace) -> int:
     from tracker.commands.passes import warn_element_age
 
     now = clock_from_args(args, manual=True).now()
-    station = station_from_args(args)
     target = target_from_args(args.target, args)
+    station = station_from_args(args)
     warn_element_age([target], now)
     line, found = next_line(target, station, now, args.days)
     print(line)

@@ -129,8 +129,8 @@ def run(args: argparse.Namespace) -> int:
 
     clock = clock_from_args(args, manual=True)
     now = clock.now()
-    station = station_from_args(args, quiet=args.format != "table")
     targets = targets_from_args(args, now)
+    station = station_from_args(args, quiet=args.format != "table")
     end = now + timedelta(seconds=window_s(args))
     passes = collect_passes(targets, station, now, end)
     note = ephemeris_note()

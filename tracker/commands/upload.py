@@ -41,8 +41,9 @@ def register(sub) -> None:
     p.add_argument("--port", metavar="URL",
                    help="serial device or pyserial URL; omitted: simulate on the built-in "
                         "emulator")
-    p.add_argument("--protocol", default="gs232b",
-                   help="controller profile: gs232a, gs232b or k3ng (default gs232b)")
+    p.add_argument("--protocol", default=None,
+                   help="controller profile: gs232a, gs232b or k3ng (default gs232b, or the "
+                        "plan file's)")
     p.add_argument("--baud", type=int, default=9600, help="baud rate (default 9600)")
     how = p.add_mutually_exclusive_group()
     how.add_argument("--interval", type=int, metavar="S",
@@ -111,6 +112,9 @@ def run(args: argparse.Namespace) -> int:
     from tracker.steptable import format_plan_file, read_plan_file, table_profile
     from tracker.upload import resume_schedule
 
+    if args.from_file and not args.protocol:
+        args.protocol = read_plan_file(args.from_file).header.get("profile") or "gs232b"
+    args.protocol = args.protocol or "gs232b"
     table_profile(args.protocol)  # refuse a protocol without tables up front
     if args.now and not args.from_file:
         raise ConfigError("--now only applies to --from FILE")
@@ -119,7 +123,7 @@ def run(args: argparse.Namespace) -> int:
     if args.from_file:
         plan = read_plan_file(args.from_file)
         tables = list(plan.tables)
-        if plan.header.get("profile") and args.protocol != "gs232b" and \
+        if plan.header.get("profile") and \
                 plan.header["profile"] != table_profile(args.protocol).name:
             raise ConfigError(f"{args.from_file} was written for {plan.header['profile']}, "
                               f"not {args.protocol}")
@@ -207,3 +211,27 @@ def _send(args, tables, clock, simulate: bool, rotator: str) -> int:
 
 def _utc(clock) -> str:
     return clock.now().strftime("%H:%M:%S")
+
+
+def write_steptable_for_plan(plan, station, path: str, args: argparse.Namespace) -> None:
+    """``tracker plan ... --steptable FILE``: the pass as a GS-232B step-table plan file.
+
+    Uses the gs232b profile and the smallest interval that fits one table; for another
+    protocol or interval use ``tracker upload ... --dry-run [--protocol P] [--interval S]``,
+    which prints the same file format.
+    """
+    from tracker.steptable import compile_pass, write_plan_file
+
+    header = {"station": f"{station.name} lat {station.lat_deg:g} lon {station.lon_deg:g} "
+                         f"alt {station.alt_m:g} m",
+              "target": plan.track.name or getattr(args, "target", "")}
+    try:
+        sat = getattr(target_from_args(args.target, args), "satellite", None)
+        header["element_epoch"] = sat.epoch.utc_iso() if sat is not None else "n/a"
+    except Exception:  # the epoch is informative only; never fail the plan for it
+        header["element_epoch"] = "n/a"
+    current = tuple(args.current) if getattr(args, "current", None) else None
+    program = compile_pass(plan.track, plan.spec, station, "gs232b", current=current,
+                           meta=header)
+    write_plan_file(program, path)
+    print(f"step table written to {path}: {program.summary()}", file=sys.stderr)

@@ -1,0 +1,124 @@
+"""Pointing benchmark: the planner vs a Gpredict-style rule over the pass suite.
+
+Run: ``python benchmarks/pointing.py [--quick] [--rotator G-5500] [--mains-hz 50]``
+
+For every pass of the suite (bundled amateur + weather groups, 7 days, three stations, plus
+forced overhead passes) each policy plans the pass for the same rotator; both go through the
+same command quantisation, lead and motor model, so only the path policy differs. Prints,
+per policy: mode counts, max and p99 pointing error over all visible seconds, lost seconds
+(error > 5 deg while the target is up), passes with any loss, travel, and planning time per
+pass. Times are a ratio against the baseline measured in the same run.
+
+Add a policy by adding an entry to POLICIES: ``name -> fn(track, spec, station) -> MountPlan``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections import Counter
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from passsuite import SuitePass, pass_suite  # noqa: E402
+
+from tracker.mount import preset  # noqa: E402
+from tracker.planner import MountPlan, gpredict_plan, plan_pass  # noqa: E402
+
+
+def planner_policy(track, spec, station) -> MountPlan:
+    return plan_pass(track, spec, station)
+
+
+def gpredict_policy(track, spec, station) -> MountPlan:
+    return gpredict_plan(track, spec, station)
+
+
+POLICIES: dict[str, Callable] = {"planner": planner_policy, "gpredict-rule": gpredict_policy}
+
+
+def run_policy(fn: Callable, suite: list[SuitePass], spec) -> dict:
+    modes: Counter = Counter()
+    errors = []
+    lost_s = 0.0
+    lost_passes = 0
+    travel = 0.0
+    worst = (0.0, "")
+    t0 = time.perf_counter()
+    for sp in suite:
+        plan = fn(sp.track, spec, sp.station)
+        modes[plan.mode] += 1
+        errors.append(plan.error_deg[plan.visible])
+        lost_s += plan.lost_track_s
+        lost_passes += plan.lost_track_s > 0
+        travel += plan.travel_deg
+        if plan.max_error_deg > worst[0]:
+            worst = (plan.max_error_deg, f"{sp.meta['target']} @ {sp.meta['station']}")
+    elapsed = time.perf_counter() - t0
+    all_err = np.concatenate(errors)
+    return {"modes": modes, "max": float(all_err.max()), "p99": float(np.percentile(all_err, 99)),
+            "mean": float(all_err.mean()), "lost_s": lost_s, "lost_passes": lost_passes,
+            "travel": travel, "ms_per_pass": 1000 * elapsed / len(suite), "worst": worst,
+            "visible_s": float(len(all_err))}
+
+
+def print_table(results: dict[str, dict], n_passes: int) -> None:
+    names = list(results)
+    w = max(16, *(len(n) + 2 for n in names))
+    rows = [
+        ("passes", lambda r: f"{n_passes}"),
+        *[(f"mode {m}", (lambda m: lambda r: f"{r['modes'].get(m, 0)}")(m))
+          for m in ("normal", "overlap", "flip", "keyhole", "unwind")],
+        ("max error deg", lambda r: f"{r['max']:.2f}"),
+        ("p99 error deg", lambda r: f"{r['p99']:.2f}"),
+        ("mean error deg", lambda r: f"{r['mean']:.3f}"),
+        ("lost s (>5 deg)", lambda r: f"{r['lost_s']:.0f}"),
+        ("lost % of up", lambda r: f"{100 * r['lost_s'] / r['visible_s']:.3f}"),
+        ("passes with loss", lambda r: f"{r['lost_passes']}"),
+        ("travel deg/pass", lambda r: f"{r['travel'] / n_passes:.0f}"),
+        ("ms per pass", lambda r: f"{r['ms_per_pass']:.2f}"),
+    ]
+    print(f"{'':<20}" + "".join(f"{n:>{w}}" for n in names))
+    for label, fmt in rows:
+        print(f"{label:<20}" + "".join(f"{fmt(results[n]):>{w}}" for n in names))
+    base = names[-1]
+    for n in names[:-1]:
+        print(f"planning time ratio {n}/{base}: "
+              f"{results[n]['ms_per_pass'] / results[base]['ms_per_pass']:.2f}")
+    for n in names:
+        print(f"worst pass for {n}: {results[n]['worst'][0]:.1f} deg ({results[n]['worst'][1]})")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="1 day, 30 satellites per group")
+    ap.add_argument("--rotator", default="G-5500")
+    ap.add_argument("--mains-hz", type=int, default=50, choices=(50, 60))
+    ap.add_argument("--days", type=float, default=None)
+    args = ap.parse_args(argv)
+    spec = preset(args.rotator, args.mains_hz)
+    days = args.days or (1.0 if args.quick else 7.0)
+    t0 = time.perf_counter()
+    suite = pass_suite(days=days, max_sats=30 if args.quick else None)
+    real = sum(sp.meta["kind"] == "real" for sp in suite)
+    print(f"rotator {spec.name}: az {360 / spec.az_rate_deg_s:.0f} s/360, el "
+          f"{180 / spec.el_rate_deg_s:.0f} s/180, span {spec.az_span_deg:g}, el max "
+          f"{spec.el_max_deg:g}")
+    print(f"suite: {real} real passes (amateur + weather, {days:g} d, 3 stations) + "
+          f"{len(suite) - real} forced overhead; built in {time.perf_counter() - t0:.1f} s")
+    results = {name: run_policy(fn, suite, spec) for name, fn in POLICIES.items()}
+    print_table(results, len(suite))
+    overhead = [sp for sp in suite if sp.meta["kind"] == "overhead"]
+    print("\nforced overhead passes only:")
+    print_table({name: run_policy(fn, overhead, spec) for name, fn in POLICIES.items()},
+                len(overhead))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,202 @@
+"""Streaming benchmark: the live loop's policy vs a Gpredict-style loop on a simulated G-5500.
+
+Run: ``python benchmarks/streaming.py [--days 1] [--max-sats 30] [--deadband 3]``
+
+Both policies fly every pass of the pass suite (benchmarks/passsuite.py) against the same
+simulated rotator (THE motor model, tracker.mount, G-5500 at 50 Hz rates), starting parked:
+
+* ``stream``: :class:`tracker.stream.TrackCore` exactly as ``tracker track`` runs it: the
+  planner's path (overlap / flip / keyhole chosen per pass), mask-safe pre-position, deadband
+  with the aim point chosen by :func:`tracker.aim.choose_aim`, read-back (integer degrees)
+  every 0.5 s cycle.
+* ``gpredict``: ANCHORS.md 3.2: 1 s cycle, 5 deg threshold per axis between the current target
+  and the read-back, lead = the furthest future point within the threshold (bisection), flip
+  only when el max is 180 (``maxel >= 180``), no overlap, targets clamped.
+
+Per policy: max / p99 great-circle pointing error over all visible time (sampled every
+0.25 s), lost-track seconds (error > 5 deg while up; also on the passes the planner calls
+followable), passes with max error <= 3 deg, motor starts and commands sent, and the
+simulation cost per pass (ratio against the baseline in the same run).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from passsuite import pass_suite
+
+from tracker.aim import AimPath, gpredict_aim
+from tracker.mount import AxisMotor, MotorModel, predict_axis, preset
+from tracker.planner import gpredict_plan, plan_pass
+from tracker.skytrack import angular_separation_deg
+from tracker.stream import StreamSettings, TrackCore, pass_window
+
+LOST_DEG = 5.0
+SAMPLE_S = 0.25
+
+
+def _readback(truth: MotorModel, t: float) -> tuple[float, float]:
+    az, el = truth.position(t)
+    return float(round(az)), float(round(el))
+
+
+def fly_stream(track, spec, station, deadband_deg: float, cycle_s: float = 0.5):
+    """The live loop's decisions against a simulated rotator; returns (cmd_t, az, el), plan."""
+    plan = plan_pass(track, spec, station, current=(spec.park_az_deg, spec.park_el_deg))
+    core = TrackCore(plan, track, spec, station,
+                     StreamSettings(deadband_deg=deadband_deg, cycle_s=cycle_s))
+    t = min(core.preposition_t_s, float(track.t_s[0])) - cycle_s
+    truth = MotorModel(spec, spec.park_az_deg, spec.park_el_deg, t)
+    cmds = []
+    while t <= core.los_s:
+        core.observe(t, *_readback(truth, t))
+        cmd = core.decide(t)
+        if cmd is not None:
+            truth.command(cmd.az_m_deg, cmd.el_deg, t)
+            core.commanded(t, cmd)
+            cmds.append((t, cmd.az_m_deg, cmd.el_deg))
+        t += cycle_s
+    return cmds, plan, t
+
+
+def fly_gpredict(track, spec, station, threshold_deg: float = 5.0, cycle_s: float = 1.0,
+                 t_start: float | None = None):
+    """Gpredict's rot_ctrl_timeout_cb loop (ANCHORS.md 3.2) on the Gpredict path rule."""
+    plan = gpredict_plan(track, spec, station, current=(spec.park_az_deg, spec.park_el_deg))
+    path = AimPath.from_plan(plan, spec, track)
+    aos_s, los_s = pass_window(track, station)
+    t = float(track.t_s[0]) if t_start is None else t_start
+    truth = MotorModel(spec, spec.park_az_deg, spec.park_el_deg, t)
+    res = spec.resolution_deg
+
+    def quantise(a, e):
+        return (min(max(round(a / res) * res, 0.0), spec.az_span_deg),
+                min(max(round(e / res) * res, spec.el_min_deg), spec.el_max_deg))
+
+    cmds = []
+    while t <= los_s:
+        set_az, set_el = path.at(max(t, path.start_s))
+        rot_az, rot_el = _readback(truth, t)
+        if abs(set_az - rot_az) > threshold_deg or abs(set_el - rot_el) > threshold_deg:
+            if t >= aos_s:
+                az, el = gpredict_aim(path, t, threshold_deg, cycle_s, quantise)
+            else:   # before AOS Gpredict sends the AOS azimuth at 0 deg (here: the AOS point)
+                az, el = quantise(set_az, set_el)
+            truth.command(az, el, t)
+            cmds.append((t, az, el))
+        t += cycle_s
+    return cmds, plan
+
+
+def measure(track, spec, station, cmds, t_start: float) -> dict:
+    """Replay the commands through the motor model; error against the real target."""
+    aos_s, los_s = pass_window(track, station)
+    ts = np.arange(aos_s, los_s + 1e-9, SAMPLE_S)
+    c = np.array(cmds, dtype=float) if cmds else np.zeros((0, 3))
+    az_axis = AxisMotor(0.0, spec.az_span_deg, spec.az_rate_deg_s, spec.start_delay_s,
+                        spec.resolution_deg, spec.park_az_deg, t_start)
+    el_axis = AxisMotor(spec.el_min_deg, spec.el_max_deg, spec.el_rate_deg_s,
+                        spec.start_delay_s, spec.resolution_deg, spec.park_el_deg, t_start)
+    if len(c):
+        az, starts_az = predict_axis(az_axis, c[:, 0], c[:, 1], ts)
+        el, starts_el = predict_axis(el_axis, c[:, 0], c[:, 2], ts)
+    else:
+        az, el, starts_az, starts_el = np.full(ts.shape, spec.park_az_deg), np.full(
+            ts.shape, spec.park_el_deg), 0, 0
+    taz, tel = track.direction_at(ts)
+    err = angular_separation_deg(spec.bearing_of(az), el, taz, tel)
+    return {"err": err, "lost_s": float(np.sum(err > LOST_DEG) * SAMPLE_S),
+            "starts": int(starts_az + starts_el), "commands": len(cmds)}
+
+
+def summarise(rows: list[dict], followable: np.ndarray) -> dict:
+    err = np.concatenate([r["err"] for r in rows])
+    per_max = np.array([r["err"].max() for r in rows])
+    lost = np.array([r["lost_s"] for r in rows])
+    return {"max": float(err.max()), "p99": float(np.percentile(err, 99)),
+            "mean": float(err.mean()), "lost_s": float(lost.sum()),
+            "lost_followable_s": float(lost[followable].sum()),
+            "passes_lost": int(np.sum(lost > 0)),
+            "le3": float(np.mean(per_max <= 3.0)), "starts": sum(r["starts"] for r in rows),
+            "commands": sum(r["commands"] for r in rows)}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--days", type=float, default=1.0)
+    ap.add_argument("--max-sats", type=int, default=30,
+                    help="satellites per group (0 = all)")
+    ap.add_argument("--deadband", type=float, default=3.0)
+    ap.add_argument("--rotator", default="G-5500")
+    ap.add_argument("--mains-hz", type=int, default=50, choices=(50, 60))
+    ap.add_argument("--overhead", type=int, default=24)
+    args = ap.parse_args(argv)
+    spec = preset(args.rotator, args.mains_hz)
+    t0 = time.perf_counter()
+    suite = pass_suite(days=args.days, max_sats=args.max_sats or None,
+                       n_overhead=args.overhead)
+    print(f"rotator {spec.name}: az {spec.az_rate_deg_s:.2f} deg/s, el "
+          f"{spec.el_rate_deg_s:.2f} deg/s, start delay {spec.start_delay_s:g} s, span "
+          f"{spec.az_span_deg:g}, el max {spec.el_max_deg:g}")
+    real = sum(sp.meta["kind"] == "real" for sp in suite)
+    print(f"suite: {real} real passes ({args.days:g} d, {args.max_sats or 'all'} sats/group, "
+          f"3 stations) + {len(suite) - real} forced overhead; built in "
+          f"{time.perf_counter() - t0:.1f} s")
+    rows = {"stream": [], "gpredict": []}
+    followable = []
+    cost = {"stream": 0.0, "gpredict": 0.0}
+    for sp in suite:
+        tr, st = sp.track, sp.station
+        t1 = time.perf_counter()
+        cmds, plan, _t = fly_stream(tr, spec, st, args.deadband)
+        t_start = min(plan.preposition_t_s, float(tr.t_s[0])) - 0.5
+        rows["stream"].append(measure(tr, spec, st, cmds, t_start))
+        t2 = time.perf_counter()
+        gcmds, _gplan = fly_gpredict(tr, spec, st, t_start=t_start)
+        rows["gpredict"].append(measure(tr, spec, st, gcmds, t_start))
+        t3 = time.perf_counter()
+        cost["stream"] += t2 - t1
+        cost["gpredict"] += t3 - t2
+        followable.append(plan.lost_track_s == 0)
+    followable = np.array(followable)
+    res = {k: summarise(v, followable) for k, v in rows.items()}
+    n = len(suite)
+    labels = [
+        ("passes", lambda r: f"{n}"),
+        ("max error deg", lambda r: f"{r['max']:.2f}"),
+        ("p99 error deg", lambda r: f"{r['p99']:.2f}"),
+        ("mean error deg", lambda r: f"{r['mean']:.2f}"),
+        ("lost s (>5 deg, all)", lambda r: f"{r['lost_s']:.1f}"),
+        ("lost s, followable", lambda r: f"{r['lost_followable_s']:.1f}"),
+        ("passes with loss", lambda r: f"{r['passes_lost']}"),
+        ("passes max<=3 deg %", lambda r: f"{100 * r['le3']:.1f}"),
+        ("motor starts", lambda r: f"{r['starts']}"),
+        ("starts per pass", lambda r: f"{r['starts'] / n:.1f}"),
+        ("commands sent", lambda r: f"{r['commands']}"),
+    ]
+    print(f"\n{'policy':<24}{'stream (D=' + format(args.deadband, 'g') + ')':>18}"
+          f"{'gpredict-style':>18}")
+    for label, fmt in labels:
+        print(f"{label:<24}{fmt(res['stream']):>18}{fmt(res['gpredict']):>18}")
+    print(f"followable passes (planner predicts no loss): {int(followable.sum())} of {n}")
+    print(f"simulation cost per pass: stream {1000 * cost['stream'] / n:.1f} ms, gpredict "
+          f"{1000 * cost['gpredict'] / n:.1f} ms (ratio "
+          f"{cost['stream'] / max(cost['gpredict'], 1e-9):.1f})")
+    s, g = res["stream"], res["gpredict"]
+    print("\ntargets: no lost s on followable passes: "
+          f"{'yes' if s['lost_followable_s'] == 0 else 'NO'}; max <= 3 deg on >= 99 % of "
+          f"passes: {'yes' if s['le3'] >= 0.99 else 'NO'} ({100 * s['le3']:.1f} %); fewer "
+          f"motor starts than gpredict-style: {'yes' if s['starts'] < g['starts'] else 'NO'} "
+          f"({s['starts']} vs {g['starts']})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

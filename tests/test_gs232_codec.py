@@ -1,0 +1,135 @@
+"""The GS-232 codec and line framer (pure functions, no I/O)."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from tracker.errors import ConfigError, LimitError, ProtocolError
+from tracker.protocols.framing import LineFramer
+from tracker.protocols.gs232 import (
+    PROFILES,
+    encode_goto,
+    encode_table,
+    format_position,
+    get_profile,
+    is_error_reply,
+    parse_elevation,
+    parse_position,
+    parse_table_status,
+)
+
+
+def test_encode_goto_three_digit_fields():
+    assert encode_goto(180, 45) == b"W180 045\r"
+    assert encode_goto(5.4, 0.6) == b"W005 001\r"
+    assert encode_goto(180.5, 10.5) == b"W180 010\r"     # half to even, as Hamlib's rint
+    assert encode_goto(450, 180) == b"W450 180\r"
+    assert encode_goto(90) == b"M090\r"
+
+
+@pytest.mark.parametrize(("az", "el"), [(-0.6, 0), (450.6, 0), (0, 180.6), (0, -1),
+                                        (float("nan"), 0), (float("inf"), 0), ("x", 0)])
+def test_encode_goto_refuses_out_of_range(az, el):
+    with pytest.raises(LimitError, match=r"nothing was sent|not a number"):
+        encode_goto(az, el)
+
+
+def test_encode_goto_honours_360_mode():
+    with pytest.raises(LimitError, match=re.escape("0..360")):
+        encode_goto(361, 0, az_max_deg=360)
+
+
+def test_encode_table_forms():
+    assert encode_table(10, [90, 180, 270]) == b"M010 090 180 270\r"
+    assert encode_table(1, [(10, 5), (20, 10)]) == b"W001 010 005 020 010\r"
+    for bad in (0, 1000, 2.5):
+        with pytest.raises(LimitError):
+            encode_table(bad, [1, 2])
+    with pytest.raises(LimitError):
+        encode_table(5, [])
+
+
+@pytest.mark.parametrize(("line", "want"), [
+    (b"AZ=143  EL=001", (143.0, 1.0)),
+    (b"AZ=143 EL=001\r\n", (143.0, 1.0)),
+    (b"AZ=330EL=000", (330.0, 0.0)),
+    (b"AZ=-001  EL=-002", (-1.0, -2.0)),
+    (b"AZ=0000EL=000", (0.0, 0.0)),
+    (b"AZ=0450EL=180", (450.0, 180.0)),
+    (b"AZ=229", (229.0, None)),
+    (b"+0179+0001", (179.0, 1.0)),
+    (b"+0123-0005", (123.0, -5.0)),
+    (b"+0450", (450.0, None)),
+])
+def test_parse_position_tolerant(line, want):
+    assert parse_position(line) == want
+
+
+@pytest.mark.parametrize("line", [b"", b"?>", b"AZ=", b"C2", b"AZ=12x EL=1", b"+0aaa+0eee",
+                                  b"\x00\xff"])
+def test_parse_position_rejects_keeping_raw(line):
+    with pytest.raises(ProtocolError) as ei:
+        parse_position(line)
+    assert ei.value.raw == line
+
+
+def test_elevation_and_table_status_and_error():
+    assert parse_elevation(b"EL=045") == 45.0
+    assert parse_elevation(b"+0045") == 45.0
+    assert parse_table_status(b"+0002+0010") == (2, 10)
+    assert parse_table_status(b"=0002=0010") == (2, 10)
+    assert parse_table_status(b"3") == (None, 3)
+    with pytest.raises(ProtocolError):
+        parse_table_status(b"?>")
+    assert is_error_reply(b"?>") and is_error_reply(b"? >") and not is_error_reply(b"AZ=1")
+
+
+@given(st.integers(-1, 450), st.integers(-2, 180), st.sampled_from(sorted(PROFILES)))
+def test_format_then_parse_round_trip(az, el, name):
+    prof = PROFILES[name]
+    assert parse_position(format_position(prof, "C2", az, el)) == (az, el)
+    assert parse_position(format_position(prof, "C", az, el))[0] == az
+
+
+def test_profile_lookup():
+    assert get_profile("GS232B").name == "gs232b"
+    with pytest.raises(ConfigError, match="known: gs232a"):
+        get_profile("yaesu")
+
+
+# Framer ----------------------------------------------------------------------------------------
+
+
+@given(st.lists(st.integers(1, 7), min_size=1, max_size=40))
+def test_framer_any_chunking_gives_same_lines(cuts):
+    stream = b"AZ=143  EL=001\r\n?>\r\n+0180+0045\r\nAZ=0"
+    f = LineFramer(b"\r\n", keep_empty=False)
+    lines, i, k = [], 0, 0
+    while i < len(stream):
+        n = cuts[k % len(cuts)]
+        lines += f.feed(stream[i:i + n])
+        i, k = i + n, k + 1
+    assert lines == [b"AZ=143  EL=001", b"?>", b"+0180+0045"]
+    assert f.pending == b"AZ=0"
+
+
+def test_framer_one_byte_at_a_time_and_two_in_one_chunk():
+    f = LineFramer(b"\r", ignore=b"\n")
+    out = []
+    for b in b"C2\r\n":
+        out += f.feed(bytes([b]))
+    assert out == [b"C2"]
+    assert f.feed(b"C2\rW180 045\r\r") == [b"C2", b"W180 045", b""]
+
+
+def test_framer_line_limit():
+    f = LineFramer(b"\r", max_line=16)
+    with pytest.raises(ProtocolError, match="longer than 16"):
+        f.feed(b"x" * 17)
+    assert f.feed(b"ok\r") == [b"ok"]   # usable again after the error
+    big = LineFramer(b"\r")
+    assert big.feed(b"M" + b"1" * 20000 + b"\r") == [b"M" + b"1" * 20000]

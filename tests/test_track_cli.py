@@ -1,0 +1,95 @@
+"""``tracker track`` from the command line: the demo, errors, and Ctrl-C over a real socket."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from datetime import datetime, timezone
+
+import pytest
+
+from tracker.cli import main
+from tracker.clock import SimClock
+from tracker.emulator import Gs232Controller, serve_tcp
+from tracker.mount import preset
+
+# A pass of ISS (ZARYA) over the default station with the bundled elements: AOS ~02:07:45.
+AT = "2026-08-23T02:05:00Z"
+
+
+def _config(tmp_path) -> str:
+    """An empty config file: the default station and rotator, never the user's own."""
+    path = tmp_path / "empty.toml"
+    path.write_text("")
+    return str(path)
+
+
+def _env(tmp_path):
+    env = dict(os.environ)
+    env["TRACKER_CONFIG"] = _config(tmp_path)
+    return env
+
+
+def test_demo_runs_a_whole_pass_on_the_builtin_emulator(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("TRACKER_CONFIG", _config(tmp_path))
+    log = tmp_path / "track.jsonl"
+    rc = main(["track", "ISS (ZARYA)", "--at", AT, "--speed", "150", "--plain",
+               "--log", str(log)])
+    out = capsys.readouterr().out
+    assert rc == 0
+    assert "SIMULATION" in out and "emulator" in out
+    assert "pass 1:" in out and "commands sent" in out
+    recs = [json.loads(line) for line in log.read_text().splitlines()]
+    kinds = {r["kind"] for r in recs}
+    assert {"command", "reply", "state"} <= kinds
+    gotos = [r for r in recs if r["kind"] == "command" and r["cmd"] == "goto"]
+    assert gotos[0]["reason"] == "preposition" and gotos[-1]["reason"] == "park"
+    done = [r for r in recs if r.get("state") == "pass_done"][0]
+    assert done["commands"] == len(gotos)
+    assert done["max_error_deg"] < 8.0
+    assert all(r["t"].endswith("Z") for r in recs)
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["track", "NO SUCH SATELLITE 12345", "--at", AT], "NO SUCH SATELLITE"),
+    (["track", "ISS (ZARYA)", "--at", AT, "--deadband", "99"], "--deadband"),
+    (["track", "ISS (ZARYA)", "--port", "/dev/does-not-exist-h8"], "does-not-exist"),
+])
+def test_bad_input_is_one_line_and_exit_2(argv, needle, tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("TRACKER_CONFIG", _config(tmp_path))
+    rc = main(argv)
+    err = capsys.readouterr().err
+    assert rc == 2
+    lines = [ln for ln in err.splitlines() if ln.startswith("tracker: error:")]
+    assert len(lines) == 1 and needle in lines[0]
+    assert "Traceback" not in err
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_signal_mid_pass_sends_all_stop_last(sig, tmp_path):
+    speed = 20.0
+    clock = SimClock(datetime(2026, 8, 23, 2, 5, tzinfo=timezone.utc), speed)
+    ctl = Gs232Controller("gs232b", preset("G-5500"), clock=clock)
+    server = serve_tcp(ctl)
+    try:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "tracker", "track", "ISS (ZARYA)", "--port", server.url,
+             "--at", AT, "--speed", str(speed), "--plain"],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=_env(tmp_path), text=True)
+        deadline = time.monotonic() + 40
+        while time.monotonic() < deadline and not ctl.moving():
+            time.sleep(0.05)   # wait until the tracker has the antenna turning
+        assert ctl.moving(), "the tracker never moved the antenna"
+        proc.send_signal(sig)
+        out, err = proc.communicate(timeout=20)
+        assert proc.returncode == 130, (out, err)
+        assert "Traceback" not in err
+        lines = [ln.strip() for _t, ln, _r in ctl.log]
+        assert lines[-1] == b"S", lines[-5:]
+        assert not ctl.moving()
+    finally:
+        server.close()

@@ -1,0 +1,293 @@
+"""Upload and run step tables against the emulator over a real pty / TCP socket.
+
+The emulator and the host share one fast SimClock, so a few minutes of pass take seconds. The
+pointing error is measured from the emulated antenna (the same motor model the controller
+runs) against the satellite, and must stay within the compiler's prediction + 0.5 deg.
+"""
+
+from __future__ import annotations
+
+import socket
+import threading
+import time
+from datetime import datetime, timezone
+
+import numpy as np
+import pytest
+from test_steptable_fixtures import iss_passes, iss_track, low_pass
+
+from tracker.clock import SimClock
+from tracker.emulator import Gs232Controller, serve_pty, serve_tcp
+from tracker.errors import LimitError, StallError
+from tracker.mount import preset
+from tracker.protocols.gs232 import Gs232Driver
+from tracker.steptable import (
+    PROFILES,
+    MountPath,
+    compile_program,
+    pointing_error_deg,
+    tables_from_points,
+)
+from tracker.upload import TableRunner
+
+G5500 = preset("G-5500")
+K3NG_SPEC = preset("generic-k3ng")
+SPEED = 25.0
+
+
+def wait_for(cond, timeout_s: float = 5.0) -> bool:
+    """The emulator acts on silent commands asynchronously: wait (real time) for it."""
+    deadline = time.monotonic() + timeout_s
+    while not cond():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.01)
+    return True
+
+
+def last_line(rig) -> bytes:
+    return rig.ctrl.log[-1][1] if rig.ctrl.log else b""
+
+
+def mid_pass(track, half_s: float):
+    mid = 0.5 * (track.t_s[0] + track.t_s[-1])
+    return track.slice_time(mid - half_s, mid + half_s)
+
+
+class Rig:
+    """SimClock + emulator (pty or TCP) + driver, started just before the first upload."""
+
+    def __init__(self, program, protocol="gs232b", spec=G5500, transport="pty",
+                 start_s=None):
+        first = program.tables[0]
+        t0 = first.upload_t_s - 2.0 if start_s is None else start_s
+        self.clock = SimClock(datetime.fromtimestamp(t0, timezone.utc), speed=SPEED)
+        az0 = float(program.tables[0].az_deg[0])
+        el0 = None if spec.el_max_deg is None else float(program.tables[0].el_deg[0])
+        self.ctrl = Gs232Controller(protocol, spec, clock=self.clock, az_deg=az0, el_deg=el0)
+        self.server = serve_pty(self.ctrl) if transport == "pty" else serve_tcp(self.ctrl)
+        self.url = self.server.url
+        self.protocol = protocol
+        self.samples: list[tuple[float, float, float]] = []
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._sample, daemon=True)
+
+    def driver(self, url=None):
+        d = Gs232Driver.from_url(url or self.url, self.protocol)
+        d.stop_on_exit = False
+        return d
+
+    def _sample(self):
+        while not self._stop.is_set():
+            t = self.clock.timestamp()
+            az, el = self.ctrl.antenna()
+            self.samples.append((t, az, 0.0 if el is None else el))
+            time.sleep(0.005)
+
+    def __enter__(self):
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        self._stop.set()
+        self._thread.join()
+        self.server.close()
+        assert self.server.closed
+
+    def measured_error(self, path, spec, t_from=None, t_to=None):
+        s = np.array(self.samples)
+        lo = path.t_s[0] if t_from is None else t_from
+        hi = path.t_s[-1] if t_to is None else t_to
+        s = s[(s[:, 0] >= lo) & (s[:, 0] <= hi)]
+        assert len(s) > 100
+        el = s[:, 2] if spec.has_elevation else None
+        return pointing_error_deg(spec, path, s[:, 0], s[:, 1], el)
+
+
+def compile_mid(half_s=60.0, interval_s=2, spec=G5500, protocol="gs232b", max_el=(40, 70)):
+    aos, los, _ = next(p for p in iss_passes(10) if max_el[0] < p[2] < max_el[1])
+    path = MountPath.from_track(mid_pass(iss_track(aos, los), half_s), spec)
+    first = MountPath.from_track(mid_pass(iss_track(aos, los), half_s), spec)
+    prog = compile_program(path, spec, protocol, interval_s=interval_s,
+                           start_az_deg=float(first.az_deg[0]),
+                           start_el_deg=None if first.el_deg is None else float(
+                               first.el_deg[0]))
+    return path, prog
+
+
+def test_end_to_end_on_a_pty_error_within_prediction():
+    path, prog = compile_mid(half_s=60.0, interval_s=2)
+    with Rig(prog) as rig:
+        runner = TableRunner(rig.driver(), rig.clock, poll_s=2.0)
+        report = runner.run(prog.tables)
+        err = rig.measured_error(path, G5500)
+        assert wait_for(lambda: last_line(rig) == b"S")        # all-stop at the end
+    assert b"T" in [line for _, line, _ in rig.ctrl.log]
+    assert report.tables_sent == 1 and not report.resyncs
+    assert report.polls >= 10                                   # N confirmed during the pass
+    assert abs(report.t_late_s[0]) < 0.3 * SPEED / 10           # T on time (sim seconds)
+    assert err.max() <= prog.prediction.max_error_deg + 0.5
+    assert err.mean() <= prog.prediction.mean_error_deg + 0.25
+    assert report.uploads[0]["bytes"] == len(prog.tables[0].encode())
+
+
+def test_1901_pairs_refused_before_anything_is_sent():
+    _, prog = compile_mid(half_s=20.0)
+    big = tables_from_points("W", 1, [(10, 10)] * 1901, PROFILES["gs232b"],
+                             start_t_s=prog.tables[0].start_t_s)
+    with Rig(prog) as rig:
+        before = rig.ctrl.commands_seen
+        with pytest.raises(LimitError, match="1901"):
+            TableRunner(rig.driver(), rig.clock).run([big])
+        ok = tables_from_points("W", 1, [(10, 10)] * 1900, PROFILES["gs232b"])
+        d = rig.driver()
+        d.upload_table(1, ok.points)        # the driver takes the full 1900-pair line
+        assert wait_for(lambda: rig.ctrl.table is not None)
+        assert len(rig.ctrl.table.points) == 1900
+    assert rig.ctrl.commands_seen == before + 1
+
+
+class TruncatingProxy:
+    """TCP proxy that cuts the first long W line after ``keep`` pairs (lost bytes)."""
+
+    def __init__(self, upstream_url: str, keep: int):
+        host, port = upstream_url.removeprefix("socket://").split(":")
+        self.upstream = (host, int(port))
+        self.keep = keep
+        self.cut = 0
+        self.listener = socket.create_server(("127.0.0.1", 0))
+        self.url = f"socket://127.0.0.1:{self.listener.getsockname()[1]}"
+        self.threads = [threading.Thread(target=self._serve, daemon=True)]
+        self.threads[0].start()
+
+    def _serve(self):
+        client, _ = self.listener.accept()
+        up = socket.create_connection(self.upstream)
+        back = threading.Thread(target=self._pipe, args=(up, client), daemon=True)
+        back.start()
+        buf = b""
+        while True:
+            data = client.recv(65536)
+            if not data:
+                break
+            buf += data
+            while b"\r" in buf:
+                line, buf = buf.split(b"\r", 1)
+                if not self.cut and line.startswith(b"W") and len(line) > 4 + 8 * self.keep:
+                    line = line[:4 + 8 * self.keep]
+                    self.cut += 1
+                up.sendall(line + b"\r")
+        up.close()
+        client.close()
+
+    @staticmethod
+    def _pipe(src, dst):
+        try:
+            while data := src.recv(65536):
+                dst.sendall(data)
+        except OSError:
+            pass
+
+    def close(self):
+        self.listener.close()
+
+
+def test_truncated_upload_is_caught_by_n_and_reuploaded():
+    path, prog = compile_mid(half_s=45.0, interval_s=2)
+    with Rig(prog, transport="tcp") as rig:
+        proxy = TruncatingProxy(rig.url, keep=10)
+        try:
+            drv = rig.driver(proxy.url)
+            report = TableRunner(drv, rig.clock, poll_s=1.0).run(prog.tables)
+            drv.close()
+        finally:
+            proxy.close()
+        assert proxy.cut == 1
+        assert any("truncated" in r for r in report.resyncs)
+        assert report.tables_sent == 2
+        # After the resync the controller holds exactly the rest of the pass.
+        resent = report.uploads[1]["points"]
+        assert resent > 10 and resent < len(prog.tables[0])
+        err = rig.measured_error(path, G5500, t_from=prog.tables[0].start_t_s + 10)
+    assert err.max() <= prog.prediction.max_error_deg + 0.5
+
+
+def test_power_cycle_mid_table_is_detected_and_rest_reuploaded():
+    path, prog = compile_mid(half_s=60.0, interval_s=2)
+    table = prog.tables[0]
+    with Rig(prog) as rig:
+        def cycle():
+            while rig.clock.timestamp() < table.start_t_s + 30.0:
+                time.sleep(0.01)
+            rig.ctrl.power_cycle()
+        th = threading.Thread(target=cycle, daemon=True)
+        th.start()
+        report = TableRunner(rig.driver(), rig.clock, poll_s=1.0).run(prog.tables)
+        th.join()
+        assert any("no table" in r for r in report.resyncs)
+        assert report.tables_sent == 2
+        assert report.uploads[1]["points"] == pytest.approx(len(table) - 15 - 1, abs=3)
+        # After the resync the antenna tracks as predicted again.
+        err = rig.measured_error(path, G5500, t_from=table.start_t_s + 40.0)
+    assert err.max() <= prog.prediction.max_error_deg + 0.5
+
+
+def test_k3ng_chained_20_point_tables():
+    spec = K3NG_SPEC
+    path, prog = compile_mid(half_s=60.0, interval_s=1, spec=spec, protocol="k3ng")
+    assert len(prog.tables) >= 3 and max(len(t) for t in prog.tables) == 20
+    assert all(len(x) <= 50 for x in prog.lines())
+    with Rig(prog, protocol="k3ng", spec=spec) as rig:
+        report = TableRunner(rig.driver(), rig.clock, poll_s=1.0).run(prog.tables)
+        err = rig.measured_error(path, spec)
+    assert report.tables_sent == len(prog.tables) and not report.resyncs
+    w_lines = [line for _, line, _ in rig.ctrl.log if line.startswith(b"W")]
+    assert len(w_lines) >= 4 * (len(prog.tables) - 1)
+    assert err.max() <= prog.prediction.max_error_deg + 0.5
+
+
+def test_ctrl_c_sends_all_stop():
+    _, prog = compile_mid(half_s=60.0, interval_s=2)
+    with Rig(prog) as rig:
+        def log(msg):
+            if msg.startswith("T sent"):
+                raise KeyboardInterrupt
+        with pytest.raises(KeyboardInterrupt):
+            TableRunner(rig.driver(), rig.clock, log=log).run(prog.tables)
+        assert wait_for(lambda: last_line(rig) == b"S")
+        assert not rig.ctrl.table.running
+        rig.clock.sleep(2.0)
+        assert not rig.ctrl.moving()
+
+
+def test_detach_exits_after_t_and_leaves_the_controller_stepping():
+    _, prog = compile_mid(half_s=30.0, interval_s=2)
+    with Rig(prog) as rig:
+        report = TableRunner(rig.driver(), rig.clock).run(prog.tables, detach=True)
+        assert report.detached and not report.stopped
+        assert wait_for(lambda: last_line(rig) == b"T")
+        assert rig.ctrl.table.running
+        idx = rig.ctrl.table.index
+        rig.clock.sleep(5.0)
+        assert rig.ctrl.table.index > idx
+
+
+def test_rotator_not_following_is_stopped_and_reported():
+    _, prog = compile_mid(half_s=60.0, interval_s=2)
+    with Rig(prog) as rig:
+        def jam():
+            while rig.clock.timestamp() < prog.tables[0].start_t_s + 5.0:
+                time.sleep(0.01)
+            rig.ctrl.jam("az")
+        th = threading.Thread(target=jam, daemon=True)
+        th.start()
+        with pytest.raises(StallError, match="not following"):
+            TableRunner(rig.driver(), rig.clock, poll_s=1.0).run(prog.tables)
+        th.join()
+        assert wait_for(lambda: last_line(rig) == b"S")
+
+
+def test_low_pass_full_length_with_default_interval_fits_one_table():
+    # Sanity for the CLI default: one table covers a whole pass at 1 s steps.
+    prog = compile_program(MountPath.from_track(low_pass(), G5500), G5500, "gs232b")
+    assert len(prog.tables) == 1 and prog.interval_s == 1

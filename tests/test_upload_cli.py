@@ -1,0 +1,95 @@
+"""``tracker upload`` and ``tracker plan --steptable`` from the command line."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from test_steptable_fixtures import DATA
+
+from tracker.cli import main
+from tracker.clock import SystemClock
+from tracker.emulator import Gs232Controller, serve_tcp
+from tracker.steptable import read_plan_file
+
+TLE = str(DATA / "steptable_iss.tle")
+WHERE = ["--tle", TLE, "--lat", "52", "--lon", "4.5"]
+AT = ["--at", "2026-08-23T02:00:00Z"]
+
+
+def test_dry_run_prints_header_and_exact_lines(capsys):
+    assert main(["upload", "ISS", *WHERE, *AT, "--dry-run", "--interval", "5"]) == 0
+    out = capsys.readouterr().out
+    assert "# target: ISS (ZARYA)" in out and "# element_epoch: 2026-08-22" in out
+    assert "# interval_s: 5 (steps every 5 s)" in out
+    w = [line for line in out.splitlines() if line.startswith("W")]
+    assert len(w) == 1 and w[0].startswith("W005 ")
+    assert out.rstrip().endswith("\nT")
+
+
+def test_plan_steptable_writes_a_file_upload_reads(tmp_path, capsys):
+    f = tmp_path / "iss.steps"
+    assert main(["plan", "ISS", *WHERE, *AT, "--steptable", str(f)]) == 0
+    assert "step table written to" in capsys.readouterr().err
+    plan = read_plan_file(f)
+    assert plan.header["target"] == "ISS (ZARYA)" and plan.tables[0].kind == "W"
+    assert main(["upload", "--from", str(f), "--dry-run"]) == 0
+    assert capsys.readouterr().out == f.read_text()
+
+
+def _tiny_plan(path: Path, start: str = "2026-08-23T02:00:00") -> None:
+    path.write_text(
+        "# profile: gs232b\n# rotator: G-5500\n# target: test\n"
+        f"# table 1/1 points=3 upload_utc={start}.500Z arrive_utc={start}.700Z "
+        f"t_utc={start[:-1]}2.000Z\n"
+        "W001 010 005 011 006 012 007\nT\n")
+
+
+def test_from_file_refused_when_t_has_passed(tmp_path, capsys):
+    f = tmp_path / "old.steps"
+    _tiny_plan(f)
+    rc = main(["upload", "--from", str(f), "--port", "socket://127.0.0.1:9",
+               "--at", "2026-08-23T03:00:00Z"])
+    err = capsys.readouterr().err
+    assert rc == 2 and "T time passed" in err and "--now" in err
+    assert "Traceback" not in err
+
+
+def test_from_file_sent_to_a_real_socket(tmp_path, capsys):
+    f = tmp_path / "tiny.steps"
+    _tiny_plan(f)
+    ctrl = Gs232Controller("gs232b", clock=SystemClock(), az_deg=10, el_deg=5)
+    with serve_tcp(ctrl) as server:
+        t0 = time.monotonic()
+        rc = main(["upload", "--from", str(f), "--port", server.url,
+                   "--at", "2026-08-23T02:00:00Z"])
+        elapsed = time.monotonic() - t0
+        deadline = time.monotonic() + 3
+        while (not ctrl.log or ctrl.log[-1][1] != b"S") and time.monotonic() < deadline:
+            time.sleep(0.01)
+    out = capsys.readouterr().out
+    assert rc == 0, out
+    lines = [line for _, line, _ in ctrl.log]
+    assert b"W001 010 005 011 006 012 007" in lines and b"T" in lines and lines[-1] == b"S"
+    assert 2.5 < elapsed < 10            # waited for T at +2 s, ran to the end at +4 s
+    assert "T timing" in out and "wire time at 9600 baud" in out
+
+
+def test_bad_inputs_exit_2_with_one_line(tmp_path, capsys):
+    assert main(["upload", "ISS", *WHERE, *AT, "--dry-run", "--interval", "0"]) == 2
+    assert "1-999" in capsys.readouterr().err
+    assert main(["upload", "ISS", *WHERE, *AT, "--protocol", "rotorez", "--dry-run"]) == 2
+    assert "no timed step tables" in capsys.readouterr().err
+    bad = tmp_path / "bad.steps"
+    bad.write_text("# table 1/1 points=2 upload_utc=x arrive_utc=y t_utc=z\nW001 1 2\nT\n")
+    assert main(["upload", "--from", str(bad), "--dry-run"]) in (0, 2)
+    assert main(["upload", "--from", str(bad), "--port", "socket://127.0.0.1:9"]) == 2
+    assert "bad.steps:1" in capsys.readouterr().err
+
+
+def test_simulation_without_port_says_so(capsys):
+    rc = main(["upload", "ISS", *WHERE, *AT, "--interval", "10", "--speed", "100"])
+    out = capsys.readouterr().out
+    assert rc == 0, out
+    assert "SIMULATION" in out and "Nothing real moves" in out
+    assert "all-stop sent" in out and "T sent" in out

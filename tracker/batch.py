@@ -1,0 +1,173 @@
+"""Batch planning at catalogue and network scale: the public entry points.
+
+* :func:`find_passes_batch` - every pass of many satellites over many stations (vectorised
+  SGP4 + numpy; see :mod:`tracker.batchlib.finder` for the method) -> :class:`PassTable`.
+* :func:`find_passes_dask` - the same job split into chunks on a dask.distributed cluster.
+* :func:`load_stations` - a stations file (CSV or TOML, format below).
+* :func:`pass_track` / :func:`plan_summaries` - the sky track of a pass and the planner's
+  summary (mode, predicted max error, pre-position time) for passes worth planning.
+
+Stations file: CSV with columns ``name,lat,lon,alt[,min_el]`` (degrees, metres; a header
+row and ``#`` comments are allowed), or TOML with one ``[[station]]`` table per station
+(keys ``name``, ``lat``, ``lon``, ``alt``, optional ``min_el``). Errors name ``file:line``.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections.abc import Iterable
+from pathlib import Path
+
+import numpy as np
+
+from tracker.batchlib.distributed import find_passes_dask
+from tracker.batchlib.finder import (
+    PASS_DTYPE,
+    PassTable,
+    SatError,
+    find_passes_batch,
+    merge_tables,
+)
+from tracker.batchlib.geometry import look_angles, teme_to_ecef
+from tracker.errors import ConfigError
+from tracker.skytrack import SkyTrack
+from tracker.station import Station
+
+__all__ = [
+    "PASS_DTYPE", "PassTable", "SatError", "find_passes_batch", "find_passes_dask",
+    "load_stations", "merge_tables", "pass_track", "plan_summaries", "satrecs_of",
+]
+
+_KEYS = {"name": "name", "lat": "lat_deg", "lat_deg": "lat_deg", "lon": "lon_deg",
+         "lon_deg": "lon_deg", "alt": "alt_m", "alt_m": "alt_m", "min_el": "min_el_deg",
+         "min_el_deg": "min_el_deg"}
+
+
+def satrecs_of(elements: Iterable) -> tuple[list, list[str]]:
+    """(Satrec list, name list) from ``tle`` ElementSets (anything with ``.satrec()``)."""
+    elements = list(elements)
+    return [e.satrec() for e in elements], [e.name for e in elements]
+
+
+def _station(path: Path, line_no: int, values: dict) -> Station:
+    where = f"{path}:{line_no}"
+    kwargs: dict = {}
+    for key, value in values.items():
+        field = _KEYS.get(str(key).strip().lower())
+        if field is None:
+            raise ConfigError(f"{where}: unknown station key {key!r}; use name, lat, lon, alt, "
+                              f"min_el")
+        if field == "name":
+            kwargs[field] = str(value).strip()
+            continue
+        try:
+            kwargs[field] = float(value)
+        except (TypeError, ValueError):
+            raise ConfigError(f"{where}: {key} = {value!r} is not a number") from None
+    missing = [k for k in ("name", "lat_deg", "lon_deg") if k not in kwargs or kwargs[k] == ""]
+    if missing:
+        raise ConfigError(f"{where}: station needs name, lat and lon (missing "
+                          f"{', '.join(m.split('_')[0] for m in missing)}); example line: "
+                          f"'Delft,52.0,4.37,10'")
+    try:
+        return Station(**kwargs)
+    except ConfigError as e:
+        raise ConfigError(f"{where}: {e}") from None
+
+
+def _load_csv(path: Path, text: str) -> list[Station]:
+    stations = []
+    rows = [(i, line) for i, line in enumerate(text.splitlines(), 1)
+            if line.strip() and not line.lstrip().startswith("#")]
+    header = ["name", "lat", "lon", "alt", "min_el"]
+    for n, (line_no, line) in enumerate(rows):
+        cells = [c.strip() for c in next(csv.reader(io.StringIO(line)))]
+        if n == 0 and cells and cells[0].lower() == "name":
+            header = [c.lower() for c in cells]
+            continue
+        if not (3 <= len(cells) <= len(header)):
+            raise ConfigError(f"{path}:{line_no}: expected 'name,lat,lon[,alt[,min_el]]', got "
+                              f"{line.strip()!r}")
+        stations.append(_station(path, line_no, dict(zip(header, cells, strict=False))))
+    return stations
+
+
+def _load_toml(path: Path, text: str) -> list[Station]:
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # pragma: no cover - Python 3.10
+        import tomli as tomllib
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise ConfigError(f"{path}: {e}") from None
+    tables = data.get("station")
+    if not isinstance(tables, list):
+        raise ConfigError(f"{path}: expected [[station]] tables with name, lat, lon, alt")
+    lines = text.splitlines()
+    marks = [i for i, line in enumerate(lines, 1) if line.strip() == "[[station]]"]
+    return [_station(path, marks[i] if i < len(marks) else 0, table)
+            for i, table in enumerate(tables)]
+
+
+def load_stations(path: str | Path) -> list[Station]:
+    """Read a stations file (CSV or TOML by extension/content); names must be unique."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as e:
+        raise ConfigError(f"cannot read stations file {path}: {e.strerror}") from None
+    is_toml = path.suffix.lower() == ".toml" or "[[station]]" in text
+    stations = _load_toml(path, text) if is_toml else _load_csv(path, text)
+    if not stations:
+        raise ConfigError(f"{path}: no stations; add lines like 'Delft,52.0,4.37,10'")
+    seen: set[str] = set()
+    for s in stations:
+        if s.name in seen:
+            raise ConfigError(f"{path}: station name {s.name!r} appears twice")
+        seen.add(s.name)
+    return stations
+
+
+def pass_track(satrec, station: Station, aos_s: float, los_s: float, step_s: float = 5.0,
+               name: str = "") -> SkyTrack:
+    """The sky track of one pass (az/el every ``step_s`` from AOS to LOS, both included)."""
+    from sgp4.api import jday
+
+    from tracker.batchlib.geometry import StationFrames, gmst_rad
+
+    n = max(2, int(math.ceil((los_s - aos_s) / step_s)) + 1)
+    t = np.linspace(aos_s, los_s, n)
+    jd0, fr0 = jday(1970, 1, 1, 0, 0, 0.0)
+    fr = fr0 + t / 86400.0
+    err, r, v = satrec.sgp4_array(np.full(n, jd0), fr)
+    r_ecef, v_ecef = teme_to_ecef(r, v, gmst_rad(jd0, fr))
+    el, az, _ = look_angles(r_ecef, v_ecef, StationFrames.from_stations([station]), 0)
+    ok = (err == 0) & np.isfinite(el)
+    return SkyTrack.from_azel(t[ok], az[ok], el[ok], name=name)
+
+
+def plan_summaries(table: PassTable, satrecs, spec, min_max_el_deg: float = 0.0,
+                   step_s: float = 5.0) -> list[dict | None]:
+    """The planner's summary for each pass whose max elevation reaches ``min_max_el_deg``
+    (``None`` for the others and for clipped passes): mode, max error, pre-position time."""
+    from tracker.planner import plan_pass
+
+    out: list[dict | None] = []
+    for row in table.passes:
+        if row["max_el_deg"] < min_max_el_deg or row["aos_clipped"] or row["los_clipped"]:
+            out.append(None)
+            continue
+        station = table.stations[int(row["station"])]
+        track = pass_track(satrecs[int(row["sat"])], station, float(row["aos_s"]),
+                           float(row["los_s"]), step_s, table.names[int(row["sat"])])
+        if len(track) < 2:
+            out.append(None)
+            continue
+        plan = plan_pass(track, spec, station)
+        out.append({"mode": plan.mode, "max_error_deg": round(float(plan.max_error_deg), 2),
+                    "preposition_s": float(plan.preposition_t_s),
+                    "reason": plan.reason})
+    return out

@@ -1,0 +1,314 @@
+"""Idiom Press Rotor-EZ / RotorCard and Hy-Gain DCU-1: driver, codec and shared byte I/O.
+
+Wire facts (PROTOCOLS.md §8, Appendix A): 4800 8N1, letters case-sensitive, bearings three
+zero-padded digits. ``AP1ddd\\r`` sets and goes; ``AP1ddd;`` only sets and ``AM1;`` executes
+it; ``AI1;`` answers exactly ``;ddd`` with no terminator; ``;`` stops (Rotor-EZ), ``AS1;``
+stops (DCU-1). Single bytes ``E e O o S s J j`` switch options, ``V`` asks the version. A real
+V1.4S answers ``;`` while idle with the banner ``C2000 IDIOM V1.4S `` and sends a stray byte
+(0xE0) at power-on, so replies are found by searching for ``;ddd`` in whatever arrived, never
+by position in the stream.
+
+The DCU-1 has no position query: :class:`OpenLoopAz` keeps the motor model's estimate of
+where the antenna is, and ``capabilities.has_position_query`` is False so callers know the
+position is an estimate.
+
+Also home of :class:`ByteLink` (bounded, lock-protected byte I/O with pyserial errors turned
+into the project's errors) and :class:`OpenLoopAz`, used by the SAK-232, AZ/AZ and rotctld
+drivers too.
+"""
+
+from __future__ import annotations
+
+import re
+import threading
+from collections.abc import Callable
+from contextlib import contextmanager
+from typing import Literal
+
+import serial
+
+from tracker.clock import Clock, SystemClock
+from tracker.errors import LimitError, PortLostError, RotatorTimeout
+from tracker.mount import AxisMotor
+from tracker.protocols.base import Capabilities, Direction, RotatorDriver
+
+try:  # tcflush/tcsetattr on a vanished tty raise termios.error, which is not an OSError
+    import termios
+
+    PORT_ERRORS: tuple[type[BaseException], ...] = (serial.SerialException, OSError,
+                                                    termios.error)
+except ImportError:  # Windows
+    PORT_ERRORS = (serial.SerialException, OSError)
+
+BAUDRATE = 4800
+BANNER = b"C2000 IDIOM V1.4S "
+POWER_ON_BYTE = b"\xe0"
+OPTION_BYTES = {"endpoint": (b"E", b"e"), "overshoot": (b"O", b"o"),
+                "unstick": (b"S", b"s"), "jam": (b"J", b"j")}
+_AI_RE = re.compile(rb";(\d{3})")
+_AI_OLD_RE = re.compile(rb"(?<![\d;])(\d{3});")   # old ERC / "DCU-1 Plus": ddd;
+
+
+class ByteLink:
+    """One port, one request at a time: paced writes, bounded reads, errors translated.
+
+    Every read is bounded by a deadline on ``clock``; pyserial/OS errors become
+    :class:`PortLostError`, write timeouts :class:`RotatorTimeout`.
+    """
+
+    def __init__(self, port, clock: Clock | None = None, pace_cmd_s: float = 0.0):
+        self.port = port
+        self.clock = clock or SystemClock()
+        self.pace_cmd_s = float(pace_cmd_s)
+        self.lock = threading.RLock()
+        self.closed = False
+        self._last_write = -1e9
+
+    @contextmanager
+    def io(self, what: str):
+        if self.closed:
+            raise PortLostError(f"{what}: the port is closed")
+        try:
+            yield
+        except serial.SerialTimeoutException as e:
+            raise RotatorTimeout(f"{what}: write timed out (cable? flow control?)") from e
+        except PORT_ERRORS as e:
+            raise PortLostError(f"{what}: port lost: {e}") from e
+
+    def write(self, data: bytes) -> None:
+        wait = self._last_write + self.pace_cmd_s - self.clock.monotonic()
+        if wait > 0:
+            self.clock.sleep(wait)
+        with self.io(f"writing {data!r}"):
+            self.port.write(data)
+            self.port.flush()
+        self._last_write = self.clock.monotonic()
+
+    def flush_input(self) -> None:
+        with self.io("flushing input"):
+            self.port.reset_input_buffer()
+
+    def read_some(self, remaining_s: float) -> bytes:
+        with self.io("reading"):
+            self.port.timeout = max(0.001, min(remaining_s, 0.05))
+            n = self.port.in_waiting
+            return self.port.read(n if n > 0 else 1)
+
+    def read_until(self, done: Callable[[bytes], object], timeout_s: float) -> tuple[bytes,
+                                                                                      object]:
+        """Read until ``done(buffer)`` is truthy (returns ``(buffer, result)``) or the timeout
+        (returns ``(buffer, None)``)."""
+        buf = bytearray()
+        deadline = self.clock.monotonic() + timeout_s
+        while True:
+            result = done(bytes(buf))
+            if result:
+                return bytes(buf), result
+            remaining = deadline - self.clock.monotonic()
+            if remaining <= 0:
+                return bytes(buf), None
+            buf += self.read_some(remaining)
+
+    def collect(self, quiet_s: float, timeout_s: float) -> bytes:
+        """Everything that arrives until ``quiet_s`` of silence (after some data) or timeout."""
+        out = bytearray()
+        start = last = self.clock.monotonic()
+        while True:
+            now = self.clock.monotonic()
+            if now - start >= timeout_s or (out and now - last >= quiet_s):
+                return bytes(out)
+            chunk = self.read_some(min(quiet_s, timeout_s - (now - start)))
+            if chunk:
+                out += chunk
+                last = self.clock.monotonic()
+
+    def close(self) -> None:
+        if self.closed:
+            return
+        self.closed = True
+        try:
+            self.port.close()
+        except PORT_ERRORS:
+            return  # already gone (unplugged, peer closed): nothing left to release
+
+
+class OpenLoopAz:
+    """Where an azimuth rotator without a position query should be, from what was sent.
+
+    The same :class:`tracker.mount.AxisMotor` the planner and emulator use, advanced on the
+    driver's clock. The estimate starts at ``start_az_deg`` (assumed, not measured): run a
+    calibration (park against a stop, SAK-232 ``O``) before trusting it.
+    """
+
+    def __init__(self, clock: Clock, min_deg: float = 0.0, max_deg: float = 359.0,
+                 rate_deg_s: float = 6.0, start_delay_s: float = 0.5,
+                 start_az_deg: float = 0.0):
+        self.clock = clock
+        self.motor = AxisMotor(min_deg, max_deg, rate_deg_s, start_delay_s, 1.0,
+                               start_az_deg, clock.monotonic())
+
+    def command(self, az_deg: float) -> None:
+        self.motor.command(az_deg, self.clock.monotonic())
+
+    def stop(self) -> None:
+        self.motor.stop(self.clock.monotonic())
+
+    def set(self, az_deg: float) -> None:
+        """The antenna is known to be at ``az_deg`` now (calibration)."""
+        t = self.clock.monotonic()
+        self.motor = AxisMotor(self.motor.min_deg, self.motor.max_deg, self.motor.rate_deg_s,
+                               self.motor.start_delay_s, 1.0, az_deg, t)
+
+    def position(self) -> float:
+        return float(self.motor.position(self.clock.monotonic()))
+
+    def moving(self) -> bool:
+        return self.motor.moving(self.clock.monotonic())
+
+
+def encode_bearing(az_deg: float, max_deg: float = 360.0) -> bytes:
+    """Three digits, rounded half-to-even like Hamlib; 359.5..360 wraps to ``000`` (Hamlib:
+    "for DCU-1 compatibility"). Outside 0..``max_deg`` raises :class:`LimitError`."""
+    try:
+        v = float(az_deg)
+    except (TypeError, ValueError) as e:
+        raise LimitError(f"azimuth {az_deg!r} is not a number") from e
+    if not (0.0 <= v <= max_deg):
+        raise LimitError(f"azimuth {az_deg!r} deg is outside the controller range "
+                         f"0..{max_deg:g} deg; nothing was sent")
+    n = round(v)
+    return b"%03d" % (0 if n >= 360 else n)
+
+
+def parse_ai_reply(buf: bytes, accept_old: bool = False) -> int | None:
+    """The bearing in an ``AI1;`` reply found anywhere in ``buf`` (banner and stray bytes
+    around it are ignored), or None. ``accept_old`` also takes the old ERC ``ddd;``."""
+    m = _AI_RE.search(buf)
+    if m:
+        return int(m.group(1))
+    if accept_old:
+        m = _AI_OLD_RE.search(buf)
+        if m:
+            return int(m.group(1))
+    return None
+
+
+class RotorEzDriver(RotatorDriver):
+    """Rotor-EZ / RotorCard (``variant="rotorez"``) or DCU-1 (``variant="dcu1"``).
+
+    ``set_style``: "cr" sends ``AP1ddd\\r`` (set and go, Rotor-EZ), "am" sends ``AP1ddd;``
+    then ``AM1;`` (what Hamlib does, and all a DCU-1 understands). Queries retry ``retries``
+    times on silence. The DCU-1 runs open loop (see :class:`OpenLoopAz`).
+    """
+
+    def __init__(self, port, variant: Literal["rotorez", "dcu1"] = "rotorez", *,
+                 timeout_s: float = 1.0, retries: int = 2,
+                 set_style: Literal["cr", "am"] | None = None, pace_cmd_s: float = 0.05,
+                 accept_old_reply: bool = False, clock: Clock | None = None,
+                 rate_deg_s: float = 6.0, start_az_deg: float = 0.0, **_ignored):
+        if variant not in ("rotorez", "dcu1"):
+            raise ValueError(f"variant must be rotorez or dcu1, got {variant!r}")
+        self.variant = variant
+        self.link = ByteLink(port, clock, pace_cmd_s)
+        self.clock = self.link.clock
+        self.timeout_s = float(timeout_s)
+        self.retries = int(retries)
+        self.set_style = set_style or ("cr" if variant == "rotorez" else "am")
+        if self.set_style not in ("cr", "am"):
+            raise ValueError(f"set_style must be 'cr' or 'am', got {set_style!r}")
+        if variant == "dcu1" and self.set_style == "cr":
+            raise ValueError("a DCU-1 only understands AP1ddd; + AM1; (set_style='am')")
+        self.accept_old_reply = accept_old_reply
+        self.capabilities = Capabilities(
+            has_elevation=False, has_position_query=variant == "rotorez",
+            has_axis_stop=False, has_manual_move=False, has_speed=False, speed_steps=0,
+            az_max_deg=360.0, el_max_deg=0.0)
+        self.estimate = OpenLoopAz(self.clock, 0.0, 359.0, rate_deg_s, 0.5, start_az_deg)
+        self.stop_on_exit = True
+
+    @classmethod
+    def from_url(cls, url: str, variant: Literal["rotorez", "dcu1"] = "rotorez", *,
+                 baudrate: int | None = None, **kw) -> RotorEzDriver:
+        from tracker.transport import open_port
+
+        port = open_port(url, baudrate=baudrate or BAUDRATE, timeout_s=0.05)
+        return cls(port, variant, **kw)
+
+    # Public API --------------------------------------------------------------------------------
+
+    def position(self) -> tuple[float, float | None]:
+        """``AI1;`` → bearing (Rotor-EZ); the motor-model estimate on a DCU-1."""
+        if not self.capabilities.has_position_query:
+            return round(self.estimate.position(), 1), None
+        last = b""
+        with self.link.lock:
+            for _attempt in range(1 + self.retries):
+                self.link.flush_input()
+                self.link.write(b"AI1;")
+                buf, az = self.link.read_until(
+                    lambda b: parse_ai_reply(b, self.accept_old_reply) is not None or None,
+                    self.timeout_s)
+                if az:
+                    az = parse_ai_reply(buf, self.accept_old_reply)
+                    self.estimate.set(float(min(az, 359)))
+                    return float(az), None
+                last = buf
+        raise RotatorTimeout(
+            f"no ;ddd reply to AI1; within {self.timeout_s:g} s after {1 + self.retries} tries"
+            + (f" (received {last!r})" if last else "")
+            + "; check the port, 4800 baud and that the controller is on")
+
+    def goto(self, az_deg: float, el_deg: float | None = None) -> None:
+        bearing = encode_bearing(az_deg)
+        with self.link.lock:
+            if self.set_style == "cr":
+                self.link.write(b"AP1" + bearing + b"\r")
+            else:
+                self.link.write(b"AP1" + bearing + b";")
+                self.link.write(b"AM1;")
+        self.estimate.command(float(int(bearing)))
+
+    def stop(self) -> None:
+        with self.link.lock:
+            self.link.write(b";" if self.variant == "rotorez" else b"AS1;")
+        self.estimate.stop()
+
+    def move(self, direction: Direction) -> None:
+        raise LimitError(f"{self.variant} has no manual-move command; use goto")
+
+    def set_option(self, name: str, enabled: bool) -> None:
+        """Rotor-EZ option switch: endpoint, overshoot, unstick or jam (one byte, no reply)."""
+        if self.variant != "rotorez":
+            raise LimitError("option commands exist on the Rotor-EZ / RotorCard only")
+        pair = OPTION_BYTES.get(name)
+        if pair is None:
+            raise ValueError(f"option must be one of {', '.join(OPTION_BYTES)}; got {name!r}")
+        with self.link.lock:
+            self.link.write(pair[0] if enabled else pair[1])
+
+    def version(self) -> str:
+        """``V``: whatever the unit reports (format undocumented), stripped of stray bytes."""
+        with self.link.lock:
+            self.link.flush_input()
+            self.link.write(b"V")
+            raw = self.link.collect(0.2, self.timeout_s)
+        return raw.decode("ascii", "ignore").strip()
+
+    def raw(self, cmd: str | bytes, quiet_s: float = 0.2) -> bytes:
+        """Send bytes exactly as given (no terminator added) and return what came back."""
+        data = cmd.encode("ascii") if isinstance(cmd, str) else bytes(cmd)
+        with self.link.lock:
+            self.link.flush_input()
+            self.link.write(data)
+            return self.link.collect(quiet_s, self.timeout_s)
+
+    def close(self) -> None:
+        self.link.close()
+
+
+def open_rotorez(url: str, **kw) -> RotorEzDriver:
+    return RotorEzDriver.from_url(url, "rotorez", **kw)
+
+
+def open_dcu1(url: str, **kw) -> RotorEzDriver:
+    return RotorEzDriver.from_url(url, "dcu1", **kw)
