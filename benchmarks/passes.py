@@ -114,7 +114,7 @@ def bench_accuracy(n_sats: int, days: float) -> None:
     for n in dict.fromkeys(names):
         try:
             targets.append(SatelliteTarget(catalog.find(n)))
-        except Exception as e:  # noqa: BLE001 - a benchmark reports and moves on
+        except Exception as e:  # a benchmark reports and moves on
             print(f"  skip {n}: {e}")
     station = Station("bench", 52.0, 4.4, 10.0)
     with tempfile.TemporaryDirectory() as tmp:

@@ -111,11 +111,11 @@ def real_passes(group: str, stations=STATIONS, start: datetime = START, days: fl
     up_all = [_azel(ecef, st_r, rot)[1] > st.min_el_deg for st, (st_r, rot) in
               zip(stations, geo, strict=True)]
     out: list[SuitePass] = []
-    n_pad = int(round(pad_s / step_s))
+    n_pad = round(pad_s / step_s)
     for k, (name, l1, _) in enumerate(sets):
         # Every pass of this satellite over every station, sampled in ONE sgp4 call.
         windows = []
-        for s_i, st in enumerate(stations):
+        for s_i in range(len(stations)):
             row = up_all[s_i][k]
             if not row.any() or row.all():
                 continue  # never up, or always up (GEO): nothing to plan as a pass

@@ -25,10 +25,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from passsuite import SuitePass, pass_suite  # noqa: E402
+from passsuite import SuitePass, pass_suite
 
-from tracker.mount import preset  # noqa: E402
-from tracker.planner import MountPlan, gpredict_plan, plan_pass  # noqa: E402
+from tracker.mount import preset
+from tracker.planner import MountPlan, gpredict_plan, plan_pass
 
 
 def planner_policy(track, spec, station) -> MountPlan:
@@ -67,12 +67,16 @@ def run_policy(fn: Callable, suite: list[SuitePass], spec) -> dict:
             "visible_s": float(len(all_err))}
 
 
+def _mode_count(mode: str) -> Callable[[dict], str]:
+    return lambda r: f"{r['modes'].get(mode, 0)}"
+
+
 def print_table(results: dict[str, dict], n_passes: int) -> None:
     names = list(results)
     w = max(16, *(len(n) + 2 for n in names))
     rows = [
         ("passes", lambda r: f"{n_passes}"),
-        *[(f"mode {m}", (lambda m: lambda r: f"{r['modes'].get(m, 0)}")(m))
+        *[(f"mode {m}", _mode_count(m))
           for m in ("normal", "overlap", "flip", "keyhole", "unwind")],
         ("max error deg", lambda r: f"{r['max']:.2f}"),
         ("p99 error deg", lambda r: f"{r['p99']:.2f}"),
@@ -92,6 +96,32 @@ def print_table(results: dict[str, dict], n_passes: int) -> None:
               f"{results[n]['ms_per_pass'] / results[base]['ms_per_pass']:.2f}")
     for n in names:
         print(f"worst pass for {n}: {results[n]['worst'][0]:.1f} deg ({results[n]['worst'][1]})")
+
+
+def motor_model_speed(suite: list[SuitePass], spec, repeats: int = 3) -> None:
+    """predict_axis (closed form + AxisMotor for overlaps) vs stepping AxisMotor per command."""
+    from tracker.mount import AxisMotor, predict_axis, simulate_commands
+
+    plans = [plan_pass(sp.track, spec, sp.station) for sp in suite[:40]]
+    streams = [(*plan.commands()[:2], plan.t_s) for plan in plans]
+
+    def axis(a0: float) -> AxisMotor:
+        return AxisMotor(0, spec.az_span_deg, spec.az_rate_deg_s, spec.start_delay_s, 1.0, a0,
+                         0.0)
+
+    t0 = time.perf_counter()
+    for _ in range(repeats):
+        fast = [predict_axis(axis(a[0]), t, a, te)[0] for t, a, te in streams]
+    t_fast = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    slow = [simulate_commands(axis(a[0]), t, a, te) for t, a, te in streams
+            for _ in range(repeats)][::repeats]
+    t_slow = time.perf_counter() - t0
+    diff = max(float(np.max(np.abs(f - s))) for f, s in zip(fast, slow, strict=True))
+    print(f"\nmotor model on {len(streams)} az command streams: predict_axis "
+          f"{1000 * t_fast / (repeats * len(streams)):.3f} ms/pass, simulate_commands "
+          f"{1000 * t_slow / (repeats * len(streams)):.3f} ms/pass (x{t_slow / t_fast:.0f}); "
+          f"max difference {diff:.2e} deg")
 
 
 def main(argv=None) -> int:
@@ -117,6 +147,7 @@ def main(argv=None) -> int:
     print("\nforced overhead passes only:")
     print_table({name: run_policy(fn, overhead, spec) for name, fn in POLICIES.items()},
                 len(overhead))
+    motor_model_speed(suite, spec)
     return 0
 
 

@@ -72,8 +72,9 @@ def skyfield_passes(sets, station: Station, start, end, min_el_deg):
 
 
 def altitude_at(sat, station: Station, t_s) -> np.ndarray:
-    t = TS.from_datetimes([datetime.fromtimestamp(float(x), timezone.utc)
-                           for x in np.atleast_1d(t_s)])
+    # POSIX seconds from 2026-01-01 (no leap second since 2017, none in the test windows).
+    ref_s = datetime(2026, 1, 1, tzinfo=timezone.utc).timestamp()
+    t = TS.utc(2026, 1, 1, 0, 0, np.atleast_1d(np.asarray(t_s, dtype=float)) - ref_s)
     return (sat - station.topos()).at(t).altaz()[0].degrees
 
 
@@ -106,12 +107,13 @@ def check_agreement(sets, station, start, end, min_el_deg):
     matched = np.zeros(len(mine), bool)
     dense = set()
     for p in sky:
-        if not skyfield_consistent(sats[p.sat], station, p, min_el_deg):
-            dense.add(p.sat)
-            continue
         cand = np.flatnonzero((mine["sat"] == p.sat) & (np.abs(mine["aos_s"] - p.aos_s) < 60))
         if p.max_el_deg < min_el_deg + 0.1 and len(cand) == 0:
             continue  # a grazing pass below the contract's margin may be missed
+        if len(cand) != 1 or abs(mine[cand[0]]["los_s"] - p.los_s) > 1.0:
+            if not skyfield_consistent(sats[p.sat], station, p, min_el_deg):
+                dense.add(p.sat)
+                continue
         assert len(cand) == 1, f"{sets[p.sat][0]} pass at {p.aos_s} missed (max {p.max_el_deg})"
         row = mine[cand[0]]
         matched[cand[0]] = True
@@ -125,14 +127,13 @@ def check_agreement(sets, station, start, end, min_el_deg):
             assert ours >= p.max_el_deg - 1e-5, (sets[p.sat][0], row, p)
     # Where find_events contradicts skyfield's own altitudes (it can skip a set/rise pair on
     # highly eccentric orbits), check against dense skyfield altitude samples instead.
-    assert len(dense) <= 3, [sets[i][0] for i in dense]
-    for i in dense:
-        dense_check(sats[i], station, mine[mine["sat"] == i], start, end, min_el_deg)
-        matched[mine["sat"] == i] = True
-    # Nothing invented: every complete pass of ours clear of the margin is one of skyfield's.
+    # Passes of ours find_events did not report are checked the same way: nothing invented.
     complete = ~mine["aos_clipped"] & ~mine["los_clipped"]
     extra = complete & ~matched & (mine["max_el_deg"] >= min_el_deg + 0.1)
-    assert not extra.any(), mine[extra]
+    dense |= set(mine["sat"][extra].tolist())
+    assert len(dense) <= 5, [sets[i][0] for i in dense]
+    for i in dense:
+        dense_check(sats[i], station, mine[mine["sat"] == i], start, end, min_el_deg)
     # Our AOS/LOS lie on the threshold by skyfield's own altitude (spot check of 40).
     rows = mine[complete][:: max(1, complete.sum() // 40)]
     for row in rows:

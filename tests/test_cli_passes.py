@@ -45,8 +45,8 @@ def test_table_for_iss(capsys):
     assert code == 0
     lines = out.splitlines()
     assert lines[0].startswith("Passes of ISS (ZARYA) over command-line")
-    assert lines[1].split()[:3] == ["AOS", "local", "AOS"]
-    rows = [ln for ln in lines[2:] if ln.startswith("Sun 2026-08-23")]
+    assert lines[1].split()[:3] == ["AOS", "(UTC)", "Duration"]  # local time is UTC here
+    rows = [ln for ln in lines[2:] if ln.startswith("Sun 08-23")]
     assert 4 <= len(rows) <= 8
     # first pass of the day: AOS 02:07:45 UTC from the south-south-west (see test_passes)
     assert "02:07:4" in rows[0] and "SSW" in rows[0]
@@ -121,7 +121,7 @@ def test_next_one_line(capsys):
       "2026-08-25T00:00Z"], "DECAYSAT (NORAD 25544): the elements cannot be propagated"),
 ])
 def test_errors_are_one_line_exit_2(capsys, argv, message):
-    code, out, err = run(capsys, *argv, *HERE[:0])
+    code, _, err = run(capsys, *argv)
     assert code == 2
     last = err.strip().splitlines()[-1]
     assert last.startswith("tracker: error: ") and message in last
@@ -178,6 +178,23 @@ def test_config_init_show_path(capsys, tmp_path):
     assert out.strip() == str(cfg)
     code, out, _ = run(capsys, "config", "show")
     assert code == 0 and "no config file" in out and "lat_deg = 52.0" in out
+
+
+def test_local_time_column_when_not_utc(capsys, monkeypatch):
+    import time
+
+    monkeypatch.setenv("TZ", "Europe/Amsterdam")
+    time.tzset()
+    try:
+        code, out, _ = run(capsys, "passes", "ISS", "--at", AT, *HERE, "--tle", SATS,
+                           "--hours", "3")
+    finally:
+        monkeypatch.setenv("TZ", "UTC")
+        time.tzset()
+    assert code == 0
+    header, first = out.splitlines()[1:3]
+    assert header.split()[:4] == ["AOS", "(CEST)", "AOS", "UTC"]
+    assert first.startswith("Sun 08-23 04:07:4") and "02:07:4" in first
 
 
 def test_format_duration():

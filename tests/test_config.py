@@ -43,7 +43,7 @@ def test_template_is_valid_and_commented(tmp_path):
 
 def test_init_never_overwrites_without_force(tmp_path):
     p = write(tmp_path, "[station]\nlat_deg = 1.0\nlon_deg = 2.0\n")
-    with pytest.raises(ConfigError, match="already exists.*--force"):
+    with pytest.raises(ConfigError, match=r"already exists.*--force"):
         write_template(p)
     assert p.read_text() == "[station]\nlat_deg = 1.0\nlon_deg = 2.0\n"
     write_template(p, force=True)
@@ -158,7 +158,7 @@ def test_env_var_and_explicit_path(tmp_path, monkeypatch):
     monkeypatch.setenv("TRACKER_CONFIG", str(p))
     assert load_config().station.name == "envst"
     monkeypatch.setenv("TRACKER_CONFIG", str(tmp_path / "missing.toml"))
-    with pytest.raises(ConfigError, match="does not exist.*tracker config init"):
+    with pytest.raises(ConfigError, match=r"does not exist.*tracker config init"):
         load_config()
     with pytest.raises(ConfigError, match="does not exist"):
         load_config(tmp_path / "other.toml")

@@ -164,6 +164,11 @@ def test_az_only_rotator_error_is_azimuth_only():
     assert pointing_error_deg(spec, 10.0, 0.0, 20.0, 60.0) == pytest.approx(10.0)
 
 
+def test_current_position_outside_the_limits_is_refused():
+    with pytest.raises(LimitError, match="outside rotator"):
+        plan_pass(synthetic_pass(40, 0), G5500, STATION, current=(999.0, 0.0))
+
+
 def test_track_below_the_mask_is_refused():
     track = SkyTrack.from_azel(np.arange(10.0), np.full(10, 90.0), np.full(10, -5.0))
     with pytest.raises(LimitError, match="never rises"):

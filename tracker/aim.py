@@ -121,14 +121,17 @@ class Aim:
     peak_error_deg: float    # predicted max great-circle error over the hold
     arrival_s: float         # predicted arrival time at the aim point (UTC POSIX s)
     candidates: int          # how many distinct aim points were compared
+    starts: int = 0          # motor starts the command causes (0, 1 or 2)
 
 
-def _predict(axis: AxisMotor, target_deg, t0_s: float, ts: np.ndarray):
-    """Positions of ``axis`` over ``ts`` if ``target_deg`` is commanded at ``t0_s`` (copy)."""
+def _predict(axis: AxisMotor, target_deg: float, t0_s: float, ts: np.ndarray):
+    """``(positions over ts, arrival time, 1 if the motor starts else 0)`` if ``target_deg``
+    is commanded at ``t0_s`` (on a copy: ``axis`` is not changed)."""
     a = copy.copy(axis)
-    if target_deg is not None:
-        a.command(target_deg, t0_s)
-    return a.position(ts), a.arrival_s() if target_deg is not None else t0_s
+    was = a.direction(t0_s)
+    a.command(target_deg, t0_s)
+    now = a.direction(t0_s)
+    return a.position(ts), a.arrival_s(), int(now != 0 and now != was)
 
 
 def predicted_error(path: AimPath, az_axis: AxisMotor, el_axis: AxisMotor | None,
@@ -183,20 +186,43 @@ def choose_aim(path: AimPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t0_
     q_az = np.array([az_axis.quantise(a) for a in cand_az[:n_cand]])
     q_el = (np.array([el_axis.quantise(e) for e in cand_el[:n_cand]]) if el_axis is not None
             else np.zeros(n_cand))
-    # Several path points quantise to the same command: keep the first of each.
-    _, first = np.unique(np.stack([q_az, q_el], axis=1), axis=0, return_index=True)
-    first = np.sort(first)
+    # Each axis is its own relay: a move that leaves one axis alone saves a motor start, so
+    # candidates include moving only azimuth or only elevation (the other keeps its target).
+    keep_az = az_axis.target_deg
+    keep_el = el_axis.target_deg if el_axis is not None else 0.0
+    c_t = ts[:n_cand]
+    pairs = [(q_az, q_el, c_t)]
+    if el_axis is not None:
+        pairs += [(q_az, np.full(n_cand, keep_el), c_t), (np.full(n_cand, keep_az), q_el, c_t)]
+    c_az = np.concatenate([p[0] for p in pairs])
+    c_el = np.concatenate([p[1] for p in pairs])
+    c_t = np.concatenate([p[2] for p in pairs])
+    noop = (np.abs(c_az - keep_az) < 1e-9) & (np.abs(c_el - keep_el) < 1e-9)
+    if noop.all():
+        noop[:] = False
+    _, first = np.unique(np.stack([c_az, c_el], axis=1)[~noop], axis=0, return_index=True)
+    first = np.flatnonzero(~noop)[np.sort(first)]
+    c_az, c_el, c_t = c_az[first], c_el[first], c_t[first]
 
-    ant_az = np.empty((len(first), len(ts)))
-    ant_el = np.zeros((len(first), len(ts)))
-    arrival = np.empty(len(first))
-    for i, k in enumerate(first):
-        ant_az[i], arr_az = _predict(az_axis, q_az[k], t0_s, ts)
-        arr_el = t0_s
-        if el_axis is not None:
-            ant_el[i], arr_el = _predict(el_axis, q_el[k], t0_s, ts)
-        arrival[i] = max(arr_az, arr_el)
-    err = angle_between_deg(pointing_enu(ant_az, ant_el, path.stop_bearing_deg),
+    # The axes are independent: simulate each distinct target once per axis.
+    u_az, i_az = np.unique(c_az, return_inverse=True)
+    sim_az = [_predict(az_axis, v, t0_s, ts) for v in u_az]
+    pos_az = np.array([p for p, _a, _s in sim_az])[i_az]
+    arr_az = np.array([a for _p, a, _s in sim_az])[i_az]
+    st_az = np.array([s for _p, _a, s in sim_az])[i_az]
+    if el_axis is not None:
+        u_el, i_el = np.unique(c_el, return_inverse=True)
+        sim_el = [_predict(el_axis, v, t0_s, ts) for v in u_el]
+        pos_el = np.array([p for p, _a, _s in sim_el])[i_el]
+        arr_el = np.array([a for _p, a, _s in sim_el])[i_el]
+        st_el = np.array([s for _p, _a, s in sim_el])[i_el]
+    else:
+        pos_el = np.zeros_like(pos_az)
+        arr_el = np.full(len(c_az), t0_s)
+        st_el = np.zeros(len(c_az))
+    arrival = np.maximum(arr_az, arr_el)
+    starts = st_az + st_el
+    err = angle_between_deg(pointing_enu(pos_az, pos_el, path.stop_bearing_deg),
                             target_dir[None, :, :])              # (k, n)
     # The loop commands again once the antenna, settled on its aim point, is more than the
     # deadband off the path; a candidate that cannot arrive inside the horizon holds nothing.
@@ -213,15 +239,16 @@ def choose_aim(path: AimPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t0_
     peak = np.max(np.where(in_window, err, 0.0), axis=1)
     level = max(deadband_deg, float(np.min(peak)) + peak_slack_deg)
     ok = peak <= level
-    best_hold = float(np.max(np.where(ok, hold, -np.inf)))
-    near = ok & (hold >= hold_fraction * best_hold)
+    # Hold per motor start: the fewest relay clicks for the time the error stays bounded.
+    value = hold / np.maximum(starts, 0.5)
+    best = float(np.max(np.where(ok, value, -np.inf)))
+    near = ok & (value >= hold_fraction * best)
     pick = int(np.argmin(np.where(near, peak, np.inf)))
-    k = first[pick]
-    return Aim(az_m_deg=float(q_az[k]),
-               el_deg=float(q_el[k]) if el_axis is not None else None,
-               aim_t_s=float(ts[k]), hold_s=float(hold[pick]),
+    return Aim(az_m_deg=float(c_az[pick]),
+               el_deg=float(c_el[pick]) if el_axis is not None else None,
+               aim_t_s=float(c_t[pick]), hold_s=float(hold[pick]),
                peak_error_deg=float(peak[pick]), arrival_s=float(arrival[pick]),
-               candidates=len(first))
+               candidates=len(c_az), starts=int(starts[pick]))
 
 
 def gpredict_aim(path: AimPath, t0_s: float, threshold_deg: float, cycle_s: float,

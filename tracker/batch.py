@@ -138,7 +138,7 @@ def pass_track(satrec, station: Station, aos_s: float, los_s: float, step_s: flo
 
     from tracker.batchlib.geometry import StationFrames, gmst_rad
 
-    n = max(2, int(math.ceil((los_s - aos_s) / step_s)) + 1)
+    n = max(2, math.ceil((los_s - aos_s) / step_s) + 1)
     t = np.linspace(aos_s, los_s, n)
     jd0, fr0 = jday(1970, 1, 1, 0, 0, 0.0)
     fr = fr0 + t / 86400.0

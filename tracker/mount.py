@@ -62,7 +62,7 @@ class RotatorSpec:
         numeric = ("az_span_deg", "stop_bearing_deg", "el_min_deg", "az_rate_deg_s",
                    "start_delay_s", "resolution_deg", "park_az_deg", "park_el_deg",
                    "deadband_deg")
-        for key in numeric + ("el_max_deg", "el_rate_deg_s"):
+        for key in (*numeric, "el_max_deg", "el_rate_deg_s"):
             value = getattr(self, key)
             if value is None and key in ("el_max_deg", "el_rate_deg_s"):
                 continue

@@ -490,6 +490,13 @@ def _context(track: SkyTrack, spec: RotatorSpec, station: Station,
         lead_s = spec.start_delay_s + 0.5 * step_s
     if current is None:
         current = (spec.park_az_deg, spec.park_el_deg if spec.has_elevation else 0.0)
+    (az_lo, az_hi), el_lim = spec.axis_limits()
+    if not az_lo <= current[0] <= az_hi or (
+            el_lim is not None and not el_lim[0] <= current[1] <= el_lim[1]):
+        raise LimitError(f"current antenna position (az {current[0]:g}, el {current[1]:g}) is "
+                         f"outside rotator {spec.name!r}'s limits (mechanical az "
+                         f"{az_lo:g}-{az_hi:g}" + (f", el {el_lim[0]:g}-{el_lim[1]:g})"
+                                                   if el_lim else ")"))
     mask_max = float(np.max(station.horizon_at(np.arange(0.0, 360.0, 1.0))))
     return _Ctx(track, spec, station, t, weights, visible, ia, ib, float(lead_s),
                 float(threshold_deg), (float(current[0]), float(current[1])), mask_max)
@@ -628,6 +635,8 @@ def _reason(ctx: _Ctx, chosen: _Result, results: list[_Result]) -> str:
                   f"{s.max_error_deg:.1f} deg"
         elif o.travel_deg > s.travel_deg:
             why = f"; it travels {s.travel_deg:.0f} deg vs {o.travel_deg:.0f} deg ({o.mode})"
-        else:
+        elif o.motor_starts > s.motor_starts:
             why = f"; fewer motor starts than {o.mode} ({s.motor_starts} vs {o.motor_starts})"
+        else:
+            why = f"; {o.mode} scores the same, the simpler mode is kept"
     return f"{s.mode.capitalize()}: {base}{detail}{why}."

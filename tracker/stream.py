@@ -339,7 +339,10 @@ class TrackCore:
         # TRACK
         s = self.settings
         level = s.deadband_deg if t_s >= self._hold_until_s else self._hold_level_deg
-        lookahead = s.cycle_s + self.spec.start_delay_s + 0.5
+        # Move before the error reaches the deadband: one cycle, the start delay and the time
+        # the slower axis needs for a typical step (about twice the deadband).
+        slow = min(self.spec.az_rate_deg_s, self.spec.el_rate_deg_s or math.inf)
+        lookahead = s.cycle_s + self.spec.start_delay_s + min(2.0 * s.deadband_deg / slow, 4.0)
         if self._phase_commanded is Phase.TRACK and not needs_command(
                 self.path, self.motor.az, self.motor.el, t_s, level, lookahead):
             return None
@@ -400,7 +403,7 @@ class TrackCore:
         if cmd.aim is not None:
             self._hold_until_s = t_s + cmd.aim.hold_s
             self._hold_level_deg = max(self.settings.deadband_deg,
-                                       cmd.aim.peak_error_deg + 0.5)
+                                       cmd.aim.peak_error_deg + 0.05)
         self.note = ""
 
     def resync(self) -> None:

@@ -152,6 +152,21 @@ class SatelliteTarget:
         return np.mod(np.atleast_1d(az.degrees), 360.0), el_deg
 
 
+def _load_builtin_resolvers() -> None:
+    """Import the modules that register resolvers (Sun, Moon, radio sources, schedules)."""
+    import importlib
+
+    for module in BUILTIN_RESOLVER_MODULES:
+        try:
+            importlib.import_module(module)
+        except ModuleNotFoundError as e:
+            if e.name != module:  # a real missing dependency inside it: say so
+                raise
+
+
+BUILTIN_RESOLVER_MODULES = ("tracker.celestial",)
+
+
 def _catalog_find(catalog: Any, query: str):
     return catalog.find(query)
 

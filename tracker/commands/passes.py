@@ -198,17 +198,22 @@ def format_duration(seconds: float) -> str:
 def _az(az_deg: float) -> str:
     from tracker.passes import compass_point
 
-    return f"{az_deg:5.1f} {compass_point(az_deg):<3}"
+    return f"{az_deg:3.0f} {compass_point(az_deg):<3}"
 
 
 def table_rows(passes, show_target: bool) -> tuple[list[str], list[list[str]]]:
-    header = ["AOS local", "AOS UTC", "Duration", "Max El", "AOS Az", "LOS Az", "Vis"]
+    """Header and cells; a separate UTC column only when local time is not UTC."""
+    zone = passes[0].aos.astimezone().strftime("%Z") if passes else ""
+    local_is_utc = bool(passes) and passes[0].aos.astimezone().utcoffset().total_seconds() == 0
+    header = [f"AOS ({zone or 'local'})", "AOS UTC", "Duration", "Max El", "AOS Az", "LOS Az",
+              "Vis"]
+    if local_is_utc:
+        header.pop(1)
     if show_target:
         header.insert(0, "Target")
     rows = []
     for p in passes:
-        local = p.aos.astimezone()
-        aos_local = local.strftime("%a %Y-%m-%d %H:%M:%S %Z")
+        aos_local = p.aos.astimezone().strftime("%a %m-%d %H:%M:%S")  # year in the title
         aos_utc = p.aos.strftime("%H:%M:%S")
         if p.always_up:
             aos_local, aos_utc = "always up", "-"
@@ -220,6 +225,8 @@ def table_rows(passes, show_target: bool) -> tuple[list[str], list[list[str]]]:
         vis = "visible" if p.visible else ("sunlit" if p.sunlit else "")
         row = [aos_local, aos_utc, dur, f"{p.max_el_deg:5.1f}°", _az(p.aos_az_deg),
                _az(p.los_az_deg), vis]
+        if local_is_utc:
+            row.pop(1)
         if show_target:
             row.insert(0, p.target_name)
         rows.append(row)
@@ -238,12 +245,18 @@ def write_table(passes, station, targets, start: datetime, end: datetime, out) -
         return
     header, rows = table_rows(passes, show_target=len(targets) > 1)
     if out.isatty():
+        from rich import box
         from rich.console import Console
         from rich.table import Table
 
-        table = Table(title=title, title_justify="left")
+        table = Table(title=title, title_justify="left", box=box.SIMPLE_HEAD, pad_edge=False,
+                      collapse_padding=True)
         for h in header:
-            table.add_column(h, justify="right" if h in ("Duration", "Max El") else "left")
+            if h == "Target":
+                table.add_column(h, min_width=12, overflow="fold")
+            else:
+                table.add_column(h, justify="right" if h in ("Duration", "Max El") else "left",
+                                 no_wrap=True)
         for r in rows:
             table.add_row(*r)
         Console(file=out).print(table)

@@ -205,7 +205,12 @@ class RotorEzDriver(RotatorDriver):
                  timeout_s: float = 1.0, retries: int = 2,
                  set_style: Literal["cr", "am"] | None = None, pace_cmd_s: float = 0.05,
                  accept_old_reply: bool = False, clock: Clock | None = None,
-                 rate_deg_s: float = 6.0, start_az_deg: float = 0.0, **_ignored):
+                 rate_deg_s: float = 6.0, start_az_deg: float = 0.0,
+                 has_elevation: bool | None = None, az_max_deg: float | None = None,
+                 el_max_deg: float | None = None, autobaud: bool = False):
+        # has_elevation / az_max_deg / el_max_deg / autobaud are what generic callers (tracker
+        # rotator, tracker track) pass to every driver; this controller is azimuth-only 0-360
+        # with no autobaud, so they change nothing.
         if variant not in ("rotorez", "dcu1"):
             raise ValueError(f"variant must be rotorez or dcu1, got {variant!r}")
         self.variant = variant
@@ -245,11 +250,9 @@ class RotorEzDriver(RotatorDriver):
             for _attempt in range(1 + self.retries):
                 self.link.flush_input()
                 self.link.write(b"AI1;")
-                buf, az = self.link.read_until(
-                    lambda b: parse_ai_reply(b, self.accept_old_reply) is not None or None,
-                    self.timeout_s)
-                if az:
-                    az = parse_ai_reply(buf, self.accept_old_reply)
+                buf, found = self.link.read_until(self._found_ai, self.timeout_s)
+                if found:
+                    az = found[0]
                     self.estimate.set(float(min(az, 359)))
                     return float(az), None
                 last = buf
@@ -257,6 +260,10 @@ class RotorEzDriver(RotatorDriver):
             f"no ;ddd reply to AI1; within {self.timeout_s:g} s after {1 + self.retries} tries"
             + (f" (received {last!r})" if last else "")
             + "; check the port, 4800 baud and that the controller is on")
+
+    def _found_ai(self, buf: bytes) -> tuple[int] | None:
+        az = parse_ai_reply(buf, self.accept_old_reply)
+        return None if az is None else (az,)
 
     def goto(self, az_deg: float, el_deg: float | None = None) -> None:
         bearing = encode_bearing(az_deg)
@@ -312,3 +319,13 @@ def open_rotorez(url: str, **kw) -> RotorEzDriver:
 
 def open_dcu1(url: str, **kw) -> RotorEzDriver:
     return RotorEzDriver.from_url(url, "dcu1", **kw)
+
+
+def _register() -> None:
+    from tracker.protocols import register_driver
+
+    register_driver("rotorez", open_rotorez)
+    register_driver("dcu1", open_dcu1)
+
+
+_register()

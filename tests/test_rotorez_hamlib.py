@@ -1,0 +1,87 @@
+"""Hamlib's rotctl as the independent peer for the Rotor-EZ (model 401) and DCU-1 (403)
+emulators over a real pty: it sets, reads back (401 only: the DCU-1 has no query) and stops,
+and the emulated antenna really moves."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+from datetime import datetime
+
+import pytest
+from _gs232_helpers import T0, wait_until
+
+from tracker.clock import SimClock
+from tracker.emulator import serve_pty
+from tracker.emulator.rotorez_controller import RotorEzController
+
+pytestmark = pytest.mark.hamlib
+
+ROTCTL = shutil.which("rotctl")
+if ROTCTL is None:
+    if os.environ.get("CI", "").lower() == "true":
+        raise RuntimeError("rotctl not found but CI=true: install Debian's libhamlib-utils")
+    pytest.skip("Hamlib rotctl not installed (apt install libhamlib-utils)",
+                allow_module_level=True)
+
+
+def rotctl(model: str, url: str, *cmds: str, ok: bool = True) -> subprocess.CompletedProcess:
+    r = subprocess.run([ROTCTL, "-m", model, "-r", url, *cmds], capture_output=True,
+                       text=True, timeout=30)
+    if ok:
+        assert r.returncode == 0, f"rotctl -m {model} {cmds}: {r.stdout} {r.stderr[-500:]}"
+    return r
+
+
+@pytest.fixture
+def emulator(request):
+    clock = SimClock(datetime.fromisoformat(T0), speed=10.0)
+    ctrl = RotorEzController(request.param, clock=clock)
+    server = serve_pty(ctrl)
+    yield ctrl, server
+    server.close()
+    assert server.closed and not server.thread.is_alive()
+
+
+@pytest.mark.parametrize("emulator", ["rotorez"], indirect=True)
+def test_rotctl_401_sets_reads_back_and_stops(emulator):
+    ctrl, server = emulator
+    rotctl("401", server.url, "P", "80", "0")
+    assert wait_until(lambda: ctrl.antenna() == 80.0, 10), ctrl.antenna()
+    out = rotctl("401", server.url, "p").stdout.split()
+    assert float(out[0]) == 80.0
+    # a long move, then S stops it where it is
+    rotctl("401", server.url, "P", "190", "0")     # 250 deg the long way round (south stop)
+    assert wait_until(lambda: ctrl.moving(), 5)
+    rotctl("401", server.url, "S")
+    assert wait_until(lambda: not ctrl.moving(), 5)
+    held = ctrl.antenna()
+    assert held not in (80.0, 190.0)
+    assert float(rotctl("401", server.url, "p").stdout.split()[0]) == round(held) % 360
+    cmds = [c for _t, c, _r in ctrl.log]
+    assert cmds[:3] == [b"AP1080;", b"AM1;", b"AI1;"] and b";" in cmds
+
+
+@pytest.mark.parametrize("emulator", ["rotorez"], indirect=True)
+def test_rotctl_401_option_bytes(emulator):
+    ctrl, server = emulator
+    rotctl("401", server.url, "C", "jam", "0", "C", "endpt", "0", "C", "oversht", "0",
+           "C", "unstick", "0")
+    assert wait_until(lambda: not any(ctrl.settings.values()), 5), ctrl.settings
+
+
+@pytest.mark.parametrize("emulator", ["dcu1"], indirect=True)
+def test_rotctl_403_sets_and_stops(emulator):
+    ctrl, server = emulator
+    rotctl("403", server.url, "P", "170", "0")     # 350 deg the long way round (south stop)
+    assert wait_until(lambda: ctrl.moving(), 5)
+    rotctl("403", server.url, "S")
+    assert wait_until(lambda: not ctrl.moving(), 5)
+    assert ctrl.antenna() != 170.0
+    rotctl("403", server.url, "P", "200", "0")
+    assert wait_until(lambda: ctrl.antenna() == 200.0, 10), ctrl.antenna()
+    r = rotctl("403", server.url, "p", ok=False)      # no query on a DCU-1
+    assert "Feature not available" in r.stdout + r.stderr
+    cmds = [c for _t, c, _r in ctrl.log]
+    assert cmds == [b"AP1170;", b"AM1;", b"AS1;", b"AP1200;", b"AM1;"]

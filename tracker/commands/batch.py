@@ -1,0 +1,203 @@
+"""``tracker batch SOURCE``: every pass of a catalogue over one or many stations.
+
+``SOURCE`` is a TLE/3LE/OMM file, a catalogue group (``amateur``, ``weather``, ...) or ``all``.
+Stations come from ``--stations FILE`` (CSV ``name,lat,lon,alt[,min_el]`` or TOML
+``[[station]]`` tables) or the usual station options. Output: ``--format table|csv|json|ics``
+to stdout or ``--out FILE`` (written atomically). ``--rotator NAME`` adds the planner's
+summary (mode, predicted max error, pre-position time) to passes above ``--min-max-el``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from datetime import timedelta
+from pathlib import Path
+
+from tracker.commands._common import (
+    add_station_args,
+    add_time_args,
+    clock_from_args,
+    config_from_args,
+    station_from_args,
+)
+
+
+def add_batch_args(p: argparse.ArgumentParser) -> None:
+    """Options shared by ``batch`` and ``schedule``."""
+    p.add_argument("source", metavar="CATALOG|GROUP",
+                   help="TLE/3LE/OMM file, catalogue group (amateur, weather, ...) or 'all'")
+    p.add_argument("--stations", metavar="FILE",
+                   help="stations file: CSV name,lat,lon,alt[,min_el] or TOML [[station]]")
+    p.add_argument("--days", type=float, default=1.0, help="window length in days (default 1)")
+    p.add_argument("--min-max-el", type=float, default=0.0, metavar="DEG", dest="min_max_el",
+                   help="keep passes whose max elevation reaches DEG (default 0)")
+    vis = p.add_mutually_exclusive_group()
+    vis.add_argument("--sunlit", action="store_true", help="only passes with the satellite lit")
+    vis.add_argument("--visible", action="store_true",
+                     help="only passes lit while the station is dark (Sun below -6 deg)")
+    p.add_argument("--format", choices=("table", "csv", "json", "ics"), default="table")
+    p.add_argument("--out", metavar="FILE", help="write here (atomically) instead of stdout")
+    p.add_argument("--rotator", metavar="NAME",
+                   help="plan each pass for this rotator (preset or [rotator.NAME])")
+    p.add_argument("--dask", nargs="?", const="", default=None, metavar="ADDRESS",
+                   help="run on a Dask cluster (a local one when no scheduler ADDRESS)")
+    p.add_argument("--workers", type=int, default=1,
+                   help="local processes to split the satellites over (default 1)")
+    p.add_argument("--step", type=float, default=240.0, metavar="S",
+                   help="fine sampling step of the finder in seconds (default 240)")
+    add_station_args(p)
+    add_time_args(p)
+
+
+def register(sub) -> None:
+    p = sub.add_parser("batch", help="all passes of a catalogue over one or many stations",
+                       description="Find every pass of a catalogue (or group) over one or "
+                                   "more stations, with plan summaries and CSV/JSON/iCalendar "
+                                   "export.")
+    add_batch_args(p)
+    p.add_argument("--plot", metavar="PNG",
+                   help="also draw a timeline of the passes per satellite (.png/.svg)")
+    p.set_defaults(func=run)
+
+
+def load_elements(source: str) -> list:
+    """ElementSets from a file path, a catalogue group name, or ``all``."""
+    from tle.catalog import Catalog
+    from tle.elements import load_file
+
+    from tracker.errors import ConfigError
+
+    def warn(message: str) -> None:
+        print(f"tracker: warning: {message}", file=sys.stderr)
+
+    path = Path(source)
+    if path.is_file():
+        sets = load_file(path, skip_bad=True, on_warning=warn)
+    elif any(c in source for c in "/\\") or path.suffix:
+        raise ConfigError(f"cannot read {source}: no such file (or give a group name such as "
+                          f"'amateur')")
+    else:
+        catalog = Catalog.default(on_warning=warn)
+        sets = list(catalog if source.lower() == "all" else catalog.group(source))
+    if not sets:
+        raise ConfigError(f"{source}: no element sets found")
+    return sets
+
+
+def stations_from_args(args: argparse.Namespace) -> list:
+    from tracker.batch import load_stations
+
+    if args.stations:
+        return load_stations(args.stations)
+    return [station_from_args(args, quiet=args.format != "table")]
+
+
+def find(args: argparse.Namespace, elements: list, stations: list):
+    """Run the finder (local or Dask) for the parsed options; returns (table, start)."""
+    from tracker.batch import find_passes_batch, find_passes_dask, satrecs_of
+    from tracker.errors import ConfigError
+
+    if not (0 < args.days <= 60):
+        raise ConfigError(f"--days {args.days}: allowed more than 0 and at most 60")
+    if not (1 <= args.workers <= 64):
+        raise ConfigError(f"--workers {args.workers}: allowed 1 to 64")
+    start = clock_from_args(args, manual=True).now()
+    end = start + timedelta(days=args.days)
+    if args.dask is not None:
+        table = find_passes_dask(elements, stations, start, end, args.min_el,
+                                 address=args.dask or None, step_s=args.step)
+    else:
+        satrecs, names = satrecs_of(elements)
+        table = find_passes_batch(satrecs, names, stations, start, end, args.min_el,
+                                  step_s=args.step, workers=args.workers)
+    keep = table.passes["max_el_deg"] >= args.min_max_el
+    if args.sunlit:
+        keep &= table.passes["sunlit"]
+    if args.visible:
+        keep &= table.passes["visible"]
+    return table.select(keep), start
+
+
+def rotator_spec(args: argparse.Namespace):
+    """``--rotator NAME``: a [rotator.NAME] config section or a preset."""
+    return config_from_args(args).rotator(args.rotator)
+
+
+def plans_for(args: argparse.Namespace, table, elements) -> list | None:
+    if not args.rotator:
+        return None
+    from tracker.batch import plan_summaries
+
+    spec = rotator_spec(args)
+    satrecs = {}
+    for i in sorted(set(table.passes["sat"].tolist())):
+        satrecs[i] = elements[i].satrec()
+    return plan_summaries(table, satrecs, spec, args.min_max_el)
+
+
+def emit(args: argparse.Namespace, text: str) -> None:
+    from tracker.export import write_atomic
+
+    if args.out:
+        path = write_atomic(args.out, text)
+        print(f"tracker: wrote {path}", file=sys.stderr)
+    else:
+        sys.stdout.write(text)
+
+
+def meta_of(args, table, start, elapsed_s: float) -> dict:
+    from tracker.export import iso
+
+    return {"source": args.source, "start": iso(start.timestamp()),
+            "end": iso(table.end.timestamp()),
+            "stations": [{"name": s.name, "lat_deg": s.lat_deg, "lon_deg": s.lon_deg,
+                          "alt_m": s.alt_m, "min_el_deg": s.min_el_deg}
+                         for s in table.stations],
+            "min_el_deg": args.min_el, "min_max_el_deg": args.min_max_el,
+            "filter": "visible" if args.visible else "sunlit" if args.sunlit else None,
+            "rotator": args.rotator, "satellites": len(table.names),
+            "elapsed_s": round(elapsed_s, 3)}
+
+
+def error_records(table) -> list[dict]:
+    from tracker.export import iso
+
+    return [{"satellite": e.name, "code": e.code, "message": e.message,
+             "from": iso(e.first_s)} for e in table.errors]
+
+
+def report_errors(table) -> None:
+    if not table.errors:
+        return
+    shown = ", ".join(f"{e.name} ({e.message})" for e in table.errors[:3])
+    more = f" and {len(table.errors) - 3} more" if len(table.errors) > 3 else ""
+    print(f"tracker: note: SGP4 could not propagate {len(table.errors)} satellite(s) for the "
+          f"whole window (decayed or bad elements): {shown}{more}", file=sys.stderr)
+
+
+def run(args: argparse.Namespace) -> int:
+    from tracker.export import pass_records, render
+
+    t0 = time.perf_counter()
+    elements = load_elements(args.source)
+    stations = stations_from_args(args)
+    table, start = find(args, elements, stations)
+    plans = plans_for(args, table, elements)
+    elapsed = time.perf_counter() - t0
+    records = pass_records(table, plans)
+    report_errors(table)
+    text = render(args.format, records, meta=meta_of(args, table, start, elapsed),
+                  errors=error_records(table), stamp_s=start.timestamp(),
+                  name=f"{args.source} passes")
+    if args.plot:
+        from tracker.timeline import timeline_plot
+
+        path = timeline_plot(records, args.plot, start.timestamp(), table.end.timestamp(),
+                             title=f"{args.source}: {len(records)} passes")
+        print(f"tracker: wrote {path}", file=sys.stderr)
+    emit(args, text)
+    print(f"tracker: {len(records)} passes of {len(elements)} satellites over "
+          f"{len(stations)} station(s) in {elapsed:.1f} s", file=sys.stderr)
+    return 0

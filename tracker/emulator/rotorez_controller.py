@@ -1,0 +1,250 @@
+"""Virtual Idiom Press Rotor-EZ / RotorCard and Hy-Gain DCU-1 controllers.
+
+Byte-oriented, unlike the GS-232 line machine: option commands are single bytes with no
+terminator and the ``AI1;`` reply has no terminator either. Served by ``serve_pty`` /
+``serve_tcp`` like any controller (they only need ``open_session()`` returning an object
+with ``feed(bytes) -> bytes`` and ``poll() -> bytes``).
+
+Behaviour (PROTOCOLS.md §8): case-sensitive; ``AP1ddd\\r`` sets and goes (Rotor-EZ only),
+``AP1ddd;`` sets, ``AM1;`` goes, ``AI1;`` → ``;ddd`` (0-359), ``;`` stops (Rotor-EZ),
+``AS1;`` stops (DCU-1); option bytes ``E e O o S s J j`` switch endpoint / overshoot /
+unstick / jam protection; ``V`` answers the banner. LF is ignored.
+
+Choices where the sources are silent (each an option of :class:`RotorEzOptions`):
+``banner``: a Rotor-EZ answers ``;`` while idle and any invalid command with
+``C2000 IDIOM V1.4S `` (rotorez.txt); on by default, never on a DCU-1. ``power_on_byte``:
+the first connection after "power-on" gets one stray byte (0xE0 seen on a real unit);
+on by default for the Rotor-EZ. ``V`` answers with the banner text (undocumented format).
+A DCU-1 is silent for everything and has no query: ``AI1;`` is ignored. Bearings are true
+bearings; the motor runs in the mechanical frame of ``spec`` (default: a Hy-Gain HAM-IV
+class rotator, 360 deg, south stop).
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass, field
+from typing import Literal
+
+from tracker.clock import Clock, SystemClock
+from tracker.emulator.gs232_controller import Faults
+from tracker.mount import MotorModel, RotatorSpec
+
+BANNER = b"C2000 IDIOM V1.4S "
+HAM_IV = RotatorSpec(
+    name="HAM-IV", az_span_deg=360, stop_bearing_deg=180, el_max_deg=None, el_rate_deg_s=None,
+    az_rate_deg_s=6.0, start_delay_s=0.5, controller_maps_south=True, deadband_deg=3.0,
+    description="Hy-Gain HAM-IV class azimuth rotator: 360 deg, south stop, ~60 s per turn")
+
+
+class ByteController:
+    """Shared plumbing for byte-oriented controllers: clock, motor (azimuth), log, faults,
+    sessions. Subclasses implement ``handle(data, state) -> bytes`` and may override
+    ``poll_state``. Bearings on the wire are true bearings mapped through ``spec``."""
+
+    name = "controller"
+
+    def __init__(self, spec: RotatorSpec | None = None, clock: Clock | None = None,
+                 az_deg: float | None = None):
+        self.spec = spec or HAM_IV
+        self.clock = clock or SystemClock()
+        self.faults = Faults()
+        self._lock = threading.RLock()
+        start_m = None if az_deg is None else float(self.spec.mech_of(az_deg)) \
+            if self.spec.controller_maps_south else float(az_deg)
+        self.motor = MotorModel(self.spec.with_(el_max_deg=None, el_rate_deg_s=None), start_m,
+                                None, t_s=self.clock.monotonic())
+        self.commands_seen = 0
+        self.log: list[tuple[float, bytes, bytes]] = []   # (t, command, reply), last 200
+        self.sessions_opened = 0
+
+    def open_session(self) -> ByteSession:
+        self.sessions_opened += 1
+        return ByteSession(self, first=self.sessions_opened == 1)
+
+    def _now(self) -> float:
+        return self.clock.monotonic()
+
+    # Frames: true bearing on the wire <-> mechanical in the motor --------------------------
+
+    def mech_of_bearing(self, bearing: float) -> float:
+        if self.spec.controller_maps_south:
+            cands = self.spec.mech_candidates(bearing % 360.0)
+            here = float(self.motor.az.position(self._now()))
+            return min(cands, key=lambda m: abs(m - here)) if cands else 0.0
+        return float(bearing)
+
+    def bearing_of_mech(self, m: float) -> float:
+        if self.spec.controller_maps_south:
+            return float(self.spec.bearing_of(m))
+        return float(m)
+
+    def readback(self) -> int:
+        """The controller's 0-359 reading now."""
+        return round(self.bearing_of_mech(self.motor.az.position(self._now()))) % 360
+
+    def antenna(self) -> float:
+        """True bearing of the simulated antenna now (0 <= b < 360)."""
+        with self._lock:
+            return self.bearing_of_mech(self.motor.az.position(self._now())) % 360.0
+
+    def moving(self) -> bool:
+        with self._lock:
+            return self.motor.az.moving(self._now())
+
+    def jam(self, jammed: bool = True) -> None:
+        with self._lock:
+            self.motor.az.jam(self._now(), jammed)
+
+    def status_line(self) -> str:
+        state = "moving" if self.moving() else "idle"
+        return f"{self.name}  az {self.antenna():6.1f}  {state}  cmds {self.commands_seen}"
+
+    def _record(self, cmd: bytes, reply: bytes) -> bytes:
+        self.commands_seen += 1
+        self.log.append((self._now(), cmd, reply))
+        del self.log[:-200]
+        return reply
+
+    def handle(self, data: bytes, state: SessionState) -> bytes:
+        raise NotImplementedError
+
+    def poll_state(self, state: SessionState) -> bytes:
+        return b""
+
+
+@dataclass
+class SessionState:
+    buf: bytearray = field(default_factory=bytearray)
+    pending: bytearray = field(default_factory=bytearray)   # unsolicited output
+    extra: dict = field(default_factory=dict)
+
+
+class ByteSession:
+    """One connection: its own input buffer; faults applied to everything sent back."""
+
+    def __init__(self, controller: ByteController, first: bool = False):
+        self.controller = controller
+        self.state = SessionState()
+        self.state.extra["first"] = first
+
+    def feed(self, data: bytes) -> bytes:
+        ctrl = self.controller
+        if ctrl.faults.deaf:
+            return b""
+        with ctrl._lock:
+            return self._filter(ctrl.handle(bytes(data), self.state))
+
+    def poll(self) -> bytes:
+        ctrl = self.controller
+        with ctrl._lock:
+            out = bytes(self.state.pending) + ctrl.poll_state(self.state)
+            self.state.pending.clear()
+        return self._filter(out)
+
+    def _filter(self, reply: bytes) -> bytes:
+        f = self.controller.faults
+        if f.silent or not reply:
+            return b""
+        return f.reply_filter(reply) if f.reply_filter else reply
+
+
+@dataclass
+class RotorEzOptions:
+    banner: bool | None = None          # None: on for the Rotor-EZ, off for the DCU-1
+    power_on_byte: bytes | None = None  # None: b"\xe0" for the Rotor-EZ, nothing for DCU-1
+    max_command: int = 16               # a longer unterminated command is discarded
+
+
+class RotorEzController(ByteController):
+    """``variant`` "rotorez" (Rotor-EZ / RotorCard) or "dcu1" (Hy-Gain DCU-1)."""
+
+    def __init__(self, variant: Literal["rotorez", "dcu1"] = "rotorez",
+                 spec: RotatorSpec | None = None, clock: Clock | None = None,
+                 options: RotorEzOptions | None = None, az_deg: float | None = None):
+        if variant not in ("rotorez", "dcu1"):
+            raise ValueError(f"variant must be rotorez or dcu1, got {variant!r}")
+        super().__init__(spec, clock, az_deg)
+        self.variant = variant
+        self.name = variant
+        opts = options or RotorEzOptions()
+        rez = variant == "rotorez"
+        self.banner = rez if opts.banner is None else (opts.banner and rez)
+        self.power_on_byte = (b"\xe0" if rez else b"") if opts.power_on_byte is None \
+            else opts.power_on_byte
+        self.max_command = opts.max_command
+        self.target_bearing: int | None = None
+        self.settings = {"endpoint": True, "overshoot": True, "unstick": True, "jam": True}
+
+    def open_session(self) -> ByteSession:
+        s = super().open_session()
+        if s.state.extra["first"] and self.power_on_byte:
+            s.state.pending += self.power_on_byte
+        return s
+
+    def _go(self, bearing: int) -> None:
+        self.motor.az.command(self.mech_of_bearing(bearing), self._now())
+
+    def handle(self, data: bytes, st: SessionState) -> bytes:
+        out = bytearray()
+        rez = self.variant == "rotorez"
+        for b in data:
+            c = bytes([b])
+            if c == b"\n":
+                continue
+            if not st.buf:
+                if rez and c in b"EeOoSsJj":
+                    key = {b"E": "endpoint", b"O": "overshoot", b"S": "unstick",
+                           b"J": "jam"}[c.upper()]
+                    self.settings[key] = c.isupper()
+                    out += self._record(c, b"")
+                    continue
+                if rez and c == b"V":
+                    out += self._record(c, BANNER)
+                    continue
+                if c == b";":
+                    idle = not self.motor.az.moving(self._now())
+                    self.motor.az.stop(self._now())
+                    out += self._record(c, BANNER if (rez and idle and self.banner) else b"")
+                    continue
+                if c == b"\r":
+                    continue
+            if c in (b";", b"\r"):
+                cmd, st.buf = bytes(st.buf), bytearray()
+                out += self._record(cmd + c, self._command(cmd, c))
+                continue
+            st.buf += c
+            if len(st.buf) > self.max_command:
+                st.buf.clear()
+        return bytes(out)
+
+    def _invalid(self) -> bytes:
+        return BANNER if self.banner else b""
+
+    def _command(self, cmd: bytes, term: bytes) -> bytes:
+        rez = self.variant == "rotorez"
+        if cmd.startswith(b"AP1") and len(cmd) == 6 and cmd[3:].isdigit():
+            v = int(cmd[3:])
+            if v > 360:
+                return self._invalid()
+            self.target_bearing = v % 360
+            if term == b"\r":
+                if not rez:
+                    return b""     # DCU-1: only the ; form exists
+                self._go(self.target_bearing)
+            return b""
+        if cmd == b"AM1" and term == b";":
+            if self.target_bearing is not None:
+                self._go(self.target_bearing)
+            return b""
+        if cmd == b"AI1" and term == b";" and rez:
+            return b";%03d" % self.readback()
+        if cmd == b"AS1" and term == b";":
+            self.motor.az.stop(self._now())
+            return b""
+        return self._invalid()
+
+    def status_line(self) -> str:
+        opts = "".join(k[0].upper() if v else k[0] for k, v in self.settings.items())
+        tgt = "---" if self.target_bearing is None else f"{self.target_bearing:03d}"
+        return f"{super().status_line()}  target {tgt}  options {opts}"

@@ -1,0 +1,226 @@
+"""Export pass lists: records, CSV, JSON (schema in docs/batch-json-schema.md), iCalendar.
+
+Everything goes through plain *records* (one dict per pass, see :func:`pass_records`), so the
+batch list and the one-rotator schedule export the same way. :func:`write_atomic` writes a
+file so that an error never leaves a truncated or half-written output behind.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import json
+import os
+import tempfile
+from collections.abc import Iterable, Sequence
+from datetime import datetime, timezone
+from pathlib import Path
+
+from tracker.errors import ConfigError
+
+JSON_SCHEMA_ID = "rotator-tracker/batch-passes/1"
+
+CSV_FIELDS = (
+    "satellite", "station", "aos", "tca", "los", "duration_s", "max_el_deg", "aos_az_deg",
+    "tca_az_deg", "los_az_deg", "aos_clipped", "los_clipped", "sunlit", "visible",
+    "plan_mode", "plan_max_error_deg", "plan_preposition", "priority",
+)
+
+
+def iso(t_s: float) -> str:
+    """POSIX seconds as ISO-8601 UTC, to the second (``2026-08-22T13:45:07Z``)."""
+    return datetime.fromtimestamp(round(float(t_s)), timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+def pass_records(table, plans: Sequence[dict | None] | None = None,
+                 rows: Iterable[int] | None = None) -> list[dict]:
+    """One dict per pass of a :class:`~tracker.batch.PassTable` (optionally only ``rows``),
+    with the planner summary from ``plans`` (same order as the table) when given."""
+    out = []
+    idx = range(len(table.passes)) if rows is None else rows
+    for i in idx:
+        p = table.passes[i]
+        plan = plans[i] if plans is not None else None
+        out.append({
+            "satellite": table.names[int(p["sat"])],
+            "station": table.stations[int(p["station"])].name,
+            "aos": iso(p["aos_s"]), "tca": iso(p["tca_s"]), "los": iso(p["los_s"]),
+            "aos_s": float(p["aos_s"]), "tca_s": float(p["tca_s"]), "los_s": float(p["los_s"]),
+            "duration_s": round(float(p["los_s"] - p["aos_s"]), 1),
+            "max_el_deg": round(float(p["max_el_deg"]), 2),
+            "aos_az_deg": round(float(p["aos_az_deg"]), 1),
+            "tca_az_deg": round(float(p["tca_az_deg"]), 1),
+            "los_az_deg": round(float(p["los_az_deg"]), 1),
+            "aos_clipped": bool(p["aos_clipped"]), "los_clipped": bool(p["los_clipped"]),
+            "sunlit": bool(p["sunlit"]), "visible": bool(p["visible"]),
+            "plan": None if plan is None else {
+                "mode": plan["mode"], "max_error_deg": plan["max_error_deg"],
+                "preposition": iso(plan["preposition_s"]), "reason": plan.get("reason", "")},
+        })
+    return out
+
+
+def _flat(rec: dict) -> dict:
+    plan = rec.get("plan") or {}
+    row = {k: rec.get(k, "") for k in CSV_FIELDS}
+    row["plan_mode"] = plan.get("mode", "")
+    row["plan_max_error_deg"] = plan.get("max_error_deg", "")
+    row["plan_preposition"] = plan.get("preposition", "")
+    row["priority"] = rec.get("priority", "")
+    for k in ("aos_clipped", "los_clipped", "sunlit", "visible"):
+        row[k] = "true" if rec.get(k) else "false"
+    return row
+
+
+def to_csv(records: Sequence[dict]) -> str:
+    """CSV with a header row (columns :data:`CSV_FIELDS`; times ISO-8601 UTC)."""
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=CSV_FIELDS, lineterminator="\n")
+    w.writeheader()
+    for rec in records:
+        w.writerow(_flat(rec))
+    return buf.getvalue()
+
+
+def to_json(records: Sequence[dict], meta: dict | None = None,
+            errors: Sequence[dict] = ()) -> str:
+    """The documented JSON document: ``{"schema", "meta", "passes", "errors"}``."""
+    doc = {"schema": JSON_SCHEMA_ID, "meta": dict(meta or {}), "passes": list(records),
+           "errors": list(errors)}
+    return json.dumps(doc, indent=1) + "\n"
+
+
+def to_table(records: Sequence[dict]) -> str:
+    """A fixed-width text table for the terminal."""
+    head = (f"{'satellite':<24} {'station':<12} {'AOS (UTC)':<20} {'LOS':>8} {'max el':>6} "
+            f"{'az AOS>LOS':>11} {'lit':>3} {'plan':<8} {'err':>5}")
+    lines = [head, "-" * len(head)]
+    for r in records:
+        plan = r.get("plan") or {}
+        err = plan.get("max_error_deg")
+        lines.append(
+            f"{r['satellite'][:24]:<24} {r['station'][:12]:<12} "
+            f"{r['aos'].replace('T', ' ')[:19]:<20} {r['los'][11:19]:>8} "
+            f"{r['max_el_deg']:>6.1f} {r['aos_az_deg']:>5.0f}>{r['los_az_deg']:<5.0f} "
+            f"{'yes' if r['sunlit'] else 'no':>3} {plan.get('mode', '-'):<8} "
+            f"{'-' if err is None else f'{err:.1f}':>5}")
+    return "\n".join(lines) + "\n"
+
+
+# iCalendar (RFC 5545) ---------------------------------------------------------------------
+
+
+def _ics_text(value: str) -> str:
+    """Escape a TEXT value (RFC 5545 3.3.11)."""
+    return (value.replace("\\", "\\\\").replace(";", "\\;").replace(",", "\\,")
+            .replace("\r\n", "\\n").replace("\n", "\\n"))
+
+
+def _fold(line: str) -> str:
+    """Fold a content line at 75 octets (RFC 5545 3.1), never splitting a UTF-8 character."""
+    out, cur, size = [], "", 0
+    for ch in line:
+        n = len(ch.encode("utf-8"))
+        if size + n > 75:
+            out.append(cur)
+            cur, size = " ", 1
+        cur += ch
+        size += n
+    out.append(cur)
+    return "\r\n".join(out)
+
+
+def _ics_time(t_s: float) -> str:
+    return datetime.fromtimestamp(round(float(t_s)), timezone.utc).strftime("%Y%m%dT%H%M%SZ")
+
+
+def pass_uid(rec: dict) -> str:
+    """A UID stable across runs: satellite, station and the TCA minute."""
+    key = f"{rec['satellite']}|{rec['station']}|{round(rec['tca_s'] / 60.0)}"
+    return hashlib.sha1(key.encode()).hexdigest()[:20] + "@rotator-tracker"
+
+
+def _description(rec: dict) -> str:
+    parts = [f"{rec['satellite']} from {rec['station']}",
+             f"AOS {rec['aos']} az {rec['aos_az_deg']:.0f}",
+             f"TCA {rec['tca']} el {rec['max_el_deg']:.1f} az {rec['tca_az_deg']:.0f}",
+             f"LOS {rec['los']} az {rec['los_az_deg']:.0f}",
+             f"sunlit: {'yes' if rec['sunlit'] else 'no'}, "
+             f"visible: {'yes' if rec['visible'] else 'no'}"]
+    plan = rec.get("plan")
+    if plan:
+        parts.append(f"plan: {plan['mode']}, predicted max error {plan['max_error_deg']} deg, "
+                     f"pre-position at {plan['preposition']}")
+        if plan.get("reason"):
+            parts.append(plan["reason"])
+    if rec.get("priority") not in (None, ""):
+        parts.append(f"priority {rec['priority']}")
+    return "\n".join(parts)
+
+
+def to_ics(records: Sequence[dict], stamp_s: float, name: str = "Satellite passes") -> str:
+    """An RFC 5545 calendar with one VEVENT per pass (AOS -> LOS).
+
+    ``stamp_s`` is the DTSTAMP (the run's "as of" time, so the same input gives the same
+    file).
+    """
+    lines = ["BEGIN:VCALENDAR", "VERSION:2.0", "PRODID:-//rotator-tracker//batch//EN",
+             "CALSCALE:GREGORIAN", "METHOD:PUBLISH", f"X-WR-CALNAME:{_ics_text(name)}"]
+    for rec in records:
+        summary = f"{rec['satellite']} max {rec['max_el_deg']:.0f}°"
+        lines += [
+            "BEGIN:VEVENT",
+            f"UID:{pass_uid(rec)}",
+            f"DTSTAMP:{_ics_time(stamp_s)}",
+            f"DTSTART:{_ics_time(rec['aos_s'])}",
+            f"DTEND:{_ics_time(max(rec['los_s'], rec['aos_s'] + 1))}",
+            f"SUMMARY:{_ics_text(summary)}",
+            f"LOCATION:{_ics_text(rec['station'])}",
+            f"DESCRIPTION:{_ics_text(_description(rec))}",
+            "TRANSP:TRANSPARENT",
+            "END:VEVENT",
+        ]
+    lines.append("END:VCALENDAR")
+    return "".join(_fold(line) + "\r\n" for line in lines)
+
+
+FORMATS = ("table", "csv", "json", "ics")
+
+
+def render(fmt: str, records: Sequence[dict], *, meta: dict | None = None,
+           errors: Sequence[dict] = (), stamp_s: float = 0.0, name: str = "") -> str:
+    if fmt == "table":
+        return to_table(records)
+    if fmt == "csv":
+        return to_csv(records)
+    if fmt == "json":
+        return to_json(records, meta, errors)
+    if fmt == "ics":
+        return to_ics(records, stamp_s, name or "Satellite passes")
+    raise ConfigError(f"--format {fmt!r} is unknown; use one of {', '.join(FORMATS)}")
+
+
+def write_atomic(path: str | Path, text: str) -> Path:
+    """Write ``text`` to ``path`` via a temporary file in the same folder and a rename, so a
+    failure leaves any existing file untouched. ICS keeps its CRLF line ends byte for byte."""
+    path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise ConfigError(f"--out {path}: folder {folder} does not exist")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    except OSError as e:
+        raise ConfigError(f"--out {path}: cannot write there: {e.strerror}") from None
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException as e:
+        Path(tmp).unlink(missing_ok=True)
+        if isinstance(e, OSError):
+            raise ConfigError(f"--out {path}: cannot write: {e.strerror}") from None
+        raise
+    return path
