@@ -54,6 +54,7 @@ class StreamSettings:
 
     deadband_deg: float = 4.0
     cycle_s: float = 0.5
+    margin_deg: float = 0.15          # predictions are sampled: keep this inside the deadband
     park_after_pass: bool = True
     stall_travel_deg: float = 2.0     # expected travel with no motion seen → stall
     contradiction_deg: float = 20.0   # read-back this far from belief → not trusted
@@ -338,7 +339,8 @@ class TrackCore:
             return None
         # TRACK
         s = self.settings
-        level = s.deadband_deg if t_s >= self._hold_until_s else self._hold_level_deg
+        band = max(s.deadband_deg - s.margin_deg, 0.5 * s.deadband_deg)
+        level = band if t_s >= self._hold_until_s else max(band, self._hold_level_deg)
         # Move before the error reaches the deadband: one cycle, the start delay and the time
         # the slower axis needs for a typical step (about twice the deadband).
         slow = min(self.spec.az_rate_deg_s, self.spec.el_rate_deg_s or math.inf)
@@ -346,7 +348,7 @@ class TrackCore:
         if self._phase_commanded is Phase.TRACK and not needs_command(
                 self.path, self.motor.az, self.motor.el, t_s, level, lookahead):
             return None
-        aim = choose_aim(self.path, self.motor.az, self.motor.el, t_s, s.deadband_deg,
+        aim = choose_aim(self.path, self.motor.az, self.motor.el, t_s, band,
                          step_s=s.aim_step_s)
         cmd = self._safe(aim.az_m_deg, aim.el_deg, "track", aim)
         if self._phase_commanded is Phase.TRACK and self.last_command is not None and (
@@ -402,8 +404,7 @@ class TrackCore:
             self._park_sent_s = t_s
         if cmd.aim is not None:
             self._hold_until_s = t_s + cmd.aim.hold_s
-            self._hold_level_deg = max(self.settings.deadband_deg,
-                                       cmd.aim.peak_error_deg + 0.05)
+            self._hold_level_deg = cmd.aim.peak_error_deg + 0.05
         self.note = ""
 
     def resync(self) -> None:
