@@ -133,7 +133,8 @@ def main(argv=None) -> int:
     ap.add_argument("--days", type=float, default=1.0)
     ap.add_argument("--max-sats", type=int, default=30,
                     help="satellites per group (0 = all)")
-    ap.add_argument("--deadband", type=float, default=3.0)
+    ap.add_argument("--deadband", type=float, nargs="+", default=[3.0, 5.0],
+                    help="deadbands (great-circle deg) to run the stream policy at")
     ap.add_argument("--rotator", default="G-5500")
     ap.add_argument("--mains-hz", type=int, default=50, choices=(50, 60))
     ap.add_argument("--overhead", type=int, default=24)
@@ -149,21 +150,23 @@ def main(argv=None) -> int:
     print(f"suite: {real} real passes ({args.days:g} d, {args.max_sats or 'all'} sats/group, "
           f"3 stations) + {len(suite) - real} forced overhead; built in "
           f"{time.perf_counter() - t0:.1f} s")
-    rows = {"stream": [], "gpredict": []}
+    names = [f"stream D={d:g}" for d in args.deadband]
+    rows: dict[str, list] = {n: [] for n in [*names, "gpredict-style"]}
+    cost = dict.fromkeys(rows, 0.0)
     followable = []
-    cost = {"stream": 0.0, "gpredict": 0.0}
     for sp in suite:
         tr, st = sp.track, sp.station
-        t1 = time.perf_counter()
-        cmds, plan, _t = fly_stream(tr, spec, st, args.deadband)
-        t_start = min(plan.preposition_t_s, float(tr.t_s[0])) - 0.5
-        rows["stream"].append(measure(tr, spec, st, cmds, t_start))
+        t_start = None
+        for name, d in zip(names, args.deadband, strict=True):
+            t1 = time.perf_counter()
+            cmds, plan, _t = fly_stream(tr, spec, st, d)
+            t_start = min(plan.preposition_t_s, float(tr.t_s[0])) - 0.5
+            rows[name].append(measure(tr, spec, st, cmds, t_start))
+            cost[name] += time.perf_counter() - t1
         t2 = time.perf_counter()
         gcmds, _gplan = fly_gpredict(tr, spec, st, t_start=t_start)
-        rows["gpredict"].append(measure(tr, spec, st, gcmds, t_start))
-        t3 = time.perf_counter()
-        cost["stream"] += t2 - t1
-        cost["gpredict"] += t3 - t2
+        rows["gpredict-style"].append(measure(tr, spec, st, gcmds, t_start))
+        cost["gpredict-style"] += time.perf_counter() - t2
         followable.append(plan.lost_track_s == 0)
     followable = np.array(followable)
     res = {k: summarise(v, followable) for k, v in rows.items()}
@@ -180,21 +183,22 @@ def main(argv=None) -> int:
         ("motor starts", lambda r: f"{r['starts']}"),
         ("starts per pass", lambda r: f"{r['starts'] / n:.1f}"),
         ("commands sent", lambda r: f"{r['commands']}"),
+        ("sim ms per pass", lambda r: f"{1000 * r['cost'] / n:.1f}"),
     ]
-    print(f"\n{'policy':<24}{'stream (D=' + format(args.deadband, 'g') + ')':>18}"
-          f"{'gpredict-style':>18}")
+    for k in res:
+        res[k]["cost"] = cost[k]
+    print(f"\n{'policy':<24}" + "".join(f"{k:>17}" for k in res))
     for label, fmt in labels:
-        print(f"{label:<24}{fmt(res['stream']):>18}{fmt(res['gpredict']):>18}")
+        print(f"{label:<24}" + "".join(f"{fmt(r):>17}" for r in res.values()))
     print(f"followable passes (planner predicts no loss): {int(followable.sum())} of {n}")
-    print(f"simulation cost per pass: stream {1000 * cost['stream'] / n:.1f} ms, gpredict "
-          f"{1000 * cost['gpredict'] / n:.1f} ms (ratio "
-          f"{cost['stream'] / max(cost['gpredict'], 1e-9):.1f})")
-    s, g = res["stream"], res["gpredict"]
-    print("\ntargets: no lost s on followable passes: "
-          f"{'yes' if s['lost_followable_s'] == 0 else 'NO'}; max <= 3 deg on >= 99 % of "
-          f"passes: {'yes' if s['le3'] >= 0.99 else 'NO'} ({100 * s['le3']:.1f} %); fewer "
-          f"motor starts than gpredict-style: {'yes' if s['starts'] < g['starts'] else 'NO'} "
-          f"({s['starts']} vs {g['starts']})")
+    g = res["gpredict-style"]
+    for name in names:
+        s = res[name]
+        print(f"{name}: no lost s on followable passes: "
+              f"{'yes' if s['lost_followable_s'] == 0 else 'NO'}; max <= 3 deg on >= 99 % of "
+              f"passes: {'yes' if s['le3'] >= 0.99 else 'NO'} ({100 * s['le3']:.1f} %); "
+              f"motor starts vs gpredict-style: {s['starts'] / g['starts']:.2f}x; "
+              f"sim cost vs gpredict-style: {s['cost'] / max(g['cost'], 1e-9):.0f}x")
     return 0
 
 

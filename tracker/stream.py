@@ -54,7 +54,7 @@ class StreamSettings:
 
     deadband_deg: float = 4.0
     cycle_s: float = 0.5
-    margin_deg: float = 0.15          # predictions are sampled: keep this inside the deadband
+    margin_deg: float = 0.2           # predictions are sampled: keep this inside the deadband
     park_after_pass: bool = True
     stall_travel_deg: float = 2.0     # expected travel with no motion seen → stall
     contradiction_deg: float = 20.0   # read-back this far from belief → not trusted

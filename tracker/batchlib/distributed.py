@@ -38,7 +38,7 @@ def _run_chunk(lines, stations, start, end, min_el_deg, kwargs):
                              min_el_deg, **kwargs)
 
 
-def _client(address: str | None, n_workers: int, processes: bool):
+def _client(address: str | None, n_workers: int, processes: bool, timeout_s: float):
     try:
         from dask.distributed import Client, LocalCluster
     except ImportError:
@@ -46,7 +46,7 @@ def _client(address: str | None, n_workers: int, processes: bool):
                           "'rotator-tracker[dask]'") from None
     if address:
         try:
-            return Client(address, timeout="10s"), None
+            return Client(address, timeout=f"{timeout_s}s"), None
         except OSError as e:
             raise ConfigError(f"cannot reach the Dask scheduler at {address}: {e}") from None
     cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=processes,
@@ -57,7 +57,7 @@ def _client(address: str | None, n_workers: int, processes: bool):
 def find_passes_dask(elements, stations, start: datetime, end: datetime,
                      min_el_deg: float | None = None, *, address: str | None = None,
                      chunk_sats: int = 1000, n_workers: int = 2, processes: bool = True,
-                     **kwargs):
+                     connect_timeout_s: float = 10.0, **kwargs):
     """:func:`tracker.batch.find_passes_batch` on a Dask cluster.
 
     ``elements``: ElementSets (with ``line1``/``line2``) or ``(name, line1, line2)`` tuples.
@@ -70,7 +70,7 @@ def find_passes_dask(elements, stations, start: datetime, end: datetime,
     names = [n for n, _, _ in lines]
     if chunk_sats < 1:
         raise ConfigError(f"chunk_sats = {chunk_sats!r} is invalid; allowed: >= 1")
-    client, cluster = _client(address, n_workers, processes)
+    client, cluster = _client(address, n_workers, processes, connect_timeout_s)
     try:
         futures = []
         bounds = list(range(0, len(lines), chunk_sats))

@@ -66,7 +66,6 @@ def load_elements(source: str) -> list:
     """ElementSets from a file path, a catalogue group name, or ``all``."""
     from tle.catalog import Catalog
     from tle.elements import load_file
-
     from tracker.errors import ConfigError
 
     def warn(message: str) -> None:

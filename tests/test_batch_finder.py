@@ -1,0 +1,178 @@
+"""The batch finder's own behaviour: chunking, stations, masks, decayed elements, bad input."""
+
+from __future__ import annotations
+
+from datetime import datetime, timedelta, timezone
+from pathlib import Path
+
+import numpy as np
+import pytest
+from sgp4.api import Satrec
+
+from tracker.batch import find_passes_batch, load_stations, pass_track
+from tracker.errors import ConfigError
+from tracker.station import HorizonMask, Station
+
+HERE = Path(__file__).parent
+START = datetime(2026, 8, 22, 13, 45, tzinfo=timezone.utc)
+DELFT = Station("Delft", 52.0, 4.37, 10.0)
+QUITO = Station("Quito", -0.2, -78.5, 2850.0, 5.0)
+
+
+def read_sets(path: Path):
+    lines = [x.strip() for x in path.read_text().splitlines() if x.strip()]
+    return [(lines[i], lines[i + 1], lines[i + 2]) for i in range(0, len(lines) - 2, 3)]
+
+
+@pytest.fixture(scope="module")
+def amateur():
+    sets = read_sets(HERE.parent / "tle" / "data" / "amateur.txt")
+    return [Satrec.twoline2rv(a, b) for _, a, b in sets], [n for n, _, _ in sets]
+
+
+def run(amateur, stations=(DELFT,), days=1.0, **kw):
+    satrecs, names = amateur
+    return find_passes_batch(satrecs, names, list(stations), START, START + timedelta(days=days),
+                             **kw)
+
+
+def same(a, b, tol_s=0.0):
+    assert len(a) == len(b)
+    for key in ("sat", "station", "aos_clipped", "los_clipped"):
+        assert np.array_equal(a[key], b[key]), key
+    for key in ("aos_s", "tca_s", "los_s"):
+        assert np.max(np.abs(a[key] - b[key]), initial=0) <= tol_s, key
+
+
+def test_screening_skips_most_of_the_window(amateur):
+    table = run(amateur)
+    st = table.stats
+    assert st["candidate_intervals"] < 0.5 * st["intervals"]
+    # Fewer SGP4 evaluations than a plain 60 s grid of the whole window would need.
+    total = st["sgp4_coarse"] + st["sgp4_fine"] + st["sgp4_refine"]
+    assert total < len(amateur[0]) * 1440 / 3
+    p = table.passes
+    assert len(p) > 500 and np.all(p["aos_s"] <= p["tca_s"]) and np.all(p["tca_s"] <= p["los_s"])
+    assert np.all((p["max_el_deg"] >= 0) & (p["max_el_deg"] <= 90))
+
+
+def test_memory_chunks_and_worker_processes_give_identical_results(amateur):
+    base = run(amateur).passes
+    same(base, run(amateur, memory_mb=0.5).passes)  # 32-satellite chunks
+    same(base, run(amateur, workers=2).passes)
+
+
+def test_time_blocks_join_passes_cut_at_the_block_edge(amateur):
+    base = run(amateur, days=2.0).passes
+    blocked = run(amateur, days=2.0, block_days=0.3).passes
+    # Fine grids are aligned to each block's start, so refinement differs by < tolerance.
+    same(base, blocked, tol_s=0.05)
+
+
+def test_stations_are_independent_of_each_other(amateur):
+    both = run(amateur, stations=(DELFT, QUITO)).passes
+    for k, st in enumerate((DELFT, QUITO)):
+        alone = run(amateur, stations=(st,)).passes
+        mine = both[both["station"] == k]
+        alone = alone.copy()
+        alone["station"] = k
+        same(mine, alone)
+
+
+def test_coarser_fine_step_still_finds_the_same_passes(amateur):
+    """Near-miss maxima: with 10-minute steps grazing passes fall inside one step."""
+    fine = run(amateur, step_s=60.0).passes
+    coarse = run(amateur, step_s=600.0).passes
+    same(fine, coarse, tol_s=0.05)
+
+
+def test_min_el_and_horizon_mask(amateur):
+    mask = HorizonMask((0.0, 90.0, 180.0, 270.0), (20.0, 2.0, 2.0, 2.0))
+    station = Station("Masked", 52.0, 4.37, 10.0, 1.0, mask)
+    table = run(amateur, stations=(station,))
+    p = table.passes[~table.passes["aos_clipped"] & ~table.passes["los_clipped"]]
+    satrecs, names = amateur
+    for row in p[::15]:
+        for key, az_key in (("aos_s", "aos_az_deg"), ("los_s", "los_az_deg")):
+            track = pass_track(satrecs[row["sat"]], station, row[key], row[key] + 1.0, 1.0)
+            assert track.el_deg[0] == pytest.approx(station.horizon_at(row[az_key]), abs=0.02)
+    plain = run(amateur, min_el_deg=10.0).passes
+    assert np.all(plain["max_el_deg"] >= 10.0)
+    assert len(plain) < len(run(amateur).passes)
+
+
+def test_decayed_elements_are_reported_not_fatal(amateur):
+    decayed = read_sets(HERE / "data" / "passes_decayed.tle")
+    satrecs = [Satrec.twoline2rv(a, b) for _, a, b in decayed] + amateur[0][:5]
+    names = [n for n, _, _ in decayed] + amateur[1][:5]
+    start = datetime(2026, 8, 22, 12, 0, tzinfo=timezone.utc)
+    table = find_passes_batch(satrecs, names, [DELFT], start, start + timedelta(days=20))
+    assert [e.name for e in table.errors] == ["DECAYSAT"]
+    err = table.errors[0]
+    assert "decayed" in err.message and start.timestamp() < err.first_s
+    assert set(table.passes["sat"].tolist()) >= {1, 2, 3, 4, 5}
+    dead = table.passes[table.passes["sat"] == 0]
+    assert np.all(dead["los_s"] <= err.first_s)
+
+
+def test_sunlit_and_visible_flags(amateur):
+    p = run(amateur).passes
+    assert p["sunlit"].any() and (~p["sunlit"]).any()
+    assert np.all(p["sunlit"][p["visible"]])  # visible implies sunlit
+
+
+@pytest.mark.parametrize("kwargs,match", [
+    (dict(start=datetime(2026, 8, 22)), "timezone"),
+    (dict(end=START), "after its start"),
+    (dict(names=["one"]), "names"),
+    (dict(step_s=1.0), "step_s"),
+    (dict(stations=[]), "no stations"),
+])
+def test_bad_input_is_one_clear_error(amateur, kwargs, match):
+    args = dict(satrecs=amateur[0], names=amateur[1], stations=[DELFT], start=START,
+                end=START + timedelta(days=1))
+    args.update(kwargs)
+    with pytest.raises(ConfigError, match=match):
+        find_passes_batch(**args)
+
+
+def test_stations_file_csv_and_toml(tmp_path):
+    csv_file = tmp_path / "st.csv"
+    csv_file.write_text("# network\nname,lat,lon,alt,min_el\nDelft,52.0,4.37,10,5\n"
+                        "\"Quito, EC\",-0.2,-78.5,2850\n")
+    st = load_stations(csv_file)
+    assert [s.name for s in st] == ["Delft", "Quito, EC"]
+    assert st[0].min_el_deg == 5.0 and st[1].alt_m == 2850.0
+    toml_file = tmp_path / "st.toml"
+    toml_file.write_text('[[station]]\nname = "A"\nlat = 10\nlon = 20\nalt = 5\n\n'
+                         '[[station]]\nname = "B"\nlat = -10\nlon = 30\nmin_el = 3\n')
+    assert [(s.name, s.min_el_deg) for s in load_stations(toml_file)] == [("A", 0.0),
+                                                                        ("B", 3.0)]
+
+
+@pytest.mark.parametrize("text,match", [
+    ("Delft,52.0\n", r"st\.csv:1: expected 'name,lat,lon"),
+    ("Delft,52.0,4.37\nBad,95,4,0\n", r"st\.csv:2: .*lat_deg = 95"),
+    ("Delft,north,4.37\n", r"st\.csv:1: lat = 'north' is not a number"),
+    ("Delft,1,2\nDelft,3,4\n", "appears twice"),
+    ("# nothing\n", "no stations"),
+])
+def test_stations_file_errors_name_the_line(tmp_path, text, match):
+    path = tmp_path / "st.csv"
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=match):
+        load_stations(path)
+
+
+def test_stations_toml_errors(tmp_path):
+    path = tmp_path / "st.toml"
+    path.write_text('[[station]]\nname = "A"\nlat = 10\n\n[[station]]\nname = "B"\nlat = 1\n'
+                    'lon = 2\nheight = 3\n')
+    with pytest.raises(ConfigError, match=r"st\.toml:1: station needs"):
+        load_stations(path)
+    path.write_text('[[station]]\nname = "B"\nlat = 1\nlon = 2\nheight = 3\n')
+    with pytest.raises(ConfigError, match=r"st\.toml:1: unknown station key 'height'"):
+        load_stations(path)
+    path.write_text("[[station]\n")
+    with pytest.raises(ConfigError, match=r"st\.toml"):
+        load_stations(path)
