@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tracker.errors import PortLostError
+from tracker.errors import PortLostError, RotatorTimeout
 from tracker.mount import MotorModel, RotatorSpec
 from tracker.skytrack import SkyTrack
 
@@ -62,6 +62,7 @@ class FakeRotator:
         self.off = False          # control box off: reads AZ=-001 EL=-002
         self.lost = False         # port gone: every call raises PortLostError
         self.fold_360 = False     # report 0..359 even in the overlap
+        self.silent = False       # answers nothing: every query times out
 
     def _check(self):
         if self.lost or self.closed:
@@ -69,6 +70,8 @@ class FakeRotator:
 
     def position(self):
         self._check()
+        if self.silent:
+            raise RotatorTimeout("no reply to C2 within 1 s")
         if self.off:
             return -1.0, -2.0
         az, el = self.model.position(self.clock.timestamp())

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import io
+import itertools
 import json
 import subprocess
 import sys
@@ -106,7 +107,7 @@ def test_schedule_picks_by_priority(capsys, tmp_path):
     ao73 = [p for p in passes if p["satellite"] == "FUNCUBE-1 (AO-73)"]
     assert ao73 and all(p["chosen"] for p in ao73)  # the top priority is never dropped
     chosen.sort(key=lambda p: p["aos_s"])
-    assert all(a["los_s"] < b["aos_s"] for a, b in zip(chosen, chosen[1:], strict=False))
+    assert all(a["los_s"] < b["aos_s"] for a, b in itertools.pairwise(chosen))
     assert all(p["conflicts_with"] for p in passes if not p["chosen"])
 
 
@@ -125,7 +126,7 @@ def test_schedule_needs_one_station(capsys, stations):
     (["schedule", "amateur", "--lat", "1", "--lon", "2", "--priority", "ISS"], "NAME=N"),
 ])
 def test_bad_input_is_one_line_exit_2(capsys, argv, match):
-    code, out, err = run(capsys, *argv, *(["--at", AT] if "--at" not in argv else []))
+    code, _out, err = run(capsys, *argv, *(["--at", AT] if "--at" not in argv else []))
     assert code == 2
     assert match in err and err.count("\n") == 1 and "Traceback" not in err
 
@@ -133,7 +134,7 @@ def test_bad_input_is_one_line_exit_2(capsys, argv, match):
 def test_failed_run_keeps_the_existing_output_file(capsys, tmp_path):
     out_file = tmp_path / "passes.csv"
     out_file.write_text("precious\n")
-    code, _, err = run(capsys, "batch", "amateur", "--lat", "1", "--lon", "2", "--at", AT,
+    code, _, _err = run(capsys, "batch", "amateur", "--lat", "1", "--lon", "2", "--at", AT,
                        "--rotator", "nope", "--out", str(out_file))
     assert code == 2
     assert out_file.read_text() == "precious\n"

@@ -91,7 +91,7 @@ def test_min_el_and_horizon_mask(amateur):
     station = Station("Masked", 52.0, 4.37, 10.0, 1.0, mask)
     table = run(amateur, stations=(station,))
     p = table.passes[~table.passes["aos_clipped"] & ~table.passes["los_clipped"]]
-    satrecs, names = amateur
+    satrecs, _names = amateur
     for row in p[::15]:
         for key, az_key in (("aos_s", "aos_az_deg"), ("los_s", "los_az_deg")):
             track = pass_track(satrecs[row["sat"]], station, row[key], row[key] + 1.0, 1.0)

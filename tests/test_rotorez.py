@@ -7,7 +7,7 @@ from datetime import datetime
 import pytest
 from _gs232_helpers import T0, RawPeer, wait_until
 
-from tracker.clock import ManualClock, SimClock
+from tracker.clock import SimClock
 from tracker.emulator import serve_pty, serve_tcp
 from tracker.emulator.rotorez_controller import BANNER, RotorEzController
 from tracker.errors import LimitError, PortLostError, RotatorTimeout
@@ -112,7 +112,6 @@ def test_dcu1_runs_open_loop_on_the_motor_model(served):
 
 
 def test_silent_controller_times_out_not_hangs():
-    clock = ManualClock(datetime.fromisoformat(T0))
     peer = RawPeer("tcp", lambda req: b"")
     try:
         drv = open_driver(peer.url, "rotorez", timeout_s=0.2, retries=1)
@@ -122,7 +121,6 @@ def test_silent_controller_times_out_not_hangs():
     finally:
         peer.close()
     assert peer.received.count(b"AI1;") == 2
-    del clock
 
 
 def test_echoing_clone_reply_with_banner_and_old_format():
@@ -142,7 +140,7 @@ def test_echoing_clone_reply_with_banner_and_old_format():
 
 
 def test_port_lost_is_reported(served):
-    ctrl, server, clock = served("rotorez")
+    _ctrl, server, clock = served("rotorez")
     drv = open_driver(server.url, "rotorez", clock=clock, timeout_s=0.3, retries=0)
     assert drv.position()[0] == 180.0
     if server.kind == "pty":

@@ -26,10 +26,12 @@ def _controller(tr):
     if tr.profile in ("rotorez", "dcu1"):
         assert tr.rotator == "HAM-IV"
         return RotorEzController(tr.profile, HAM_IV, clock), clock
-    if tr.profile == "sak232":
-        from tracker.emulator.sak232_controller import Sak232Controller
+    if tr.profile.startswith("sak232"):
+        from tracker.emulator.sak232_controller import Sak232Controller, Sak232Options
 
-        return Sak232Controller(clock=clock), clock
+        assert tr.rotator == "Zelpro-RAU"
+        opts = Sak232Options(gs23=tr.profile.endswith("-gs23"))
+        return Sak232Controller(clock=clock, options=opts), clock
     if tr.profile == "gs232b-azaz":
         from tracker.emulator.azaz_controller import AzAzController
 

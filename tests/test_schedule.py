@@ -84,7 +84,7 @@ def test_dynamic_programme_is_optimal_against_brute_force():
                     continue
                 ordered = sorted(combo, key=lambda i: records[i]["los_s"])
                 if all(compatible(records[a], records[b])
-                       for a, b in zip(ordered, ordered[1:], strict=False)):
+                       for a, b in itertools.pairwise(ordered)):
                     best = max(best, sum(weight[i] for i in combo))
         assert sum(weight[i] for i in s.chosen) == pytest.approx(best)
 

@@ -11,6 +11,8 @@ from datetime import datetime, timezone
 import numpy as np
 import pytest
 from _stream_fakes import T0, FakeRotator, arc_pass, simple_plan
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from tracker.clock import ManualClock
 from tracker.errors import PortLostError, StallError
@@ -84,18 +86,20 @@ def test_a_pass_completes_within_the_deadband_and_parks():
     res = rig.run()
     assert res.completed and rig.core.phase is Phase.DONE
     assert rig.fake.written[0] == "W100 000"          # pre-position to the AOS point
-    assert rig.fake.written[-1] == "W000 000"         # park (G-5500 park 0/0)
+    assert rig.fake.written[-2:] == ["W000 000", "S"]  # park (G-5500 0/0), then all-stop
     err = track_errors(rig)
     # deadband + integer read-back (0.5 deg per axis) + the 1 deg command resolution
     assert err.max() <= 3.0 + 1.5
-    assert 10 <= res.commands <= 30
-    assert "stop" not in [d.get("cmd") for _t, k, d in rig.events if k == "command"]
+    assert 10 <= res.commands <= 70
+    stops = [t for t, what in rig.stamps if what == "S"]
+    assert len(stops) == 1 and not rig.fake.model.moving(stops[0])   # parked, then S
 
 
 def test_stay_after_pass_sends_no_park():
     rig = Rig(settings=StreamSettings(deadband_deg=3.0, park_after_pass=False))
     rig.run()
-    assert rig.fake.written[-1] != "W000 000"
+    assert "W000 000" not in rig.fake.written[1:]
+    assert rig.fake.written[-1] == "S"
     assert rig.core.phase is Phase.DONE
 
 
@@ -107,7 +111,7 @@ def test_jammed_axis_is_stopped_within_3_s_and_reported():
     with pytest.raises(StallError, match="azimuth did not move"):
         rig.run()
     assert rig.fake.written[-1] == "S"
-    stop_t = [t for t, what in rig.stamps if what == "S"][0]
+    stop_t = next(t for t, what in rig.stamps if what == "S")
     assert stop_t - rig.jam_t <= 3.0
 
 
@@ -171,6 +175,24 @@ def test_port_loss_reconnects_with_backoff_and_resumes():
     assert track_errors(rig)[-20:].max() <= 4.5
 
 
+def test_silent_controller_is_treated_as_lost_then_resumed():
+    def mute(r):
+        r.fake.silent = True
+        r.mute_t = r.clock.timestamp()
+    rig = Rig(faults={90: mute})
+    real_connect = rig.connect
+
+    def connect():   # answers again once the tracker has reopened the port
+        rig.fake.silent = False
+        return real_connect()
+    rig.connect = connect
+    res = rig.run()
+    assert res.completed and res.reconnects >= 1
+    states = rig.states()
+    assert states.count("no_reply") >= rig.settings.timeouts_before_lost
+    assert "port_lost" in states and "reconnected" in states
+
+
 def test_interrupt_sends_all_stop_last():
     def interrupt(r):
         raise KeyboardInterrupt
@@ -178,6 +200,22 @@ def test_interrupt_sends_all_stop_last():
     with pytest.raises(KeyboardInterrupt):
         rig.run()
     assert rig.fake.written[-1] == "S"
+
+
+@settings(max_examples=150, deadline=None)
+@given(az=st.floats(-100, 600), el=st.floats(-30, 200),
+       mask=st.lists(st.floats(0, 40), min_size=4, max_size=4),
+       span=st.sampled_from([360.0, 450.0]), el_max=st.sampled_from([90.0, 170.0, 180.0]),
+       stop=st.sampled_from([0.0, 180.0]))
+def test_safe_target_never_outside_limits_or_below_mask(az, el, mask, span, el_max, stop):
+    spec = preset("G-5500").with_(name="x", az_span_deg=span, el_max_deg=el_max,
+                                  stop_bearing_deg=stop)
+    station = Station(mask=HorizonMask((0.0, 90.0, 180.0, 270.0), tuple(mask)))
+    a, e, _why = safe_target(spec, station, az, el)
+    assert 0.0 <= a <= span and spec.el_min_deg <= e <= el_max
+    look_b = float(spec.bearing_of(a)) + (180.0 if e > 90 else 0.0)
+    look_e = 180.0 - e if e > 90 else e
+    assert look_e >= float(station.horizon_at(look_b % 360.0)) - 1e-9
 
 
 def test_safe_target_keeps_limits_and_mask():

@@ -93,7 +93,7 @@ def test_pass_completes_within_plan_prediction_plus_deadband(transport):
     # measured at the emulator's antenna (float), against the true target direction
     assert err.max() <= b.plan.max_error_deg + DEADBAND + 1.0, err.max()
     gotos = [d for _t, k, d in b.events if k == "command" and d.get("cmd") == "goto"]
-    assert res.commands == len(gotos) and 5 <= res.commands <= 40
+    assert res.commands == len(gotos) and 5 <= res.commands <= 120
     print(f"\n{transport}: {res.commands} commands, max error {err.max():.2f} deg "
           f"(plan {b.plan.max_error_deg:.2f} + deadband {DEADBAND})")
 
@@ -111,7 +111,7 @@ def test_pty_unplugged_mid_pass_reconnects_and_resumes():
     res = b.run()
     assert res.completed and res.reconnects >= 1
     assert "port_lost" in b.states() and "reconnected" in b.states()
-    back = [t for t, _k, d in b.events if d.get("state") == "reconnected"][0]
+    back = next(t for t, _k, d in b.events if d.get("state") == "reconnected")
     after = np.array([e for t, e in b.errors if t > back + 10.0])
     assert len(after) > 20 and after.max() <= b.plan.max_error_deg + DEADBAND + 1.0
 

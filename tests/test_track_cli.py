@@ -48,7 +48,7 @@ def test_demo_runs_a_whole_pass_on_the_builtin_emulator(tmp_path, capsys, monkey
     assert {"command", "reply", "state"} <= kinds
     gotos = [r for r in recs if r["kind"] == "command" and r["cmd"] == "goto"]
     assert gotos[0]["reason"] == "preposition" and gotos[-1]["reason"] == "park"
-    done = [r for r in recs if r.get("state") == "pass_done"][0]
+    done = next(r for r in recs if r.get("state") == "pass_done")
     assert done["commands"] == len(gotos)
     assert done["max_error_deg"] < 8.0
     assert all(r["t"].endswith("Z") for r in recs)
@@ -72,13 +72,14 @@ def test_bad_input_is_one_line_and_exit_2(argv, needle, tmp_path, capsys, monkey
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_signal_mid_pass_sends_all_stop_last(sig, tmp_path):
     speed = 20.0
-    clock = SimClock(datetime(2026, 8, 23, 2, 5, tzinfo=timezone.utc), speed)
+    at = "2026-08-23T02:06:05Z"   # the pre-position starts a few simulated seconds later
+    clock = SimClock(datetime(2026, 8, 23, 2, 6, 5, tzinfo=timezone.utc), speed)
     ctl = Gs232Controller("gs232b", preset("G-5500"), clock=clock)
     server = serve_tcp(ctl)
     try:
         proc = subprocess.Popen(
             [sys.executable, "-m", "tracker", "track", "ISS (ZARYA)", "--port", server.url,
-             "--at", AT, "--speed", str(speed), "--plain"],
+             "--at", at, "--speed", str(speed), "--plain"],
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=_env(tmp_path), text=True)
         deadline = time.monotonic() + 40
         while time.monotonic() < deadline and not ctl.moving():

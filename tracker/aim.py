@@ -239,8 +239,9 @@ def choose_aim(path: AimPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t0_
     peak = np.max(np.where(in_window, err, 0.0), axis=1)
     level = max(deadband_deg, float(np.min(peak)) + peak_slack_deg)
     ok = peak <= level
-    # Hold per motor start: the fewest relay clicks for the time the error stays bounded.
-    value = hold / np.maximum(starts, 0.5)
+    # Hold per motor start (and a little per command): the fewest relay clicks and bytes for
+    # the time the error stays bounded.
+    value = hold / (starts + 0.3)
     best = float(np.max(np.where(ok, value, -np.inf)))
     near = ok & (value >= hold_fraction * best)
     pick = int(np.argmin(np.where(near, peak, np.inf)))

@@ -231,7 +231,7 @@ class TrackCore:
         if wire_az_deg < 0 and (wire_el_deg is None or wire_el_deg < 0):
             # GS-232 reads AZ=-001 EL=-002 when the rotator's control box is off.
             self.note = "controller reports no position (control box off?) - waiting"
-            self.motor = None
+            self.resync()
             self.untrusted = self.settings.settle_readings
             return "controller_off"
         expected_az = (float(self.motor.az.position(t_s)) if self.motor is not None
@@ -331,7 +331,14 @@ class TrackCore:
             cmd = self._next_move(t_s, self.park_moves, "park")
             if cmd is not None:
                 return cmd
-            arrived = self._move_i >= len(self.park_moves) and not self.motor.moving(t_s)
+            # Arrived means the read-back says so, not only the belief: the final all-stop
+            # must not cut the park short.
+            last = self.last_command
+            arrived = (self._move_i >= len(self.park_moves) and not self.motor.moving(t_s)
+                       and last is not None and self.antenna is not None
+                       and abs(self.antenna[0] - last.az_m_deg) <= self.spec.resolution_deg
+                       and (last.el_deg is None or self.antenna[1] is None
+                            or abs(self.antenna[1] - last.el_deg) <= self.spec.resolution_deg))
             timed_out = (self._park_sent_s is not None
                          and t_s - self._park_sent_s > self.settings.park_timeout_s)
             if arrived or timed_out:
@@ -549,9 +556,9 @@ class PassResult:
 def run_pass(core: TrackCore, link: Link, clock: Clock, on_status: Callable[[Status], None]
              = lambda s: None, events: EventSink = _null_sink,
              should_stop: Callable[[], bool] = lambda: False) -> PassResult:
-    """Run one pass to the end (DONE) on ``clock``; all-stop on every exit but a normal one
-    that parks or stays. Raises :class:`StallError` (after stopping) and re-raises anything
-    else after stopping; KeyboardInterrupt included."""
+    """Run one pass to the end (DONE) on ``clock``; all-stop on every exit. Raises
+    :class:`StallError` (after stopping) and re-raises anything else after stopping,
+    KeyboardInterrupt included."""
     s = core.settings
     link.events = events
     reconnects = 0
@@ -633,15 +640,14 @@ def run_pass(core: TrackCore, link: Link, clock: Clock, on_status: Callable[[Sta
                 next_t = clock.timestamp()   # fell behind (slow port): do not burst
             clock.sleep(max(wait, 0.0))
     except StallError as e:
-        link.stop()
         events("state", state="stall", note=str(e))
         raise
     finally:
-        if not ok:
-            # Ctrl-C, SIGTERM (raised as KeyboardInterrupt/SystemExit), any exception, or a
-            # stop request: the antenna must not keep turning on its own.
-            link.stop()
-            events("state", state="stopped")
+        # Every way out sends all-stop: Ctrl-C, SIGTERM (raised as KeyboardInterrupt), any
+        # exception, a stop request, and the normal end too (parked by now, or staying where
+        # the pass ended): the antenna must never keep turning on its own.
+        link.stop()
+        events("state", state="stopped" if not ok else "finished")
     return PassResult(commands=core.commands, reconnects=reconnects,
                       max_error_deg=max(errors) if errors else float("nan"),
                       errors_deg=errors, final_position=core.antenna, completed=ok)

@@ -44,10 +44,9 @@ PASS_DTYPE = np.dtype([
     ("sunlit", np.bool_), ("visible", np.bool_),
 ])
 
-ARC_LIMIT_RAD = 2.0  # the coarse arc must stay well short of pi for the great-circle test
+ARC_LIMIT_RAD = 2.6  # the coarse arc must stay short of pi (150 deg) for the great-circle test
 PERTURBATION_MARGIN_RAD = math.radians(0.5)
 ELLIPSOID_MARGIN_DEG = 0.5  # geodetic vs geocentric vertical (< 0.2 deg) plus slack
-NEAR_MISS_DEG = 2.0
 TWILIGHT_DEG = -6.0
 
 
@@ -350,8 +349,41 @@ def _run_chunk(job: _Job, sat_ids: np.ndarray, n: int, r_apo, screenable):
         next_c = np.concatenate([contig, [False]])
         brackets.append(dict(
             st=st, sat=sat_ids[ss], tau=tau, f=f, rate=rate, el=el, az=az, contig=contig,
-            up=up, cut_start=up & ~prev_c, cut_end=up & ~next_c, fine_s=fine_s, r=P[sel]))
+            up=up, cut_start=up & ~prev_c, cut_end=up & ~next_c, fine_s=fine_s, r=P[sel],
+            r_apo=r_apo[ss]))
     return brackets
+
+
+def _peak_bound_deg(job: _Job, st: int, tau0, r0, r1, r_apo, h: float) -> np.ndarray:
+    """Upper bound of the (geocentric) elevation between two samples ``h`` seconds apart.
+
+    The satellite stays on the great-circle arc between its two directions (as in the
+    screening), so its geocentric angle from the station is at least the arc's distance from
+    the station (less the station's own motion in half a step); elevation grows with that
+    angle shrinking and with the radius (bounded by the larger end + 50 km, or apogee).
+    """
+    frames = job.frames
+    n0 = np.linalg.norm(r0, axis=-1)
+    n1 = np.linalg.norm(r1, axis=-1)
+    a, b = r0 / n0[:, None], r1 / n1[:, None]
+    hv = np.cross(a, b)
+    sin_ab = np.linalg.norm(hv, axis=-1)
+    h_hat = hv / np.maximum(sin_ab, 1e-12)[:, None]
+    q = np.cross(h_hat, a)
+    theta = job.theta(tau0 + 0.5 * h)
+    c, s = np.cos(theta), np.sin(theta)
+    u = frames.unit[st]
+    p = np.stack([c * u[0] - s * u[1], s * u[0] + c * u[1], np.full_like(c, u[2])], -1)
+    pa, pb = np.einsum("ij,ij->i", a, p), np.einsum("ij,ij->i", b, p)
+    ph, pq = np.einsum("ij,ij->i", h_hat, p), np.einsum("ij,ij->i", q, p)
+    alpha = np.arctan2(pq, pa)
+    in_arc = (alpha >= 0) & (alpha <= np.arctan2(sin_ab, np.einsum("ij,ij->i", a, b)))
+    psi = np.where(in_arc, np.arcsin(np.clip(np.abs(ph), 0, 1)),
+                   np.arccos(np.clip(np.maximum(pa, pb), -1, 1)))
+    psi = np.maximum(psi - geo.EARTH_ROTATION_RAD_S * h / 2 * frames.cos_lat[st]
+                     - PERTURBATION_MARGIN_RAD, 0.0)
+    r_hi = np.minimum(np.maximum(n0, n1) + 50.0, np.maximum(r_apo, np.maximum(n0, n1)))
+    return np.degrees(np.arctan2(np.cos(psi) - frames.radius_km[st] / r_hi, np.sin(psi)))
 
 
 def _refine_station_chunk(job: _Job, b: dict):
@@ -364,9 +396,9 @@ def _refine_station_chunk(job: _Job, b: dict):
     aos_i = i0[~b["up"][i0] & b["up"][i1]]
     los_i = i0[b["up"][i0] & ~b["up"][i1]]
     max_i = i0[(rate[i0] > 0) & (rate[i1] <= 0)]
-    # Maxima: keep those whose Hermite estimate reaches near the threshold (near misses too).
-    p, s = _hermite(f[max_i], rate[max_i], f[max_i + 1], rate[max_i + 1], h)
-    max_i = max_i[p.max(1) >= -NEAR_MISS_DEG]
+    # Maxima: refine those that could reach the threshold (near misses inside one step too).
+    bound = _peak_bound_deg(job, st, tau[max_i], r[max_i], r[max_i + 1], b["r_apo"][max_i], h)
+    max_i = max_i[bound >= job.frames.min_el_deg[st] - ELLIPSOID_MARGIN_DEG]
     dp, s = _hermite_slope(el[max_i], rate[max_i], el[max_i + 1], rate[max_i + 1], h)
     guess = tau[max_i] + h * _first_root_guess(dp, s)
     m_tau, m_el, m_az, m_r = _solve(job, sat[max_i], st, tau[max_i], tau[max_i + 1],
@@ -471,7 +503,7 @@ def _to_utc(t: datetime) -> datetime:
 
 
 def find_passes_block(satrecs, names, stations, start, end, min_el_deg=None, *,
-                      step_s: float = 240.0, tol_s: float = 1e-3, memory_mb: float = 256.0,
+                      step_s: float = 480.0, tol_s: float = 0.02, memory_mb: float = 256.0,
                       ) -> PassTable:
     """One time block of :func:`find_passes_batch` (no joining across blocks)."""
     start, end = _to_utc(start), _to_utc(end)
@@ -593,8 +625,8 @@ def _forked_block(task):
 
 
 def find_passes_batch(satrecs, names, stations, start: datetime, end: datetime,
-                      min_el_deg: float | None = None, *, step_s: float = 240.0,
-                      tol_s: float = 0.01, memory_mb: float = 256.0,
+                      min_el_deg: float | None = None, *, step_s: float = 480.0,
+                      tol_s: float = 0.02, memory_mb: float = 256.0,
                       block_days: float = 7.0, workers: int = 1) -> PassTable:
     """Every pass of every satellite over every station in ``[start, end]``.
 

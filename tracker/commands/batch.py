@@ -45,8 +45,8 @@ def add_batch_args(p: argparse.ArgumentParser) -> None:
                    help="run on a Dask cluster (a local one when no scheduler ADDRESS)")
     p.add_argument("--workers", type=int, default=1,
                    help="local processes to split the satellites over (default 1)")
-    p.add_argument("--step", type=float, default=240.0, metavar="S",
-                   help="fine sampling step of the finder in seconds (default 240)")
+    p.add_argument("--step", type=float, default=480.0, metavar="S",
+                   help="fine sampling step of the finder in seconds (default 480)")
     add_station_args(p)
     add_time_args(p)
 

@@ -33,6 +33,16 @@ def register(sub) -> None:
                    help="after the last table point: stay there or clear the list")
     p.add_argument("--autobaud", action="store_true",
                    help="wait for CRs and answer 'Connect OK' first (GS-232B power-up)")
+    p.add_argument("--fault", action="append", default=[], metavar="SPEC",
+                   help="inject a fault (repeatable): drop=0.01, garble=0.01, duplicate=0.01 "
+                        "(add :in or :out for one direction), delay=0.2, silent=30@120, "
+                        "deaf=30@120, powercycle@300, jam=az@60, jam=el:30@60, drift=0.5%%, "
+                        "wrongside, disconnect=5@200; times in emulator seconds")
+    p.add_argument("--fault-seed", type=int, default=0,
+                   help="seed for the random faults (same seed, same faults; default 0)")
+    p.add_argument("--link", default=None, metavar="PATH",
+                   help="with --pty: keep a symlink PATH pointing at the pty (a disconnect "
+                        "fault reopens it there; default: a temp path when disconnect is used)")
     p.add_argument("--duration", type=float, default=None,
                    help="exit after this many real seconds (default: until Ctrl-C)")
     p.set_defaults(func=run)
@@ -46,14 +56,18 @@ def run(args: argparse.Namespace) -> int:
     from tracker.errors import ConfigError
     from tracker.mount import preset
 
+    from tracker.emulator.faults import FaultPlan, install
+
     if not args.speed > 0:
         raise ConfigError(f"--speed {args.speed} is invalid; use a number > 0")
+    plan = FaultPlan.parse(args.fault, args.fault_seed)
     spec = preset(args.rotator, args.mains)
     clock = SimClock(SystemClock().now(), speed=args.speed)
     opts = EmulatorOptions(strict_acks=args.strict_acks, one_space=args.one_space,
                            readback_360=args.readback_360, end_behaviour=args.end,
                            autobaud=args.autobaud)
     ctrl = Gs232Controller(args.protocol, spec, clock, opts, az_deg=args.az, el_deg=args.el)
+    injector = install(ctrl, plan) if plan.specs else None
     if args.tcp is not None:
         try:
             server = serve_tcp(ctrl, args.tcp, args.bind)
@@ -61,7 +75,12 @@ def run(args: argparse.Namespace) -> int:
             raise ConfigError(f"cannot listen on {args.bind}:{args.tcp}: {e}; choose another "
                               f"--tcp port") from e
     else:
-        server = serve_pty(ctrl)
+        link = args.link
+        if link is None and plan.needs_reopen:
+            import os
+            import tempfile
+            link = os.path.join(tempfile.mkdtemp(prefix="tracker-emu-"), "ttyEMU0")
+        server = serve_pty(ctrl, link=link)
     print(server.url, flush=True)
     tty = sys.stdout.isatty()
     started = time.monotonic()
@@ -81,4 +100,6 @@ def run(args: argparse.Namespace) -> int:
         server.close()
         if tty:
             print()
+        if injector is not None:
+            print(injector.summary(), flush=True)
     return 0

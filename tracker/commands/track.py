@@ -12,6 +12,8 @@ import argparse
 import math
 import signal
 import sys
+import threading
+import time
 from datetime import datetime, timedelta, timezone
 
 from tracker.commands._common import (
@@ -69,30 +71,58 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-class _SkipClock:
-    """A SimClock whose time can jump ahead while nothing moves (demo: skip to the next pass)."""
+class DemoClock:
+    """The embedded demo's simulated clock, shared with the in-process emulator.
+
+    Like :class:`tracker.clock.SimClock` (``speed`` times real time from ``start``), plus two
+    things only a private simulation may do: :meth:`pause` freezes simulated time while the
+    next pass is planned (a slow Moon pass search must not eat the pre-position time at 600x)
+    and :meth:`skip` jumps over idle hours between passes. Time never runs backwards.
+    """
 
     def __init__(self, start: datetime, speed: float):
-        from tracker.clock import SimClock
+        if speed <= 0:
+            raise ConfigError(f"--speed must be > 0, got {speed}")
+        self.speed = float(speed)
+        self._start_ts = start.timestamp()
+        self._lock = threading.Lock()
+        self._real0 = time.monotonic()   # a Clock implementation: the one place to read it
+        self._paused_at: float | None = None
+        self._paused_total = 0.0
+        self._skipped = 0.0
 
-        self._sim = SimClock(start, speed)
-        self.speed = self._sim.speed
-        self._offset = 0.0
+    def _real_elapsed(self) -> float:
+        with self._lock:
+            now = self._paused_at if self._paused_at is not None else time.monotonic()
+            return now - self._real0 - self._paused_total
+
+    def pause(self) -> None:
+        with self._lock:
+            if self._paused_at is None:
+                self._paused_at = time.monotonic()
+
+    def resume(self) -> None:
+        with self._lock:
+            if self._paused_at is not None:
+                self._paused_total += time.monotonic() - self._paused_at
+                self._paused_at = None
 
     def skip(self, seconds: float) -> None:
-        self._offset += max(0.0, seconds)
+        with self._lock:
+            self._skipped += max(0.0, seconds)
 
     def monotonic(self) -> float:
-        return self._sim.monotonic() + self._offset
+        return self._real_elapsed() * self.speed + self._skipped
 
     def timestamp(self) -> float:
-        return self._sim.timestamp() + self._offset
+        return self._start_ts + self.monotonic()
 
     def now(self) -> datetime:
         return datetime.fromtimestamp(self.timestamp(), timezone.utc)
 
     def sleep(self, seconds: float) -> None:
-        self._sim.sleep(seconds)
+        if seconds > 0:
+            time.sleep(seconds / self.speed)
 
 
 def _start_time(args, target, demo: bool) -> tuple[datetime, str]:
@@ -172,8 +202,13 @@ def run(args: argparse.Namespace) -> int:
     if simulated:
         span = first.los.timestamp() - max(first.aos.timestamp() - 120.0, start.timestamp())
         speed = args.speed or max(1.0, round(span / DEMO_SECONDS))
-        clock_start = max(start, first.aos - timedelta(seconds=150)) if demo else start
-        clock = _SkipClock(clock_start, speed)
+        if demo:
+            clock = DemoClock(max(start, first.aos - timedelta(seconds=150)), speed)
+            clock.pause()   # until the first pass is planned
+        else:
+            from tracker.clock import SimClock
+
+            clock = SimClock(start, speed)
     else:
         from tracker.clock import SystemClock
 
@@ -236,30 +271,32 @@ def run(args: argparse.Namespace) -> int:
             # Re-plan from the real antenna position (read back now, not assumed).
             link.events = out.event
             az, el = link.position()
+            if isinstance(clock, DemoClock):
+                clock.pause()
             current = _mech_guess(spec, az, el)
             track = pas.track(step_s=1.0, pad_s=PAD_S)
             plan = plan_pass(track, spec, station, current=current,
                              park=settings.park_after_pass)
+            try:
+                nxt = _next_pass(target, station, pas.los.timestamp() + 60.0)
+            except TargetError:
+                nxt = None
+            if isinstance(ui, RichPanel):
+                ui.next_pass = _describe(nxt) if nxt is not None else "none in the next days"
             out.event("info", text=f"pass {n + 1}: {target.name} {_describe(pas)}; mode "
                                    f"{plan.mode}: {plan.reason}")
             out.event("state", state="plan", mode=plan.mode,
                       predicted_max_error_deg=round(plan.max_error_deg, 2),
                       aos=pas.aos.isoformat(), los=pas.los.isoformat())
-            if isinstance(clock, _SkipClock):
+            if isinstance(clock, DemoClock):
                 lead = min(plan.preposition_t_s, pas.aos.timestamp() - 120.0) - 10.0
                 gap = lead - clock.timestamp()
                 if gap > 0 and n > 0:
                     out.event("info", text=f"skipping {gap / 60:.0f} min of simulated "
                                            f"idle time to the next pass")
                     clock.skip(gap)
+                clock.resume()
             core = TrackCore(plan, track, spec, station, settings)
-            nxt = None
-            try:
-                nxt = _next_pass(target, station, pas.los.timestamp() + 60.0)
-                if isinstance(ui, RichPanel):
-                    ui.next_pass = _describe(nxt)
-            except TargetError:
-                nxt = None
             res = run_pass(core, link, clock, on_status=out.status, events=out.event)
             err = res.errors_deg
             p99 = sorted(err)[max(0, math.ceil(0.99 * len(err)) - 1)] if err else float("nan")

@@ -15,7 +15,7 @@ from __future__ import annotations
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 from tracker.clock import Clock, SystemClock
 from tracker.emulator.help_text import help_screen
@@ -58,12 +58,17 @@ class Faults:
     """Fault hooks; the server consults them on every exchange.
 
     ``silent``: read and act on commands but never answer. ``reply_filter``: transform every
-    reply (drop or garble bytes). ``deaf``: ignore all input.
+    reply (drop or garble bytes). ``deaf``: ignore all input. ``wrongside``: read-back
+    0-359 in 450 mode. ``step_clock_scale``: table step period factor (step clock drift).
+    ``injector``: a :class:`tracker.emulator.faults.FaultInjector` running a scripted plan.
     """
 
     silent: bool = False
     deaf: bool = False
     reply_filter: Callable[[bytes], bytes] | None = None
+    wrongside: bool = False
+    step_clock_scale: float = 1.0
+    injector: Any = None
 
 
 @dataclass
@@ -103,6 +108,7 @@ class Gs232Controller:
         self.rotator_on = True
         self.table: _Table | None = None
         self.commands_seen = 0
+        self.power_epoch = 0              # bumped by power_cycle: sessions reset (autobaud)
         self.log: list[tuple[float, bytes, bytes]] = []   # (t, line, reply), last 200
         self._end = self.options.end_behaviour or self.profile.end_behaviour
         if self.options.one_space and self.profile.family == "b":
@@ -135,13 +141,16 @@ class Gs232Controller:
                     self.table.running = False
             self.rotator_on = on
 
-    def power_cycle(self) -> None:
-        """Interface off and on again: memory and stepping lost, motors stopped."""
+    def power_cycle(self, reset_sessions: bool = False) -> None:
+        """Interface off and on again: memory and stepping lost, motors stopped.
+        ``reset_sessions``: also lose half-received lines and need autobaud again (if on)."""
         with self._lock:
             self.motor.stop(self._now())
             self.table = None
             self.speed_step = 4
             self._apply_speed(self._now())
+            if reset_sessions:
+                self.power_epoch += 1
 
     # Introspection (tests, live status) --------------------------------------------------------
 
@@ -189,7 +198,7 @@ class Gs232Controller:
         if self.south_centre and not self.mode_450:
             return (w + 180) % 360
         if self.mode_450:
-            return w % 360 if self.options.readback_360 else w
+            return w % 360 if (self.options.readback_360 or self.faults.wrongside) else w
         return w if w <= 360 else w % 360
 
     def _readback(self, t: float) -> tuple[int, int]:
@@ -216,7 +225,8 @@ class Gs232Controller:
     def _advance(self, now: float) -> None:
         """Apply every table step due up to ``now`` at its exact scheduled time."""
         tab = self.table
-        period = (tab.interval_s + self.profile.table_period_extra_s) if tab else 0.0
+        period = ((tab.interval_s + self.profile.table_period_extra_s)
+                  * self.faults.step_clock_scale) if tab else 0.0
         while tab is not None and tab.running and now >= tab.next_t:
             t = tab.next_t
             tab.index += 1
@@ -402,7 +412,8 @@ class Gs232Controller:
         tab.index = min(1, len(tab.points) - 1)
         self._goto(t, *tab.points[tab.index])
         tab.running = tab.index < len(tab.points) - 1
-        tab.next_t = t + tab.interval_s + self.profile.table_period_extra_s
+        tab.next_t = t + ((tab.interval_s + self.profile.table_period_extra_s)
+                          * self.faults.step_clock_scale)
         if not tab.running and self._end == "clear":
             self.table = None
         return self._ack()
@@ -433,12 +444,20 @@ class Session:
             # Real GS-232B: LF is not a terminator and is ignored (PROTOCOLS §0.1).
             self._framer = LineFramer(b"\r", ignore=b"\n", max_line=opts.max_line)
         self.state = _SessionState(connected=not opts.autobaud)
+        self._epoch = controller.power_epoch
 
     def feed(self, data: bytes) -> bytes:
         """Bytes from the client → reply bytes (possibly empty)."""
         ctrl = self.controller
         if ctrl.faults.deaf:
             return b""
+        inj = ctrl.faults.injector
+        if inj is not None:
+            data = inj.on_input(data)
+        if self._epoch != ctrl.power_epoch:     # power-cycled: line buffer and autobaud reset
+            self._epoch = ctrl.power_epoch
+            self._framer.clear()
+            self.state = _SessionState(connected=not ctrl.options.autobaud)
         out = bytearray()
         for line in self._framer.feed(data):
             if not self.state.connected:
@@ -452,10 +471,13 @@ class Session:
         return self._filter(bytes(out))
 
     def poll(self) -> bytes:
-        return self._filter(self.controller.poll(self.state))
+        out = self._filter(self.controller.poll(self.state))
+        inj = self.controller.faults.injector
+        return out + inj.release(self) if inj is not None else out
 
     def _filter(self, reply: bytes) -> bytes:
         f = self.controller.faults
         if f.silent or not reply:
             return b""
-        return f.reply_filter(reply) if f.reply_filter else reply
+        reply = f.reply_filter(reply) if f.reply_filter else reply
+        return f.injector.on_output(self, reply) if f.injector is not None else reply

@@ -127,6 +127,9 @@ class _Server:
                 pending, self._pending = self._pending, []
             for fn in pending:
                 fn()
+            injector = getattr(self.controller.faults, "injector", None)
+            if injector is not None:      # timed faults fire even with no client attached
+                injector.tick(self)
             for conn in list(self._conns):
                 conn.out += conn.session.poll()
                 self._flush_out(conn)
@@ -164,6 +167,19 @@ class _Server:
     def _close_own(self) -> None:
         pass
 
+    def _in_loop(self, fn) -> None:
+        """Run ``fn`` now if called from the server thread, else queue it for the loop."""
+        if threading.current_thread() is self.thread:
+            fn()
+        else:
+            self._call_in_loop(fn)
+
+    def fault_disconnect(self) -> None:
+        """Fault: the port goes away (overridden per transport)."""
+
+    def fault_reconnect(self) -> None:
+        """Fault: the port comes back (overridden per transport)."""
+
     def __enter__(self):
         return self
 
@@ -183,8 +199,16 @@ class PtyServer(_Server):
 
     kind = "pty"
 
-    def __init__(self, controller: Gs232Controller):
+    def __init__(self, controller: Gs232Controller, link: str | None = None):
         super().__init__(controller)
+        # ``link``: a stable symlink to the current /dev/pts/N, so a "reopened" device (fault
+        # disconnect) is found again at the same path, like /dev/ttyUSB0 after a replug.
+        self.link = link
+        self._open_pty()
+        self.url = link if link else os.ttyname(self._slave)
+        self._start()
+
+    def _open_pty(self) -> None:
         master, slave = os.openpty()
         # Raw slave: no echo, no CR/LF translation; we hold the slave open so the master does
         # not see EIO between clients (like a UART that is always there).
@@ -192,10 +216,15 @@ class PtyServer(_Server):
         os.set_blocking(master, False)
         self._master, self._slave = master, slave
         self._fds = [master, slave]
-        self.url = os.ttyname(slave)
-        self._conn = _Conn(master, controller.open_session(), is_socket=False)
+        self.device = os.ttyname(slave)
+        if self.link:
+            tmp = f"{self.link}.new"
+            if os.path.lexists(tmp):
+                os.unlink(tmp)
+            os.symlink(self.device, tmp)
+            os.replace(tmp, self.link)
+        self._conn = _Conn(master, self.controller.open_session(), is_socket=False)
         self._add_conn(self._conn)
-        self._start()
 
     def _on_eof(self, conn: _Conn) -> None:
         # On a pty a read error means no client right now; keep serving.
@@ -219,6 +248,24 @@ class PtyServer(_Server):
     def _close_own(self) -> None:
         for fd in self._fds:
             _close_fd(fd)
+        if self.link and os.path.islink(self.link):
+            os.unlink(self.link)
+
+    def fault_disconnect(self) -> None:
+        """Fault: the device vanishes (as :meth:`hangup`); :meth:`fault_reconnect` brings a
+        new pty back at ``link``."""
+        def do() -> None:
+            self._drop_conn(self._conn)
+            fds, self._fds = self._fds, []
+            for fd in fds:
+                _close_fd(fd)
+        self._in_loop(do)
+
+    def fault_reconnect(self) -> None:
+        def do() -> None:
+            if not self._fds:
+                self._open_pty()
+        self._in_loop(do)
 
 
 class TcpServer(_Server):
@@ -228,9 +275,9 @@ class TcpServer(_Server):
 
     def __init__(self, controller: Gs232Controller, port: int = 0, bind: str = "127.0.0.1"):
         super().__init__(controller)
-        self._listen = socket.create_server((bind, port))
-        self._listen.setblocking(False)
-        self._sel.register(self._listen, selectors.EVENT_READ, "listen")
+        self._listen: socket.socket | None = None
+        self.bind = bind
+        self._listen_on(bind, port)
         host, self.port = self._listen.getsockname()[:2]
         self.url = f"socket://{host}:{self.port}"
         self._start()
@@ -244,12 +291,36 @@ class TcpServer(_Server):
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self._add_conn(_Conn(sock, self.controller.open_session(), is_socket=True))
 
+    def _listen_on(self, bind: str, port: int) -> None:
+        self._listen = socket.create_server((bind, port))
+        self._listen.setblocking(False)
+        self._sel.register(self._listen, selectors.EVENT_READ, "listen")
+
+    def fault_disconnect(self) -> None:
+        """Fault: every client is cut off and the port refuses connections until
+        :meth:`fault_reconnect` listens on the same port again."""
+        def do() -> None:
+            for c in list(self._conns):
+                self._drop_conn(c)
+            if self._listen is not None:
+                self._sel.unregister(self._listen)
+                self._listen.close()
+                self._listen = None
+        self._in_loop(do)
+
+    def fault_reconnect(self) -> None:
+        def do() -> None:
+            if self._listen is None:
+                self._listen_on(self.bind, self.port)
+        self._in_loop(do)
+
     def drop_connections(self) -> None:
         """Fault: close every client connection (the listener stays, clients may reconnect)."""
         self._call_in_loop(lambda: [self._drop_conn(c) for c in list(self._conns)])
 
     def _close_own(self) -> None:
-        self._listen.close()
+        if self._listen is not None:
+            self._listen.close()
 
 
 def _close_fd(fd: int) -> None:
@@ -259,9 +330,10 @@ def _close_fd(fd: int) -> None:
         pass
 
 
-def serve_pty(controller: Gs232Controller) -> PtyServer:
-    """Serve ``controller`` on a new pseudo-terminal; ``.url`` is ``/dev/pts/N``."""
-    return PtyServer(controller)
+def serve_pty(controller: Gs232Controller, link: str | None = None) -> PtyServer:
+    """Serve ``controller`` on a new pseudo-terminal; ``.url`` is ``/dev/pts/N`` (or ``link``,
+    a symlink kept pointing at the current pty)."""
+    return PtyServer(controller, link)
 
 
 def serve_tcp(controller: Gs232Controller, port: int = 0, bind: str = "127.0.0.1") -> TcpServer:

@@ -1,0 +1,165 @@
+"""Benchmark of the batch pass finder (issue 8). Prints figures; asserts nothing.
+
+Data: CelesTrak's active catalogue of 2026-03-19 (../shared/tle/active.txt, 14,710 objects),
+window 2026-03-19 04:51 UTC + 7 days (see ../shared/tle/SOURCES.md), station Delft.
+
+Measured in one run, so every ratio compares figures taken under the same machine load:
+
+1. raw ``SatrecArray`` SGP4 rate (evaluations/s) - the ceiling for any SGP4-based finder;
+2. skyfield ``find_events`` in a loop over a sample of the first 1000 objects, scaled to 1000
+   (the sample size is printed), against the batch finder on those same 1000 objects;
+3. the whole catalogue x 7 days from one station (1 process, then 2 worker processes), with
+   the SGP4 evaluations/s achieved and the peak memory (tracemalloc, ru_maxrss);
+4. 100 stations against 1 station on the 1000 objects.
+
+Usage: python benchmarks/batch.py [--tle PATH] [--sky-sample N] [--quick]
+"""
+
+from __future__ import annotations
+
+import argparse
+import resource
+import sys
+import time
+import tracemalloc
+from datetime import datetime, timedelta, timezone
+from pathlib import Path
+
+import numpy as np
+from sgp4.api import Satrec, SatrecArray, jday
+
+from tracker.batch import find_passes_batch
+from tracker.station import Station
+
+START = datetime(2026, 3, 19, 4, 51, tzinfo=timezone.utc)
+DAYS = 7.0
+STATION = Station("Delft", 52.0, 4.37, 10.0)
+
+
+def read_sets(path: Path):
+    lines = [x.strip() for x in path.read_text().splitlines() if x.strip()]
+    return [(lines[i], lines[i + 1], lines[i + 2]) for i in range(0, len(lines) - 2, 3)]
+
+
+def raw_sgp4_rate(satrecs) -> float:
+    arr = SatrecArray(satrecs[:1000])
+    jd0, fr0 = jday(2026, 3, 19, 4, 51, 0.0)
+    fr = fr0 + np.arange(2016) * (300.0 / 86400.0)  # 7 days at 5 min
+    t = time.perf_counter()
+    arr.sgp4(np.full(fr.shape, jd0), fr)
+    return min(1000, len(satrecs)) * len(fr) / (time.perf_counter() - t)
+
+
+def skyfield_loop_s(sets, days: float) -> float:
+    from skyfield.api import EarthSatellite, load
+
+    ts = load.timescale(builtin=True)
+    topos = STATION.topos()
+    t0, t1 = ts.from_datetime(START), ts.from_datetime(START + timedelta(days=days))
+    t = time.perf_counter()
+    n_events = 0
+    for name, l1, l2 in sets:
+        sat = EarthSatellite(l1, l2, name, ts)
+        times, _ = sat.find_events(topos, t0, t1, altitude_degrees=0.0)
+        n_events += len(times)
+    return time.perf_counter() - t
+
+
+def timed(fn):
+    t = time.perf_counter()
+    out = fn()
+    return out, time.perf_counter() - t
+
+
+def evals(table) -> int:
+    s = table.stats
+    return int(s.get("sgp4_coarse", 0) + s.get("sgp4_fine", 0) + s.get("sgp4_refine", 0))
+
+
+def network(n: int) -> list[Station]:
+    """``n`` stations on a golden-angle spiral over the globe (|lat| <= 70)."""
+    k = np.arange(n) + 0.5
+    lat = np.degrees(np.arcsin(np.clip(1 - 2 * k / n, -1, 1))) * (70 / 90)
+    lon = (np.degrees(k * np.pi * (3 - np.sqrt(5))) + 180) % 360 - 180
+    return [Station(f"S{i:03d}", float(a), float(b), 0.0) for i, (a, b) in
+            enumerate(zip(lat, lon, strict=True))]
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--tle", default=str(Path(__file__).resolve().parents[2] / "shared" / "tle"
+                                         / "active.txt"))
+    ap.add_argument("--sky-sample", type=int, default=100,
+                    help="objects of the first 1000 timed with skyfield (scaled to 1000)")
+    ap.add_argument("--quick", action="store_true", help="skip the full-catalogue runs")
+    args = ap.parse_args()
+    path = Path(args.tle)
+    if not path.is_file():
+        print(f"benchmark needs {path} (see ../shared/tle/SOURCES.md)", file=sys.stderr)
+        return 2
+    sets = read_sets(path)
+    satrecs = [Satrec.twoline2rv(a, b) for _, a, b in sets]
+    names = [n for n, _, _ in sets]
+    end = START + timedelta(days=DAYS)
+    print(f"catalogue: {path} ({len(sets)} objects); window {START:%Y-%m-%d %H:%M} UTC + "
+          f"{DAYS:g} days; station {STATION.name} ({STATION.lat_deg}, {STATION.lon_deg})")
+    print("(figures taken on the shared 2-core machine while other jobs were running)")
+
+    raw = raw_sgp4_rate(satrecs)
+    print(f"\n[1] raw SatrecArray SGP4 rate: {raw / 1e6:.2f} M evaluations/s")
+
+    if not args.quick:
+        rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+        tracemalloc.start()
+        full, t_full = timed(lambda: find_passes_batch(satrecs, names, [STATION], START, end))
+        _, peak = tracemalloc.get_traced_memory()
+        tracemalloc.stop()
+        rss1 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+        full1, t_full1 = timed(lambda: find_passes_batch(satrecs, names, [STATION], START,
+                                                         end))
+        full2, t_full2 = timed(lambda: find_passes_batch(satrecs, names, [STATION], START, end,
+                                                         workers=2))
+        same = all(np.array_equal(full1.passes[k], full2.passes[k])
+                   for k in full1.passes.dtype.names)
+        st = full1.stats
+        print(f"\n[3] whole catalogue x {DAYS:g} days, 1 station: {len(full1)} passes, "
+              f"{len(full1.errors)} satellites with SGP4 errors (reported)")
+        print(f"    1 process:   {t_full1:6.2f} s   (with tracemalloc on: {t_full:.2f} s)")
+        print(f"    2 processes: {t_full2:6.2f} s   identical result: {same}")
+        print(f"    SGP4 evaluations: {evals(full1) / 1e6:.2f} M (coarse "
+              f"{st['sgp4_coarse'] / 1e6:.2f} M, fine {st['sgp4_fine'] / 1e6:.2f} M, refine "
+              f"{st['sgp4_refine'] / 1e6:.2f} M); a plain 60 s grid would need "
+              f"{len(sets) * DAYS * 1440 / 1e6:.0f} M")
+        print(f"    screening kept {st['candidate_intervals'] / st['intervals']:.1%} of the "
+              f"coarse intervals")
+        print(f"    achieved {evals(full1) / t_full1 / 1e6:.2f} M evaluations/s end to end "
+              f"= {evals(full1) / t_full1 / raw:.0%} of the raw SatrecArray rate")
+        print(f"    peak memory: tracemalloc {peak / 2**20:.0f} MiB; ru_maxrss {rss1:.0f} MiB "
+              f"(before the run {rss0:.0f} MiB)")
+        del full, full1, full2
+
+    first = slice(0, 1000)
+    sat1k, names1k, sets1k = satrecs[first], names[first], sets[first]
+    one, t_one = timed(lambda: find_passes_batch(sat1k, names1k, [STATION], START, end))
+    step = max(1, len(sets1k) // args.sky_sample)
+    sample = sets1k[::step]
+    t_sky = skyfield_loop_s(sample, DAYS)
+    t_sky_1000 = t_sky * len(sets1k) / len(sample)
+    print(f"\n[2] 1000 objects x {DAYS:g} days, 1 station:")
+    print(f"    batch finder: {t_one:.2f} s ({len(one)} passes)")
+    print(f"    skyfield find_events loop: {t_sky:.2f} s for {len(sample)} objects (every "
+          f"{step}th) -> {t_sky_1000:.1f} s scaled to 1000")
+    print(f"    speed-up: {t_sky_1000 / t_one:.1f}x")
+
+    net = network(100)
+    hundred, t_100 = timed(lambda: find_passes_batch(sat1k, names1k, net, START, end))
+    single, t_1 = timed(lambda: find_passes_batch(sat1k, names1k, net[:1], START, end))
+    print(f"\n[4] 100 stations (global spiral) vs 1 station, 1000 objects x {DAYS:g} days:")
+    print(f"    1 station: {t_1:.2f} s ({len(single)} passes); 100 stations: {t_100:.2f} s "
+          f"({len(hundred)} passes) -> {t_100 / t_1:.1f}x the time for 100x the stations")
+    print(f"    SGP4 evaluations: {evals(single) / 1e6:.2f} M vs {evals(hundred) / 1e6:.2f} M")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,363 @@
+"""Scripted fault injection: the spec parser, reproducibility, and every fault over a real pty
+and a real TCP socket with the GS-232 driver: typed errors within the timeout, never a hang."""
+
+from __future__ import annotations
+
+import time
+from datetime import datetime
+
+import pytest
+from _gs232_helpers import T0, wait_until
+
+from tracker.cli import main
+from tracker.clock import ManualClock, SimClock
+from tracker.emulator import EmulatorOptions, Gs232Controller, serve_pty, serve_tcp
+from tracker.emulator.faults import EXAMPLES, FaultPlan, install, parse_fault
+from tracker.errors import ConfigError, PortLostError, ProtocolError, RotatorIOError, \
+    RotatorTimeout
+from tracker.mount import preset
+from tracker.protocols import open_driver
+
+TIMEOUT_S = 0.3
+RETRIES = 1
+BOUND_S = (1 + RETRIES) * TIMEOUT_S + 1.0     # the longest any driver call may take
+
+
+# Parser ------------------------------------------------------------------------------------
+
+
+def test_every_documented_example_parses():
+    kinds = {parse_fault(e).kind for e in EXAMPLES}
+    assert kinds == {"drop", "garble", "duplicate", "delay", "silent", "deaf", "powercycle",
+                     "jam", "drift", "wrongside", "disconnect"}
+    assert parse_fault("silent=30@120").end_s == 150.0
+    assert parse_fault("drift=0.5%").value == pytest.approx(0.005)
+    assert parse_fault("drift=-200ppm").value == pytest.approx(-0.0002)
+    j = parse_fault("jam=el:30@60")
+    assert (j.axis, j.value, j.start_s, j.end_s) == ("el", 30.0, 60.0, 90.0)
+    assert parse_fault("jam=az@60").end_s is None
+    assert parse_fault("garble=0.1:out").direction == "out"
+    assert parse_fault("powercycle@300").value == 1.0
+
+
+@pytest.mark.parametrize("bad, why", [
+    ("bogus", "unknown fault 'bogus'"), ("drop", "needs a probability"),
+    ("drop=1.5", "must be in 0..1"), ("drop=0.1:sideways", "direction"),
+    ("silent@5", "needs a duration"), ("jam=x@1", "axis 'x'"), ("delay=abc", "not a number"),
+    ("wrongside=3", "takes no value"), ("silent=5@", "cannot read"), ("drift=nan%", "must be"),
+])
+def test_bad_specs_name_the_problem_and_show_the_syntax(bad, why):
+    with pytest.raises(ConfigError, match=why) as ei:
+        parse_fault(bad)
+    assert "NAME[=VALUE][@START_S]" in str(ei.value)
+
+
+def test_cli_rejects_a_bad_fault_with_exit_2(capsys):
+    assert main(["emulate", "--tcp", "0", "--fault", "jam=up@3", "--duration", "0"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("tracker: error: fault 'jam=up@3'") and "Traceback" not in err
+
+
+# Controller level (exact, ManualClock) ---------------------------------------------------
+
+
+def make(specs, seed=0, profile="gs232b", spec=None, **opts):
+    clock = ManualClock(datetime.fromisoformat(T0))
+    ctrl = Gs232Controller(profile, spec or preset("G-5500"), clock, EmulatorOptions(**opts),
+                           az_deg=123, el_deg=45)
+    inj = install(ctrl, specs, seed)
+    return ctrl, ctrl.open_session(), clock, inj
+
+
+def _replies(seed, n=200):
+    _, s, _, inj = make(["garble=0.05:out", "drop=0.05:out", "duplicate=0.05:out"], seed)
+    return b"".join(s.feed(b"C2\r") for _ in range(n)), inj
+
+
+def test_same_seed_same_faults_other_seed_other_faults():
+    a, inj = _replies(7)
+    assert a == _replies(7)[0]
+    assert a != _replies(8)[0]
+    clean = b"AZ=123  EL=045\r\n" * 200
+    assert a != clean
+    n = 200 * len(b"AZ=123  EL=045\r\n")
+    # each rate close to 5 % of the bytes (binomial, 3200 trials: sd ~ 12)
+    for k in ("bytes_dropped", "bytes_garbled", "bytes_duplicated"):
+        assert 0.03 * n < inj.stats[k] < 0.07 * n, (k, inj.stats)
+
+
+def test_input_direction_faults_hit_commands_not_replies():
+    _, s, _, inj = make(["drop=1:in"])
+    assert s.feed(b"C2\r") == b""                           # the CR never arrived
+    assert inj.stats["bytes_dropped"] == 3
+    _, s, _, _ = make(["drop=1:out"])
+    assert s.feed(b"C2\r") == b""
+    _, s, _, _ = make(["duplicate=1:in"])
+    assert s.feed(b"C2\r") == b"?>\r\n?>\r\n"               # CC22 and the empty line
+
+
+def test_delay_holds_replies_on_the_emulator_clock():
+    _, s, clock, inj = make(["delay=0.5"])
+    assert s.feed(b"C2\r") == b""
+    clock.advance(0.4)
+    assert s.poll() == b""
+    clock.advance(0.1)
+    assert s.poll() == b"AZ=123  EL=045\r\n"
+    assert inj.stats["replies_delayed"] == 1
+
+
+def test_silent_and_deaf_windows_open_and_close_on_time():
+    ctrl, s, clock, _ = make(["silent=10@5", "deaf=5@20"])
+    assert s.feed(b"C2\r") != b""
+    clock.advance(5)
+    assert s.feed(b"M100\r") == b"" and s.feed(b"C2\r") == b""   # acts, does not answer
+    assert ctrl.motor.az.target_deg == 100.0
+    clock.advance(10)
+    assert s.feed(b"C2\r").startswith(b"AZ=")                   # t=15: talking again
+    clock.advance(5)
+    assert s.feed(b"M200\r") == b"" and s.feed(b"C2\r") == b""  # t=20: deaf
+    assert ctrl.motor.az.target_deg == 100.0                    # M200 never heard
+    clock.advance(5)
+    assert s.feed(b"C2\r").startswith(b"AZ=")                   # t=25: hears again
+
+
+def test_powercycle_loses_the_table_and_needs_autobaud_again():
+    ctrl, s, clock, inj = make(["powercycle=2@10"], autobaud=True)
+    assert s.feed(b"\r\r") == b"Connect OK\r\n"
+    s.feed(b"M005 100 110 120 130\r")
+    s.feed(b"T\r")
+    clock.advance(10)
+    assert s.feed(b"N\r") == b""                                 # off for 2 s
+    clock.advance(2)
+    assert s.feed(b"N\r") == b""                                 # on again: autobaud first
+    assert s.feed(b"\r\r") == b"Connect OK\r\n"
+    assert s.feed(b"N\r") == b"?>\r\n"                           # the table is gone
+    held = ctrl.antenna()
+    clock.advance(30)
+    assert ctrl.antenna() == held                                # motors stopped
+    assert inj.stats["powercycle_events"] == 1
+
+
+def test_jam_stalls_an_axis_for_its_duration():
+    ctrl, s, clock, _ = make(["jam=az:20@5"])
+    clock.advance(5)
+    s.feed(b"W200 045\r")
+    clock.advance(15)
+    assert ctrl.antenna()[0] == pytest.approx(123.0)
+    clock.advance(5)                                             # unjammed at t=25
+    s.feed(b"W200 045\r")
+    clock.advance(20)
+    assert ctrl.antenna()[0] == pytest.approx(200.0)
+
+
+def test_drift_stretches_the_step_clock():
+    ctrl, s, clock, _ = make(["drift=2%"])
+    s.feed(b"M010 " + b" ".join(b"%03d" % a for a in range(100, 200, 5)) + b"\r")
+    clock.advance(60)
+    s.feed(b"T\r")
+    clock.advance(100.0)          # nominal: 10 steps, point 12; 2 % slow: 9 steps (10.2 s)
+    assert s.feed(b"N\r") == b"+0011+0020\r\n"
+    clock.advance(2.0)            # 102 s = 10 drifted periods
+    assert s.feed(b"N\r") == b"+0012+0020\r\n"
+    ctrl2, s2, clock2, _ = make([])
+    s2.feed(b"M010 100 105 110 115\r")
+    s2.feed(b"T\r")
+    clock2.advance(10.0)
+    assert s2.feed(b"N\r") == b"+0003+0004\r\n"
+
+
+def test_wrongside_reports_0_359_in_450_mode():
+    clock = ManualClock(datetime.fromisoformat(T0))
+    ctrl = Gs232Controller("gs232b", preset("G-5500"), clock, az_deg=400, el_deg=10)
+    s = ctrl.open_session()
+    assert s.feed(b"C2\r") == b"AZ=400  EL=010\r\n"
+    install(ctrl, ["wrongside"])
+    assert s.feed(b"C2\r") == b"AZ=040  EL=010\r\n"
+
+
+# Over real pty / TCP with the driver ------------------------------------------------------
+
+
+class Bench:
+    def __init__(self, kind, specs, tmp_path, speed=1.0, seed=1, az_deg=123, **opts):
+        self.clock = SimClock(datetime.fromisoformat(T0), speed=speed)
+        self.ctrl = Gs232Controller("gs232b", preset("G-5500"), self.clock,
+                                    EmulatorOptions(**opts), az_deg=az_deg, el_deg=45)
+        self.inj = install(self.ctrl, specs, seed)
+        if kind == "tcp":
+            self.server = serve_tcp(self.ctrl)
+        else:
+            self.server = serve_pty(self.ctrl, link=str(tmp_path / "ttyEMU0"))
+        self.url = self.server.url
+        self.drivers = []
+
+    def driver(self, **kw):
+        kw.setdefault("timeout_s", TIMEOUT_S)
+        kw.setdefault("retries", RETRIES)
+        d = open_driver(self.url, "gs232b", **kw)
+        d.stop_on_exit = False
+        self.drivers.append(d)
+        return d
+
+    def close(self):
+        for d in self.drivers:
+            d.close()
+        self.server.close()
+        assert self.server.closed and not self.server.thread.is_alive()
+
+
+@pytest.fixture(params=["tcp", "pty"])
+def bench(request, tmp_path):
+    made = []
+
+    def factory(specs, **kw):
+        b = Bench(request.param, specs, tmp_path, **kw)
+        made.append(b)
+        return b
+    factory.kind = request.param
+    yield factory
+    for b in made:
+        b.close()
+
+
+def bounded(fn, *args):
+    """Call ``fn``; return (result or the typed exception, seconds). Anything else fails."""
+    t0 = time.monotonic()
+    try:
+        out = fn(*args)
+    except (RotatorTimeout, ProtocolError, PortLostError) as e:
+        out = e
+    elapsed = time.monotonic() - t0
+    assert elapsed < BOUND_S, f"{fn.__name__} took {elapsed:.2f} s"
+    return out, elapsed
+
+
+def test_total_reply_loss_is_a_timeout_within_the_bound(bench):
+    d = bench(["drop=1:out"]).driver()
+    out, _ = bounded(d.position)
+    assert isinstance(out, RotatorTimeout)
+
+
+@pytest.mark.parametrize("spec", ["drop=0.05", "garble=0.05", "duplicate=0.05"])
+def test_line_noise_gives_readings_or_typed_errors_never_a_hang(bench, spec):
+    b = bench([spec])
+    d = b.driver()
+    outcomes = [bounded(d.position)[0] for _ in range(25)]
+    good = [o for o in outcomes if isinstance(o, tuple)]
+    errors = [o for o in outcomes if isinstance(o, Exception)]
+    assert good and errors, (spec, outcomes)     # noise did hit, and retries still got through
+    assert good.count((123.0, 45.0)) >= len(good) // 2
+
+
+def test_delay_below_the_timeout_only_adds_latency(bench):
+    b = bench(["delay=0.2"])
+    d = b.driver(timeout_s=1.0)
+    out, elapsed = bounded(d.position)
+    assert out == (123.0, 45.0) and elapsed >= 0.2
+
+
+def test_delay_beyond_the_timeout_is_a_timeout(bench):
+    d = bench(["delay=1.5"]).driver(retries=0)
+    out, _ = bounded(d.position)
+    assert isinstance(out, RotatorTimeout)
+
+
+def test_silent_window_times_out_then_recovers(bench):
+    b = bench(["silent=1.0@0"])
+    d = b.driver()
+    out, _ = bounded(d.position)
+    assert isinstance(out, RotatorTimeout)
+    assert wait_until(lambda: b.inj.elapsed_s() > 1.05, 3)
+    assert bounded(d.position)[0] == (123.0, 45.0)
+
+
+def test_powercycle_over_the_wire_table_lost_autobaud_recovers(bench):
+    b = bench(["powercycle=0.3@0.6"], autobaud=True)
+    d = b.driver()
+    d.autobaud(attempts=5, interval_s=0.1)
+    d.upload_table(5, [130, 140, 150])
+    assert d.table_status() == (1, 3)
+    assert wait_until(lambda: b.inj.elapsed_s() > 1.0, 3)
+    out, _ = bounded(d.table_status)
+    assert isinstance(out, RotatorTimeout)          # needs autobaud again: no answers
+    d.autobaud(attempts=5, interval_s=0.1)
+    out, _ = bounded(d.table_status)
+    assert isinstance(out, ProtocolError) and out.raw == b"?>"   # the table is gone
+
+
+def test_jam_over_the_wire_the_antenna_does_not_move(bench):
+    b = bench(["jam=az@0"], speed=20.0)
+    d = b.driver()
+    d.goto(200, 45)
+    time.sleep(0.5)                                  # 10 s simulated: ~60 deg if free
+    assert d.position() == (123.0, 45.0)
+
+
+def test_wrongside_over_the_wire(bench):
+    d = bench(["wrongside"], az_deg=400).driver()
+    assert d.position() == (40.0, 45.0)
+
+
+def test_drift_over_the_wire(bench):
+    b = bench(["drift=10%"], speed=20.0)
+    d = b.driver()
+    d.upload_table(1, list(range(100, 160, 2)))
+    d.start_table()
+    t0 = b.clock.monotonic()
+    assert wait_until(lambda: b.clock.monotonic() - t0 > 11.5, 3)   # ~0.6 s real
+    cur, total = d.table_status()
+    elapsed = b.clock.monotonic() - t0
+    assert total == 30
+    # nominal point = 2 + floor(elapsed / 1.0); drifted = 2 + floor(elapsed / 1.1)
+    assert cur == 2 + int(elapsed / 1.1) or cur == 2 + int((elapsed - 0.1) / 1.1)
+    assert cur < 2 + int(elapsed / 1.0)
+
+
+def test_disconnect_typed_error_then_reopen_and_resume(bench):
+    b = bench(["disconnect=0.8@0.4"])
+    d = b.driver()
+    assert d.position() == (123.0, 45.0)
+    err = None
+    t_end = time.monotonic() + 3.0
+    while time.monotonic() < t_end:
+        out, _ = bounded(d.position)
+        if isinstance(out, Exception):
+            err = out
+            break
+        time.sleep(0.02)
+    assert isinstance(err, (PortLostError, RotatorTimeout)), err
+    d.close()
+    # the port is back at t=1.2 s: reopen until it answers, within 3 s of its return
+    assert wait_until(lambda: b.inj.elapsed_s() > 1.2, 3)
+    back = time.monotonic()
+    while True:
+        try:
+            d2 = b.driver()
+            if bounded(d2.position)[0] == (123.0, 45.0):
+                break
+        except RotatorIOError:
+            pass
+        assert time.monotonic() - back < 3.0, "did not resume within 3 s"
+        time.sleep(0.05)
+    assert b.inj.stats["disconnect_events"] == 1
+
+
+def test_every_fault_at_once_never_hangs(bench):
+    b = bench(["drop=0.02", "garble=0.02", "duplicate=0.02", "delay=0.05", "silent=0.3@0.5",
+               "powercycle=0.2@1.2", "jam=el@0", "drift=1%", "wrongside"], seed=3)
+    d = b.driver()
+    kinds = set()
+    t_end = time.monotonic() + 2.0
+    while time.monotonic() < t_end:
+        out, _ = bounded(d.position)
+        kinds.add(type(out).__name__)
+        try:
+            d.goto(150, 30)
+        except (RotatorIOError, ProtocolError):
+            kinds.add("goto-error")
+    assert "tuple" in kinds and kinds & {"RotatorTimeout", "ProtocolError"}
+
+
+def test_plan_from_cli_strings_round_trip():
+    plan = FaultPlan.parse(["disconnect=5@200", "drop=0.01"], seed=4)
+    assert plan.needs_reopen and plan.seed == 4 and len(plan.of("drop")) == 1

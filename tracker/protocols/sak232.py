@@ -1,0 +1,129 @@
+"""Zelpro SAK-232 driver (seed 003, PROTOCOLS.md §9).
+
+9600 8N1, no handshake; commands are one capital letter, space-separated parameters and
+CR: ``A aaa`` (0-359, no padding), ``R ±ddd``, ``O aaa``, ``K``, ``P pp ddd``, ``S``. The
+guide documents no reply and no query, so the driver never waits for one and runs open loop:
+``position()`` is the motor-model estimate (:class:`tracker.protocols.rotorez.OpenLoopAz`)
+and ``capabilities.has_position_query`` is False. ``orient(az)`` (``O``) both tells the
+controller and re-anchors the estimate, which is how to calibrate it.
+"""
+
+from __future__ import annotations
+
+from tracker.clock import Clock
+from tracker.errors import LimitError
+from tracker.protocols.base import Capabilities, Direction, RotatorDriver
+from tracker.protocols.rotorez import ByteLink, OpenLoopAz
+
+BAUDRATE = 9600
+
+
+def encode_azimuth(az_deg: float) -> int:
+    """Rounded 0..359; 359.5..360 wraps to 0. Outside 0..360 raises :class:`LimitError`."""
+    try:
+        v = float(az_deg)
+    except (TypeError, ValueError) as e:
+        raise LimitError(f"azimuth {az_deg!r} is not a number") from e
+    if not 0.0 <= v <= 360.0:
+        raise LimitError(f"azimuth {az_deg!r} deg is outside 0..359 deg; nothing was sent")
+    return round(v) % 360
+
+
+def check_gear(pulses: int, degrees: int) -> None:
+    """The guide's rule: 1-999 pulses, 1-24 degrees, 1 to 24 pulses per degree."""
+    if not (1 <= pulses <= 999 and 1 <= degrees <= 24 and degrees <= pulses
+            and pulses <= 24 * degrees):
+        raise LimitError(f"gear ratio {pulses} pulses / {degrees} deg is invalid; allowed "
+                         f"1-999 pulses, 1-24 degrees, 1..24 pulses per degree")
+
+
+class Sak232Driver(RotatorDriver):
+    def __init__(self, port, *, timeout_s: float = 1.0, pace_cmd_s: float = 0.05,
+                 clock: Clock | None = None, rate_deg_s: float = 4.0,
+                 start_az_deg: float = 0.0, has_elevation: bool | None = None,
+                 az_max_deg: float | None = None, el_max_deg: float | None = None,
+                 autobaud: bool = False):
+        # has_elevation / az_max_deg / el_max_deg / autobaud are what generic callers pass
+        # to every driver; the SAK-232 is azimuth-only 0-359 and has no autobaud.
+        self.link = ByteLink(port, clock, pace_cmd_s)
+        self.clock = self.link.clock
+        self.timeout_s = float(timeout_s)
+        self.capabilities = Capabilities(
+            has_elevation=False, has_position_query=False, has_axis_stop=False,
+            has_manual_move=False, has_speed=False, speed_steps=0, az_max_deg=359.0,
+            el_max_deg=0.0)
+        self.estimate = OpenLoopAz(self.clock, 0.0, 359.0, rate_deg_s, 0.2, start_az_deg)
+        self.stop_on_exit = True
+
+    @classmethod
+    def from_url(cls, url: str, *, baudrate: int | None = None, **kw) -> Sak232Driver:
+        from tracker.transport import open_port
+
+        return cls(open_port(url, baudrate=baudrate or BAUDRATE, timeout_s=0.05), **kw)
+
+    def _send(self, line: str) -> None:
+        with self.link.lock:
+            self.link.write(line.encode("ascii") + b"\r")
+
+    def position(self) -> tuple[float, float | None]:
+        """The motor-model estimate: the SAK-232 has no position query."""
+        return round(self.estimate.position(), 1), None
+
+    def goto(self, az_deg: float, el_deg: float | None = None) -> None:
+        az = encode_azimuth(az_deg)
+        self._send(f"A {az}")
+        self.estimate.command(float(az))
+
+    def move_relative(self, delta_deg: float) -> None:
+        """``R ±ddd``: the controller clips the move to its limits."""
+        d = round(float(delta_deg))
+        if not -359 <= d <= 359:
+            raise LimitError(f"relative move {delta_deg!r} deg is invalid; allowed -359..359")
+        self._send(f"R {d}")
+        self.estimate.command(min(max(self.estimate.motor.target_deg + d, 0.0), 359.0))
+
+    def orient(self, az_deg: float) -> None:
+        """``O aaa``: the antenna is known to point at ``az_deg`` now."""
+        az = encode_azimuth(az_deg)
+        self._send(f"O {az}")
+        self.estimate.set(float(az))
+
+    def find_limits(self) -> None:
+        """``K``: the controller runs to both hard limits (needs limit switches)."""
+        self._send("K")
+
+    def set_gear(self, pulses: int, degrees: int) -> None:
+        check_gear(int(pulses), int(degrees))
+        self._send(f"P {int(pulses)} {int(degrees)}")
+
+    def stop(self) -> None:
+        self._send("S")
+        self.estimate.stop()
+
+    def move(self, direction: Direction) -> None:
+        raise LimitError("the SAK-232 has no manual-move command; use goto or move_relative")
+
+    def raw(self, cmd: str | bytes, quiet_s: float = 0.2) -> bytes:
+        data = cmd.encode("ascii") if isinstance(cmd, str) else bytes(cmd)
+        if not data.endswith(b"\r"):
+            data += b"\r"
+        with self.link.lock:
+            self.link.flush_input()
+            self.link.write(data)
+            return self.link.collect(quiet_s, self.timeout_s)
+
+    def close(self) -> None:
+        self.link.close()
+
+
+def open_sak232(url: str, **kw) -> Sak232Driver:
+    return Sak232Driver.from_url(url, **kw)
+
+
+def _register() -> None:
+    from tracker.protocols import register_driver
+
+    register_driver("sak232", open_sak232)
+
+
+_register()
