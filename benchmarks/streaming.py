@@ -116,7 +116,8 @@ def measure(track, spec, station, cmds, t_start: float) -> dict:
             "starts": int(starts_az + starts_el), "commands": len(cmds)}
 
 
-def summarise(rows: list[dict], followable: np.ndarray) -> dict:
+def summarise(rows: list[dict], followable: np.ndarray, bound: np.ndarray) -> dict:
+    """``bound``: per pass, the planner's predicted max error plus the deadband."""
     err = np.concatenate([r["err"] for r in rows])
     per_max = np.array([r["err"].max() for r in rows])
     lost = np.array([r["lost_s"] for r in rows])
@@ -124,7 +125,9 @@ def summarise(rows: list[dict], followable: np.ndarray) -> dict:
             "mean": float(err.mean()), "lost_s": float(lost.sum()),
             "lost_followable_s": float(lost[followable].sum()),
             "passes_lost": int(np.sum(lost > 0)),
-            "le3": float(np.mean(per_max <= 3.0)), "starts": sum(r["starts"] for r in rows),
+            "le3": float(np.mean(per_max <= 3.0)),
+            "in_bound": float(np.mean(per_max <= bound + 1e-9)),
+            "starts": sum(r["starts"] for r in rows),
             "commands": sum(r["commands"] for r in rows)}
 
 
@@ -154,6 +157,7 @@ def main(argv=None) -> int:
     rows: dict[str, list] = {n: [] for n in [*names, "gpredict-style"]}
     cost = dict.fromkeys(rows, 0.0)
     followable = []
+    plan_max = []
     for sp in suite:
         tr, st = sp.track, sp.station
         t_start = None
@@ -163,13 +167,16 @@ def main(argv=None) -> int:
             t_start = min(plan.preposition_t_s, float(tr.t_s[0])) - 0.5
             rows[name].append(measure(tr, spec, st, cmds, t_start))
             cost[name] += time.perf_counter() - t1
+        plan_max.append(plan.max_error_deg)
         t2 = time.perf_counter()
         gcmds, _gplan = fly_gpredict(tr, spec, st, t_start=t_start)
         rows["gpredict-style"].append(measure(tr, spec, st, gcmds, t_start))
         cost["gpredict-style"] += time.perf_counter() - t2
         followable.append(plan.lost_track_s == 0)
     followable = np.array(followable)
-    res = {k: summarise(v, followable) for k, v in rows.items()}
+    plan_max = np.array(plan_max)
+    bounds = dict(zip(names, args.deadband, strict=True))
+    res = {k: summarise(v, followable, plan_max + bounds.get(k, 5.0)) for k, v in rows.items()}
     n = len(suite)
     labels = [
         ("passes", lambda r: f"{n}"),
@@ -180,6 +187,7 @@ def main(argv=None) -> int:
         ("lost s, followable", lambda r: f"{r['lost_followable_s']:.1f}"),
         ("passes with loss", lambda r: f"{r['passes_lost']}"),
         ("passes max<=3 deg %", lambda r: f"{100 * r['le3']:.1f}"),
+        ("max<=plan+deadband %", lambda r: f"{100 * r['in_bound']:.1f}"),
         ("motor starts", lambda r: f"{r['starts']}"),
         ("starts per pass", lambda r: f"{r['starts'] / n:.1f}"),
         ("commands sent", lambda r: f"{r['commands']}"),

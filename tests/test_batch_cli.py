@@ -150,3 +150,18 @@ def test_broken_stations_file_as_a_subprocess(tmp_path):
     assert proc.returncode == 2
     assert proc.stderr.startswith(f"tracker: error: {bad}:2: ")
     assert "Traceback" not in proc.stderr
+
+
+def test_sky_plots_of_planned_passes(capsys, tmp_path):
+    pytest.importorskip("matplotlib")
+    folder = tmp_path / "sky"
+    folder.mkdir()
+    code, _, err = run(capsys, "batch", "amateur", "--lat", "52", "--lon", "4.37", "--at", AT,
+                       "--days", "0.1", "--min-max-el", "40", "--rotator", "G-5500",
+                       "--sky-plots", str(folder), "--format", "csv")
+    assert code == 0, err
+    pngs = sorted(folder.glob("*.png"))
+    assert pngs and all(p.read_bytes()[:4] == b"\x89PNG" for p in pngs)
+    code, _, err = run(capsys, "batch", "amateur", "--lat", "52", "--lon", "4.37", "--at", AT,
+                       "--sky-plots", str(folder))
+    assert code == 2 and "--sky-plots needs --rotator" in err

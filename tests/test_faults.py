@@ -13,8 +13,7 @@ from tracker.cli import main
 from tracker.clock import ManualClock, SimClock
 from tracker.emulator import EmulatorOptions, Gs232Controller, serve_pty, serve_tcp
 from tracker.emulator.faults import EXAMPLES, FaultPlan, install, parse_fault
-from tracker.errors import ConfigError, PortLostError, ProtocolError, RotatorIOError, \
-    RotatorTimeout
+from tracker.errors import ConfigError, PortLostError, ProtocolError, RotatorIOError, RotatorTimeout
 from tracker.mount import preset
 from tracker.protocols import open_driver
 
@@ -151,7 +150,7 @@ def test_jam_stalls_an_axis_for_its_duration():
 
 
 def test_drift_stretches_the_step_clock():
-    ctrl, s, clock, _ = make(["drift=2%"])
+    _ctrl, s, clock, _ = make(["drift=2%"])
     s.feed(b"M010 " + b" ".join(b"%03d" % a for a in range(100, 200, 5)) + b"\r")
     clock.advance(60)
     s.feed(b"T\r")
@@ -159,7 +158,7 @@ def test_drift_stretches_the_step_clock():
     assert s.feed(b"N\r") == b"+0011+0020\r\n"
     clock.advance(2.0)            # 102 s = 10 drifted periods
     assert s.feed(b"N\r") == b"+0012+0020\r\n"
-    ctrl2, s2, clock2, _ = make([])
+    _ctrl2, s2, clock2, _ = make([])
     s2.feed(b"M010 100 105 110 115\r")
     s2.feed(b"T\r")
     clock2.advance(10.0)
@@ -238,11 +237,11 @@ def test_total_reply_loss_is_a_timeout_within_the_bound(bench):
     assert isinstance(out, RotatorTimeout)
 
 
-@pytest.mark.parametrize("spec", ["drop=0.05", "garble=0.05", "duplicate=0.05"])
+@pytest.mark.parametrize("spec", ["drop=0.04", "garble=0.04", "duplicate=0.04"])
 def test_line_noise_gives_readings_or_typed_errors_never_a_hang(bench, spec):
     b = bench([spec])
-    d = b.driver()
-    outcomes = [bounded(d.position)[0] for _ in range(25)]
+    d = b.driver(timeout_s=0.15)
+    outcomes = [bounded(d.position)[0] for _ in range(15)]
     good = [o for o in outcomes if isinstance(o, tuple)]
     errors = [o for o in outcomes if isinstance(o, Exception)]
     assert good and errors, (spec, outcomes)     # noise did hit, and retries still got through
@@ -361,3 +360,75 @@ def test_every_fault_at_once_never_hangs(bench):
 def test_plan_from_cli_strings_round_trip():
     plan = FaultPlan.parse(["disconnect=5@200", "drop=0.01"], seed=4)
     assert plan.needs_reopen and plan.seed == 4 and len(plan.of("drop")) == 1
+
+
+def test_byte_controllers_get_wire_faults_through_the_server():
+    """Rotor-EZ sessions do not run the injector themselves: the server applies it."""
+    from tracker.emulator.rotorez_controller import RotorEzController
+
+    clock = SimClock(datetime.fromisoformat(T0), speed=1.0)
+    ctrl = RotorEzController(clock=clock)
+    inj = install(ctrl, ["drop=1:out", "jam=az@0", "powercycle@0.1"])
+    server = serve_tcp(ctrl)
+    try:
+        d = open_driver(server.url, "rotorez", timeout_s=0.2, retries=0)
+        d.stop_on_exit = False
+        out, _ = bounded(d.position)
+        assert isinstance(out, RotatorTimeout)
+        assert inj.stats["bytes_dropped"] > 0 and inj.stats["jam_events"] == 1
+        assert wait_until(lambda: inj.stats["powercycle_events"] == 1, 2)
+        d.close()
+    finally:
+        server.close()
+    assert not server.errors
+
+
+def test_rate_fault_window_opens_and_closes():
+    _, s, clock, inj = make(["drop=1:out@10+5"])
+    assert s.feed(b"C2\r") == b"AZ=123  EL=045\r\n"
+    clock.advance(10)
+    assert s.feed(b"C2\r") == b""
+    clock.advance(5)
+    assert s.feed(b"C2\r") == b"AZ=123  EL=045\r\n"
+    assert inj.stats["bytes_dropped"] == 16
+    with pytest.raises(ConfigError, match="@START\\+DURATION is for rate"):
+        parse_fault("silent=5@1+2")
+
+
+def test_el_jam_on_an_azimuth_only_rotator_is_counted_not_fatal():
+    clock = ManualClock(datetime.fromisoformat(T0))
+    ctrl = Gs232Controller("gs232b", preset("G-1000DXA"), clock)
+    inj = install(ctrl, ["jam=el@1"])
+    s = ctrl.open_session()
+    clock.advance(2)
+    assert s.feed(b"C\r") == b"AZ=000\r\n"
+    assert inj.stats["not_applicable"] == 1
+
+
+@pytest.mark.slow
+def test_cli_emulate_with_faults_end_to_end(capsys):
+    """``tracker emulate --fault ...`` in one process, ``tracker rotator`` in this one: the
+    silent window is a one-line error with exit 2, then the port answers again; a pty with a
+    disconnect fault is served behind a stable link that comes back."""
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "tracker", "emulate", "--pty", "--duration", "6",
+         "--fault", "silent=1.5@0", "--fault", "disconnect=1@2", "--fault-seed", "3"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        url = proc.stdout.readline().strip()
+        assert url.endswith("/ttyEMU0"), url               # the stable link, not /dev/pts/N
+        args = ["rotator", "--port", url, "--timeout", "0.2", "position"]
+        assert main(args) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("tracker: error: no reply to C2") and "Traceback" not in err
+        assert wait_until(lambda: main(args) == 0, 3)          # silent window over
+        assert wait_until(lambda: main(args) == 2, 3)          # unplugged at t=2 s
+        assert wait_until(lambda: main(args) == 0, 4)          # back at t=3 s, same path
+        capsys.readouterr()
+    finally:
+        out, _ = proc.communicate(timeout=20)
+    assert proc.returncode == 0
+    assert "faults: " in out and "silent_events 1" in out and "disconnect_events 1" in out

@@ -156,3 +156,22 @@ def test_three_party_chain_to_the_gs232b_emulator():
         proc.wait(5)
         server.close()
     assert server.closed
+
+
+@pytest.mark.hamlib
+@needs_hamlib
+def test_daemon_gone_is_reported_not_hung():
+    from tracker.errors import RotatorIOError
+
+    proc, port = _start_rotctld("-m", "1")
+    try:
+        drv = open_driver(f"127.0.0.1:{port}", "rotctld", timeout_s=0.5)
+        assert drv.position() == (0.0, 0.0)
+    finally:
+        proc.terminate()
+        proc.wait(5)
+    t = time.monotonic()
+    with pytest.raises(RotatorIOError):
+        drv.position()
+    assert time.monotonic() - t < 2.0
+    drv.close()

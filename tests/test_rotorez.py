@@ -38,7 +38,7 @@ def test_ai_reply_found_among_banner_and_stray_bytes():
 def served(request):
     made = []
 
-    def make(variant="rotorez", speed=50.0, **kw):
+    def make(variant="rotorez", speed=100.0, **kw):
         clock = SimClock(datetime.fromisoformat(T0), speed=speed)
         ctrl = RotorEzController(variant, clock=clock, **kw)
         server = serve_pty(ctrl) if request.param == "pty" else serve_tcp(ctrl)

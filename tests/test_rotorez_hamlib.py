@@ -36,7 +36,7 @@ def rotctl(model: str, url: str, *cmds: str, ok: bool = True) -> subprocess.Comp
 
 @pytest.fixture
 def emulator(request):
-    clock = SimClock(datetime.fromisoformat(T0), speed=10.0)
+    clock = SimClock(datetime.fromisoformat(T0), speed=20.0)
     ctrl = RotorEzController(request.param, clock=clock)
     server = serve_pty(ctrl)
     yield ctrl, server
@@ -49,26 +49,20 @@ def test_rotctl_401_sets_reads_back_and_stops(emulator):
     ctrl, server = emulator
     rotctl("401", server.url, "P", "80", "0")
     assert wait_until(lambda: ctrl.antenna() == 80.0, 10), ctrl.antenna()
-    out = rotctl("401", server.url, "p").stdout.split()
+    # read back, then a long move (250 deg the long way round: south stop) in one session
+    out = rotctl("401", server.url, "p", "P", "190", "0").stdout.split()
     assert float(out[0]) == 80.0
-    # a long move, then S stops it where it is
-    rotctl("401", server.url, "P", "190", "0")     # 250 deg the long way round (south stop)
     assert wait_until(lambda: ctrl.moving(), 5)
-    rotctl("401", server.url, "S")
+    out = rotctl("401", server.url, "S", "p", "C", "jam", "0", "C", "endpt", "0").stdout.split()
     assert wait_until(lambda: not ctrl.moving(), 5)
     held = ctrl.antenna()
     assert held not in (80.0, 190.0)
-    assert float(rotctl("401", server.url, "p").stdout.split()[0]) == round(held) % 360
+    assert float(out[0]) == round(held) % 360
     cmds = [c for _t, c, _r in ctrl.log]
     assert cmds[:3] == [b"AP1080;", b"AM1;", b"AI1;"] and b";" in cmds
-
-
-@pytest.mark.parametrize("emulator", ["rotorez"], indirect=True)
-def test_rotctl_401_option_bytes(emulator):
-    ctrl, server = emulator
-    rotctl("401", server.url, "C", "jam", "0", "C", "endpt", "0", "C", "oversht", "0",
-           "C", "unstick", "0")
-    assert wait_until(lambda: not any(ctrl.settings.values()), 5), ctrl.settings
+    # option bytes (Hamlib set_conf): jam protection and endpoint off, one byte each
+    assert cmds[-2:] == [b"j", b"e"]
+    assert not ctrl.settings["jam"] and not ctrl.settings["endpoint"]
 
 
 @pytest.mark.parametrize("emulator", ["dcu1"], indirect=True)

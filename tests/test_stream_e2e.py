@@ -7,6 +7,7 @@ emulator's own hooks (unplug the pty, drop TCP connections, jam an axis, control
 from __future__ import annotations
 
 import threading
+import time
 from datetime import datetime, timezone
 
 import numpy as np
@@ -73,6 +74,11 @@ class Bench:
             return run_pass(self.core, Link(self.connect, SPEC), self.clock,
                             on_status=self.on_status, events=self.event)
         finally:
+            # The last command is written without an ack: let the emulator read it first.
+            deadline = time.monotonic() + 2.0
+            while time.monotonic() < deadline and (
+                    not self.ctl.log or self.ctl.log[-1][1].strip() != b"S"):
+                time.sleep(0.01)
             for s in self.servers:
                 s.close()
 

@@ -89,6 +89,9 @@ def test_signal_mid_pass_sends_all_stop_last(sig, tmp_path):
         out, err = proc.communicate(timeout=20)
         assert proc.returncode == 130, (out, err)
         assert "Traceback" not in err
+        deadline = time.monotonic() + 2.0   # the emulator thread may still be reading
+        while time.monotonic() < deadline and ctl.log[-1][1].strip() != b"S":
+            time.sleep(0.01)
         lines = [ln.strip() for _t, ln, _r in ctl.log]
         assert lines[-1] == b"S", lines[-5:]
         assert not ctl.moving()

@@ -17,10 +17,11 @@ command it would cause:
 * its *peak* is the largest predicted error over that hold (at least ``min_window_s``), slew
   included.
 
-The chosen candidate keeps the peak within the deadband (or as close to the best achievable
-as ``peak_slack_deg`` when the rotator lags) with the longest hold, and among candidates with
-nearly that hold, the smallest peak. That is the aim point that minimises the maximum error
-until the next expected command for the longest possible interval between commands.
+Candidates move both axes, or only one (the other keeps its target: one relay click
+instead of two). The chosen candidate keeps the peak within the deadband (or as close to the
+best achievable as ``peak_slack_deg`` when the rotator lags) with the longest hold per motor
+start, and among candidates with nearly that value, the smallest peak: the aim point that
+minimises the maximum error until the next expected command, for the fewest motor starts.
 """
 
 from __future__ import annotations

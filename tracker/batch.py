@@ -150,9 +150,11 @@ def pass_track(satrec, station: Station, aos_s: float, los_s: float, step_s: flo
 
 
 def plan_summaries(table: PassTable, satrecs, spec, min_max_el_deg: float = 0.0,
-                   step_s: float = 5.0) -> list[dict | None]:
+                   step_s: float = 5.0, on_plan=None) -> list[dict | None]:
     """The planner's summary for each pass whose max elevation reaches ``min_max_el_deg``
-    (``None`` for the others and for clipped passes): mode, max error, pre-position time."""
+    (``None`` for the others and for clipped passes): mode, max error, pre-position time.
+
+    ``on_plan(index, plan, station)`` is called with each MountPlan (e.g. to draw it)."""
     from tracker.planner import plan_pass
 
     out: list[dict | None] = []
@@ -167,6 +169,8 @@ def plan_summaries(table: PassTable, satrecs, spec, min_max_el_deg: float = 0.0,
             out.append(None)
             continue
         plan = plan_pass(track, spec, station)
+        if on_plan is not None:
+            on_plan(len(out), plan, station)
         out.append({"mode": plan.mode, "max_error_deg": round(float(plan.max_error_deg), 2),
                     "preposition_s": float(plan.preposition_t_s),
                     "reason": plan.reason})

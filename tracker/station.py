@@ -47,6 +47,9 @@ class HorizonMask:
             text = path.read_text()
         except OSError as e:
             raise ConfigError(f"cannot read horizon mask {path}: {e.strerror}") from e
+        except UnicodeDecodeError:
+            raise ConfigError(f"{path}: not a text file; a horizon mask is 'azimuth_deg "
+                              f"elevation_deg' per line") from None
         points: dict[float, float] = {}
         for line_no, raw in enumerate(text.splitlines(), 1):
             line = raw.split("#", 1)[0].strip()

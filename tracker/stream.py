@@ -4,8 +4,9 @@ Two layers, so the decisions can be tested and benchmarked without any port:
 
 * :class:`TrackCore` — pure decision logic. It is fed the time and each read-back, and answers
   what to command (pre-position, a deadband/aim-point move from :mod:`tracker.aim`, park, or
-  nothing). It keeps the loop's belief of the motors in THE motor model
-  (:class:`tracker.mount.AxisMotor`), interprets read-back against the commanded mechanical
+  nothing; where the path needs the motors running most of the time, near the zenith, it
+  follows the plan's own led commands). It keeps the loop's belief of the motors in THE motor
+  model (:class:`tracker.mount.AxisMotor`), interprets read-back against the commanded mechanical
   position (never trusting read-back alone to tell which side of the overlap the antenna is
   on), and detects stalls and read-back that contradicts the plan.
 * :func:`run_pass` — the I/O loop on a :class:`~tracker.clock.Clock`: one request at a time,
@@ -17,7 +18,6 @@ Works with any :class:`~tracker.protocols.base.RotatorDriver` (``position``/``go
 
 from __future__ import annotations
 
-import copy
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -55,12 +55,13 @@ class StreamSettings:
     deadband_deg: float = 4.0
     cycle_s: float = 0.5
     margin_deg: float = 0.2           # predictions are sampled: keep this inside the deadband
+    follow_fraction: float = 0.4      # path faster than this share of a motor: follow the plan
     park_after_pass: bool = True
     stall_travel_deg: float = 2.0     # expected travel with no motion seen → stall
     contradiction_deg: float = 20.0   # read-back this far from belief → not trusted
     settle_readings: int = 2          # agreeing read-backs needed after a contradiction
     reconnect_initial_s: float = 0.5
-    reconnect_max_s: float = 8.0
+    reconnect_max_s: float = 2.0      # a USB adapter that comes back is found within ~2 s
     reconnect_give_up_s: float | None = None   # None: keep trying until the pass ends
     timeouts_before_lost: int = 3
     aim_step_s: float = 0.5
@@ -130,16 +131,38 @@ def moving_axis(template: AxisMotor, position_deg: float, target_deg: float, t_s
 
 
 class _AxisWatch:
-    """Stall bookkeeping for one axis: where it was when motion was last seen."""
+    """Stall bookkeeping for one axis: where it was when motion was last seen, and how far
+    the commands since then should have moved it (small tracking steps add up, so a jam is
+    caught even when every single step is too small to judge)."""
 
     def __init__(self) -> None:
+        self.reset()
+
+    def reset(self) -> None:
         self.ref_t_s: float | None = None
         self.ref_pos_deg = 0.0
         self.expect: AxisMotor | None = None
+        self.seg_t_s = 0.0
+        self.carried_deg = 0.0
+
+    def _segment_deg(self, t_s: float) -> float:
+        if self.expect is None:
+            return 0.0
+        return abs(float(self.expect.position(t_s)) - float(self.expect.position(self.seg_t_s)))
 
     def start(self, axis: AxisMotor, t_s: float, readback_deg: float) -> None:
-        self.ref_t_s, self.ref_pos_deg = t_s, readback_deg
-        self.expect = copy.copy(axis)
+        """A command went out: expect motion from the read-back position, from rest (the
+        belief may think the motor is still running when the real one already stopped, so
+        the full start delay is allowed)."""
+        if self.ref_t_s is not None and abs(readback_deg - self.ref_pos_deg) < (
+                axis.resolution_deg - 1e-9):
+            self.carried_deg += self._segment_deg(t_s)   # no motion yet: keep counting
+        else:
+            self.ref_t_s, self.ref_pos_deg, self.carried_deg = t_s, readback_deg, 0.0
+        self.expect = AxisMotor(axis.min_deg, axis.max_deg, axis.rate_deg_s, axis.start_delay_s,
+                                axis.resolution_deg, readback_deg, t_s)
+        self.expect.command(axis.target_deg, t_s)
+        self.seg_t_s = t_s
 
     def check(self, t_s: float, readback_deg: float, resolution_deg: float,
               stall_travel_deg: float) -> float | None:
@@ -152,13 +175,13 @@ class _AxisWatch:
             self.expect = moving_axis(self.expect, readback_deg, self.expect.target_deg, t_s,
                                       self.expect.moving(t_s))
             self.ref_t_s, self.ref_pos_deg = t_s, readback_deg
+            self.seg_t_s, self.carried_deg = t_s, 0.0
             return None
-        expected = abs(float(self.expect.position(t_s)) - float(self.expect.position(
-            self.ref_t_s)))
-        if expected >= stall_travel_deg:
+        expected = self.carried_deg + self._segment_deg(t_s)
+        # Timing jitter (a late read-back, a belief a cycle off) must not look like a stall:
+        # judge only after the start delay plus a second.
+        if expected >= stall_travel_deg and t_s - self.ref_t_s >= self.expect.start_delay_s + 1.0:
             return t_s - self.ref_t_s
-        if not self.expect.moving(t_s) and expected < stall_travel_deg:
-            self.expect = None  # the move was too small to judge; nothing to watch
         return None
 
 
@@ -189,6 +212,17 @@ class TrackCore:
         self.station = station
         self.settings = settings or StreamSettings(deadband_deg=spec.deadband_deg)
         self.path = AimPath.from_plan(plan, spec)
+        # Where the path needs the motors to run most of the time (near the zenith), the
+        # deadband saves no relay clicks - commands in the running direction start nothing -
+        # and holding would build an azimuth lag that takes long to catch up. There the loop
+        # follows the plan's own led commands, whose error the planner predicted.
+        dt = np.gradient(self.path.t_s)
+        self._az_rate = np.abs(np.gradient(self.path.az_m_deg) / dt)
+        self._el_rate = np.abs(np.gradient(self.path.el_deg) / dt)
+        self._plan_az = np.asarray(plan.cmd_az_deg, dtype=float)
+        self._plan_el = np.asarray(getattr(plan, "cmd_el_deg", np.zeros_like(self._plan_az)),
+                                   dtype=float)
+        self._plan_t = np.asarray(plan.t_s, dtype=float)
         self.mode = str(getattr(plan, "mode", "normal"))
         self.aos_s, self.los_s = pass_window(track, station)
         self.track_from_s = max(self.path.start_s,
@@ -218,6 +252,7 @@ class TrackCore:
         self._hold_until_s = -math.inf
         self._hold_level_deg = self.settings.deadband_deg
         self._park_sent_s: float | None = None
+        self._last_wire_az: float | None = None
 
     # Read-back ---------------------------------------------------------------------------
 
@@ -238,6 +273,20 @@ class TrackCore:
                        else (self.antenna[0] if self.antenna else wire_of(spec, wire_az_deg)))
         cands = mech_candidates_of_wire(spec, wire_az_deg)
         m_az = min(cands, key=lambda m: abs(m - expected_az))
+        early = False
+        still = self._last_wire_az is not None and abs(wire_az_deg - self._last_wire_az) < 0.5
+        self._last_wire_az = wire_az_deg
+        if self.motor is not None and (
+                abs(m_az - expected_az) > self.settings.contradiction_deg
+                or (still and self.motor.az.moving(t_s))):
+            # Far from the belief (or standing still while believed moving), but the reading
+            # names the commanded target: it arrived sooner than believed (the start was
+            # guessed on the wrong side of the overlap; the controller knew better). Take it,
+            # instead of distrusting a good rotator.
+            at_target = [m for m in cands if abs(m - self.motor.az.target_deg) < 0.5
+                         and abs(m - m_az) > 180.0]
+            if at_target:
+                m_az, early = at_target[0], True
         el = None
         if spec.has_elevation:
             el = float(wire_el_deg if wire_el_deg is not None else 0.0)
@@ -251,6 +300,12 @@ class TrackCore:
         if self.motor is None:
             self._sync_motor(t_s, moving=False)
             return "contradiction" if self.untrusted else "ok"
+        if early:
+            self.note = f"azimuth read-back {wire_az_deg:.0f} means arrived at {m_az:.0f}"
+            self._sync_motor(t_s, moving=False)
+            for w in self._watch.values():
+                w.reset()
+            expected_az = m_az
         off_az = abs(m_az - expected_az)
         off_el = 0.0 if el is None else abs(el - float(self.motor.el.position(t_s)))
         if max(off_az, off_el) > self.settings.contradiction_deg:
@@ -263,7 +318,7 @@ class TrackCore:
             self.motor = None
             self._sync_motor(t_s, moving=False)
             for w in self._watch.values():
-                w.expect = None
+                w.reset()
             return "contradiction"
         if self.untrusted:
             return "contradiction"
@@ -352,18 +407,45 @@ class TrackCore:
         # the slower axis needs for a typical step (about twice the deadband).
         slow = min(self.spec.az_rate_deg_s, self.spec.el_rate_deg_s or math.inf)
         lookahead = s.cycle_s + self.spec.start_delay_s + min(2.0 * s.deadband_deg / slow, 4.0)
-        if self._phase_commanded is Phase.TRACK and not needs_command(
-                self.path, self.motor.az, self.motor.el, t_s, level, lookahead):
-            return None
-        aim = choose_aim(self.path, self.motor.az, self.motor.el, t_s, band,
-                         step_s=s.aim_step_s)
-        cmd = self._safe(aim.az_m_deg, aim.el_deg, "track", aim)
-        if self._phase_commanded is Phase.TRACK and self.last_command is not None and (
-                abs(cmd.az_m_deg - self.last_command.az_m_deg) < 1e-9
-                and (cmd.el_deg is None or abs(cmd.el_deg - self.last_command.el_deg) < 1e-9)
-                and self.motor.moving(t_s)):
-            return None   # already on its way there: a repeat would only cost a relay click
+        if self._fast(t_s, lookahead):
+            i = min(int(np.searchsorted(self._plan_t, t_s)), len(self._plan_t) - 1)
+            el = float(self._plan_el[i]) if self.spec.has_elevation else None
+            cmd = self._safe(float(self._plan_az[i]), el, "track")
+            self._hold_until_s = -math.inf
+        else:
+            if self._phase_commanded is Phase.TRACK and not needs_command(
+                    self.path, self.motor.az, self.motor.el, t_s, level, lookahead):
+                return None
+            aim = choose_aim(self.path, self.motor.az, self.motor.el, t_s, band,
+                             step_s=s.aim_step_s)
+            cmd = self._safe(aim.az_m_deg, aim.el_deg, "track", aim)
+        last = self.last_command
+        if self._phase_commanded is Phase.TRACK and last is not None and self.motor.moving(
+                t_s):
+            # Already on its way (or one step off it): a repeat would only cost relay clicks.
+            res = self.spec.resolution_deg
+            same_az = abs(cmd.az_m_deg - last.az_m_deg) <= res + 1e-9
+            same_el = cmd.el_deg is None or last.el_deg is None or abs(
+                cmd.el_deg - last.el_deg) <= res + 1e-9
+            if same_az and same_el and cmd.aim is not None:
+                return None
+            if cmd.aim is None and abs(cmd.az_m_deg - last.az_m_deg) < 1e-9 and (
+                    cmd.el_deg is None or abs(cmd.el_deg - last.el_deg) < 1e-9):
+                return None
         return cmd
+
+    def _fast(self, t_s: float, lookahead_s: float) -> bool:
+        """True where the path runs the az or el motor more than ``follow_fraction`` of
+        the time (near the zenith, keyhole sweeps)."""
+        f = self.settings.follow_fraction
+        ts = (t_s, t_s + lookahead_s)
+        az = float(np.max(np.interp(ts, self.path.t_s, self._az_rate)))
+        if az > f * self.spec.az_rate_deg_s:
+            return True
+        if self.spec.has_elevation:
+            el = float(np.max(np.interp(ts, self.path.t_s, self._el_rate)))
+            return el > f * self.spec.el_rate_deg_s
+        return False
 
     def _moves(self, moves, fallback) -> list[tuple[float, float, float | None]]:
         out = [(float(m.t_s), float(m.az_deg), float(m.el_deg)) for m in (moves or ())]
@@ -420,7 +502,7 @@ class TrackCore:
         self.motor = None
         self._phase_commanded = None
         for w in self._watch.values():
-            w.expect = None
+            w.reset()
 
     def stopped(self, t_s: float) -> None:
         """The rotator was told to stop (all-stop)."""

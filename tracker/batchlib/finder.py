@@ -207,19 +207,37 @@ def _solve(job: _Job, sat, st: int, lo, hi, g_lo, g_hi, guess, want_rate: bool):
     so every bracket converges. Returns (tau, el, az, r_teme) at the last evaluated point.
     """
     n = len(sat)
+    key = "brackets_tca" if want_rate else "brackets_cross"
+    job.stats[key] = job.stats.get(key, 0) + n
     # Sorted by satellite, every iteration's SGP4 calls group without another sort.
     order = np.argsort(sat, kind="stable")
-    sat, lo, hi, g_lo, guess = sat[order], lo[order], hi[order], g_lo[order], guess[order]
+    sat, lo, hi, guess = sat[order], lo[order], hi[order], guess[order]
+    g_lo, g_hi = g_lo[order], g_hi[order]
+    # Near-zenith maxima are sharp (elevation is a cone tip there), so TCA too goes to tol_s.
+    tol = job.tol_s
     tau = np.clip(guess, lo, hi)
     out_el, out_az, out_r = np.zeros(n), np.zeros(n), np.zeros((n, 3))
     lo, hi, g_lo = lo.copy(), hi.copy(), g_lo.copy()
     x_prev, g_prev = lo.copy(), g_lo.copy()
     active = np.arange(n)
-    for _ in range(40):
+    for it in range(40):
         if active.size == 0:
             break
         x = tau[active]
-        el, az, rate, r = _evaluate(job, sat[active], st, x)
+        key = "solve_tca" if want_rate else "solve_cross"
+        job.stats[key] = job.stats.get(key, 0) + active.size
+        if want_rate and it == 0:
+            # The rate's local slope from a second point 2 s on (same SGP4 call): the first
+            # step is then a Newton step, not a secant across the whole bracket.
+            m = active.size
+            x2 = np.minimum(x + 2.0, hi[active])
+            x2 = np.where(x2 - x < 0.5, x - 2.0, x2)
+            el, az, rate, r = _evaluate(job, np.concatenate([sat[active], sat[active]]), st,
+                                        np.concatenate([x, x2]))
+            x_prev[active], g_prev[active] = x2, rate[m:]
+            el, az, rate, r = el[:m], az[:m], rate[:m], r[:m]
+        else:
+            el, az, rate, r = _evaluate(job, sat[active], st, x)
         out_el[active], out_az[active], out_r[active] = el, az, r
         if want_rate:
             g = rate
@@ -239,7 +257,7 @@ def _solve(job: _Job, sat, st: int, lo, hi, g_lo, g_hi, guess, want_rate: bool):
         x_new = np.where(bad, 0.5 * (a_ + b_), x_new)
         lo[active], hi[active], g_lo[active] = a_, b_, ga
         x_prev[active], g_prev[active] = x, g
-        done = (np.abs(x_new - x) < job.tol_s) | (b_ - a_ < job.tol_s) | (g == 0)
+        done = (np.abs(x_new - x) < tol) | (b_ - a_ < tol) | (g == 0)
         tau[active] = np.where(done, x, x_new)
         active = active[~done]
     back = np.empty_like(order)

@@ -23,6 +23,8 @@ from tracker.commands._common import (
     station_from_args,
 )
 
+MAX_SKY_PLOTS = 50
+
 
 def add_batch_args(p: argparse.ArgumentParser) -> None:
     """Options shared by ``batch`` and ``schedule``."""
@@ -59,6 +61,9 @@ def register(sub) -> None:
     add_batch_args(p)
     p.add_argument("--plot", metavar="PNG",
                    help="also draw a timeline of the passes per satellite (.png/.svg)")
+    p.add_argument("--sky-plots", metavar="DIR", dest="sky_plots",
+                   help=f"with --rotator: a polar sky plot per planned pass in DIR (first "
+                        f"{MAX_SKY_PLOTS})")
     p.set_defaults(func=run)
 
 
@@ -125,7 +130,12 @@ def rotator_spec(args: argparse.Namespace):
 
 
 def plans_for(args: argparse.Namespace, table, elements) -> list | None:
+    from tracker.errors import ConfigError
+
+    sky_dir = getattr(args, "sky_plots", None)
     if not args.rotator:
+        if sky_dir:
+            raise ConfigError("--sky-plots needs --rotator (the plots show the planned path)")
         return None
     from tracker.batch import plan_summaries
 
@@ -133,7 +143,26 @@ def plans_for(args: argparse.Namespace, table, elements) -> list | None:
     satrecs = {}
     for i in sorted(set(table.passes["sat"].tolist())):
         satrecs[i] = elements[i].satrec()
-    return plan_summaries(table, satrecs, spec, args.min_max_el)
+    on_plan = None
+    if sky_dir:
+        from tracker.export import iso
+        from tracker.plot import sky_plot
+
+        folder = Path(sky_dir)
+        if not folder.is_dir():
+            raise ConfigError(f"--sky-plots {folder}: no such folder")
+        drawn = []
+
+        def on_plan(i, plan, station):
+            if len(drawn) >= MAX_SKY_PLOTS:
+                return
+            row = table.passes[i]
+            stem = "".join(c if c.isalnum() or c in "-_" else "_" for c in
+                           f"{table.names[int(row['sat'])]}_{station.name}_"
+                           f"{iso(row['aos_s'])}")
+            drawn.append(sky_plot(plan, station, folder / f"{stem}.png"))
+
+    return plan_summaries(table, satrecs, spec, args.min_max_el, on_plan=on_plan)
 
 
 def emit(args: argparse.Namespace, text: str) -> None:

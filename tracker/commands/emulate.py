@@ -13,7 +13,8 @@ def register(sub) -> None:
                     "rotator. Prints the port (/dev/pts/N or socket://host:port), then a live "
                     "status line. Ctrl-C stops it.")
     p.add_argument("--protocol", default="gs232b",
-                   help="gs232b (default), gs232b-manual, gs232a, gs23 or k3ng")
+                   help="gs232b (default), gs232b-manual, gs232a, gs23, k3ng, rotorez, dcu1, "
+                        "sak232 or gs232b-azaz")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--pty", action="store_true", help="serve on a new pseudo-terminal "
                        "(default)")
@@ -53,10 +54,9 @@ def run(args: argparse.Namespace) -> int:
 
     from tracker.clock import SimClock, SystemClock
     from tracker.emulator import EmulatorOptions, Gs232Controller, serve_pty, serve_tcp
+    from tracker.emulator.faults import FaultPlan, install
     from tracker.errors import ConfigError
     from tracker.mount import preset
-
-    from tracker.emulator.faults import FaultPlan, install
 
     if not args.speed > 0:
         raise ConfigError(f"--speed {args.speed} is invalid; use a number > 0")
@@ -66,7 +66,16 @@ def run(args: argparse.Namespace) -> int:
     opts = EmulatorOptions(strict_acks=args.strict_acks, one_space=args.one_space,
                            readback_360=args.readback_360, end_behaviour=args.end,
                            autobaud=args.autobaud)
-    ctrl = Gs232Controller(args.protocol, spec, clock, opts, az_deg=args.az, el_deg=args.el)
+    from tracker.emulator.rotorez_controller import OTHER_PROTOCOLS, make_other_controller
+
+    if args.protocol.lower() in OTHER_PROTOCOLS:
+        # rotorez, dcu1, sak232, gs232b-azaz: azimuth-only; their own default rotator
+        # unless --rotator names one.
+        ctrl = make_other_controller(args.protocol, clock,
+                                     None if args.rotator == "G-5500" else spec, args.az)
+    else:
+        ctrl = Gs232Controller(args.protocol, spec, clock, opts, az_deg=args.az,
+                               el_deg=args.el)
     injector = install(ctrl, plan) if plan.specs else None
     if args.tcp is not None:
         try:

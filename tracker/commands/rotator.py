@@ -12,7 +12,9 @@ def register(sub) -> None:
                     "socket://host:port, /dev/pts/N of 'tracker emulate').")
     p.add_argument("--port", required=True, help="serial device or pyserial URL")
     p.add_argument("--protocol", default="gs232b",
-                   help="gs232b (default), gs232b-manual, gs232a, gs23, k3ng")
+                   help="gs232b (default), gs232b-manual, gs232a, gs23, k3ng, rotorez, dcu1, "
+                        "sak232, gs232b-azaz (antenna 1), gs232b-azaz2 (antenna 2), rotctld "
+                        "(--port host:port)")
     p.add_argument("--baud", type=int, default=None, help="baud rate (default: profile's)")
     p.add_argument("--timeout", type=float, default=1.0, help="reply timeout in seconds")
     p.add_argument("--az-only", action="store_true", help="azimuth-only rotator (C / M)")
@@ -43,6 +45,11 @@ def run(args: argparse.Namespace) -> int:
         # A rotctl-like tool leaves a started move running; only "stop" stops.
         drv.stop_on_exit = False
         if args.action == "position":
+            if not drv.capabilities.has_position_query:
+                from tracker.errors import ConfigError
+
+                raise ConfigError(f"protocol {args.protocol} has no position query; the "
+                                  f"tracker runs it open loop on the motor model's estimate")
             az, el = drv.position()
             print(f"{az:g}" if el is None else f"{az:g} {el:g}")
         elif args.action == "goto":

@@ -60,9 +60,9 @@ class AzAzController(Gs232Controller):
         self.flags_b = {"P45B": False, "ZB": False}
         self.table_b: _Table | None = None
 
-    def power_cycle(self) -> None:
+    def power_cycle(self, reset_sessions: bool = False) -> None:
         with self._lock:
-            super().power_cycle()
+            super().power_cycle(reset_sessions)
             self.sync_offset = None
             self.table_b = None
             self.speed_step_b = 4

@@ -4,7 +4,8 @@ A fault is written as ``NAME[=VALUE][@START_S]`` (the ``tracker emulate --fault`
 
 =====================  ====================================================================
 ``drop=0.01``          drop each byte with probability 0.01 (``:in`` / ``:out`` for one
-                       direction only; default both ways, like line noise)
+                       direction only; default both ways, like line noise);
+                       ``drop=0.01@100+30``: only from t=100 s for 30 s (any rate or delay)
 ``garble=0.01``        replace each byte by a random byte with that probability
 ``duplicate=0.01``     send each byte twice with that probability
 ``delay=0.2``          hold every reply for 0.2 s before it is sent
@@ -45,9 +46,9 @@ DEFAULT_POWER_OFF_S = 1.0
 
 _SPEC_RE = re.compile(r"^(?P<name>[a-z]+)(?:=(?P<value>[^@]*))?(?:@(?P<start>[^@]+))?$")
 
-EXAMPLES = ("drop=0.01", "garble=0.01:out", "duplicate=0.01", "delay=0.2", "silent=30@120",
-            "deaf=10@60", "powercycle@300", "jam=az@60", "jam=el:30@60", "drift=0.5%",
-            "wrongside", "disconnect=5@200")
+EXAMPLES = ("drop=0.01", "garble=0.01:out", "drop=0.05@100+30", "duplicate=0.01", "delay=0.2",
+            "silent=30@120", "deaf=10@60", "powercycle@300", "jam=az@60", "jam=el:30@60",
+            "drift=0.5%", "wrongside", "disconnect=5@200")
 
 
 @dataclass(frozen=True)
@@ -61,6 +62,10 @@ class FaultSpec:
     axis: Literal["az", "el"] = "az"
     direction: Literal["in", "out", "both"] = "both"
     text: str = ""
+    for_s: float | None = None        # rate / delay faults: active this long (None: for ever)
+
+    def active_at(self, t_s: float) -> bool:
+        return t_s >= self.start_s and (self.for_s is None or t_s < self.start_s + self.for_s)
 
     @property
     def end_s(self) -> float | None:
@@ -93,6 +98,13 @@ def parse_fault(text: str) -> FaultSpec:
     name, value, start = m.group("name"), m.group("value"), m.group("start")
     if name not in ALL_KINDS:
         raise _bad(raw, f"unknown fault {name!r}; known: {', '.join(ALL_KINDS)}")
+    for_s = None
+    if start is not None and "+" in start:
+        if name not in (*RATE_KINDS, "delay"):
+            raise _bad(raw, f"@START+DURATION is for rate and delay faults; {name} takes its "
+                            f"duration as the value")
+        start, dur = start.split("+", 1)
+        for_s = _number(raw, dur, "duration")
     start_s = 0.0 if start is None else _number(raw, start, "start time")
     if name in RATE_KINDS:
         if not value:
@@ -102,11 +114,12 @@ def parse_fault(text: str) -> FaultSpec:
         if direction not in ("in", "out", "both"):
             raise _bad(raw, f"direction {direction!r} must be in, out or both")
         return FaultSpec(name, _number(raw, prob, "probability", 0.0, 1.0), start_s,
-                         direction=direction, text=raw)  # type: ignore[arg-type]
+                         direction=direction, text=raw, for_s=for_s)  # type: ignore[arg-type]
     if name == "delay":
         if not value:
             raise _bad(raw, "delay needs seconds, e.g. delay=0.2")
-        return FaultSpec(name, _number(raw, value, "delay", 0.0, 3600.0), start_s, text=raw)
+        return FaultSpec(name, _number(raw, value, "delay", 0.0, 3600.0), start_s, text=raw,
+                         for_s=for_s)
     if name in WINDOW_KINDS:
         if not value:
             raise _bad(raw, f"{name} needs a duration, e.g. {name}=30@120")
@@ -221,13 +234,22 @@ class FaultInjector:
             self._active[s.kind] += 1 if ev.name == "start" else -1
         elif s.kind == "powercycle":
             if ev.name == "start":
-                ctrl.power_cycle(reset_sessions=True)
+                if hasattr(ctrl, "power_cycle"):
+                    ctrl.power_cycle(reset_sessions=True)
+                else:   # byte controllers: at least the motor stops when power goes
+                    ctrl.motor.stop(ctrl.clock.monotonic())
                 self._active["off"] += 1
                 self._queues.clear()
             else:
                 self._active["off"] -= 1
         elif s.kind == "jam":
-            ctrl.jam(s.axis, ev.name == "start")
+            has_axis = s.axis == "az" or getattr(ctrl.motor, "el", None) is not None
+            if not has_axis:                       # az-only rotator: nothing to jam
+                self.stats["not_applicable"] += 1 if ev.name == "start" else 0
+            elif hasattr(ctrl, "power_cycle"):     # GS-232: jam(axis, jammed)
+                ctrl.jam(s.axis, ev.name == "start")
+            else:                                  # byte controllers: azimuth only
+                ctrl.jam(ev.name == "start")
         elif s.kind == "disconnect":
             self._pending_server_actions.append(
                 "fault_disconnect" if ev.name == "start" else "fault_reconnect")
@@ -240,7 +262,7 @@ class FaultInjector:
     def _rate(self, kind: str, direction: str, now: float) -> float:
         p = 0.0
         for s in self.plan.of(kind):
-            if s.direction in (direction, "both") and now >= s.start_s:
+            if s.direction in (direction, "both") and s.active_at(now):
                 p = max(p, s.value or 0.0)
         return p
 
@@ -287,7 +309,7 @@ class FaultInjector:
                 return b""
             reply = self._mangle(reply, "out")
             delays = [s.value or 0.0 for s in self.plan.of("delay")
-                      if self.elapsed_s() >= s.start_s]
+                      if s.active_at(self.elapsed_s())]
             if delays and max(delays) > 0 and reply:
                 q = self._queues.setdefault(id(session), [])
                 q.append((self.elapsed_s() + max(delays), reply))
@@ -306,6 +328,12 @@ class FaultInjector:
             while q and q[0][0] <= now:
                 out += q.pop(0)[1]
             return bytes(out)
+
+    def next_release_in_s(self) -> float | None:
+        """Emulator seconds until the next delayed reply is due (None: nothing queued)."""
+        with self._lock:
+            heads = [q[0][0] for q in self._queues.values() if q]
+            return (min(heads) - self.elapsed_s()) if heads else None
 
     def forget(self, session: object) -> None:
         with self._lock:

@@ -19,6 +19,7 @@ from typing import Any, Literal
 
 from tracker.clock import Clock, SystemClock
 from tracker.emulator.help_text import help_screen
+from tracker.errors import ProtocolError
 from tracker.mount import MotorModel, RotatorSpec, preset
 from tracker.protocols.framing import LineFramer
 from tracker.protocols.gs232 import (
@@ -435,6 +436,8 @@ class Gs232Controller:
 class Session:
     """One connection to the controller: its own line buffer and dialogue state."""
 
+    applies_faults = True     # runs the fault injector itself (servers need not)
+
     def __init__(self, controller: Gs232Controller):
         self.controller = controller
         opts = controller.options
@@ -459,7 +462,15 @@ class Session:
             self._framer.clear()
             self.state = _SessionState(connected=not ctrl.options.autobaud)
         out = bytearray()
-        for line in self._framer.feed(data):
+        try:
+            lines = self._framer.feed(data)
+        except ProtocolError:
+            # Input overrun (no CR for max_line bytes): a real unit discards the line and
+            # goes on; the emulator must never die on input.
+            lines = []
+            if self.state.connected:
+                out += ERROR_REPLY + b"\r\n"
+        for line in lines:
             if not self.state.connected:
                 if line == b"":
                     self.state.crs_seen += 1

@@ -69,9 +69,14 @@ class ByteController:
 
     def mech_of_bearing(self, bearing: float) -> float:
         if self.spec.controller_maps_south:
+            # Like the GS-232B's south-centre mode: the lowest mechanical angle, so the stop
+            # bearing itself is the CCW end; only a rotator with overlap (span > 360) has a
+            # choice, and it takes the nearer way.
             cands = self.spec.mech_candidates(bearing % 360.0)
+            if self.spec.az_span_deg <= 360.0 or len(cands) < 2:
+                return cands[0] if cands else 0.0
             here = float(self.motor.az.position(self._now()))
-            return min(cands, key=lambda m: abs(m - here)) if cands else 0.0
+            return min(cands, key=lambda m: abs(m - here))
         return float(bearing)
 
     def bearing_of_mech(self, m: float) -> float:
@@ -248,3 +253,26 @@ class RotorEzController(ByteController):
         opts = "".join(k[0].upper() if v else k[0] for k, v in self.settings.items())
         tgt = "---" if self.target_bearing is None else f"{self.target_bearing:03d}"
         return f"{super().status_line()}  target {tgt}  options {opts}"
+
+
+# Factory for `tracker emulate --protocol ...` ---------------------------------------------------
+
+OTHER_PROTOCOLS = ("rotorez", "dcu1", "sak232", "gs232b-azaz")
+
+
+def make_other_controller(protocol: str, clock: Clock, spec: RotatorSpec | None = None,
+                          az_deg: float | None = None):
+    """The emulator for a non-GS-232 ``protocol`` (one of :data:`OTHER_PROTOCOLS`) with its
+    own default rotator unless ``spec`` is given (used azimuth-only)."""
+    name = protocol.lower()
+    if name in ("rotorez", "dcu1"):
+        return RotorEzController(name, spec, clock, az_deg=az_deg)  # type: ignore[arg-type]
+    if name == "sak232":
+        from tracker.emulator.sak232_controller import Sak232Controller
+
+        return Sak232Controller(spec, clock, az_deg=az_deg)
+    if name == "gs232b-azaz":
+        from tracker.emulator.azaz_controller import AzAzController
+
+        return AzAzController(spec, None, clock, az_deg=az_deg)
+    raise ValueError(f"{protocol!r} is not one of {', '.join(OTHER_PROTOCOLS)}")

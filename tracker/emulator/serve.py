@@ -65,6 +65,7 @@ class _Server:
                                        daemon=True)
         self.closed = False
         self.url = ""
+        self.errors: list[str] = []       # responder exceptions survived (should stay empty)
 
     def _start(self) -> None:
         self.thread.start()
@@ -98,7 +99,7 @@ class _Server:
 
     def _run(self) -> None:
         while not self._stop.is_set():
-            for key, events in self._sel.select(POLL_S):
+            for key, events in self._sel.select(self._poll_s()):
                 if key.data is None:
                     try:
                         self._wake_r.recv(4096)
@@ -122,7 +123,14 @@ class _Server:
                         self._on_eof(conn)
                         continue
                     if data:
-                        conn.out += conn.session.feed(data)
+                        try:
+                            conn.out += self._feed(conn, data)
+                        except Exception as e:
+                            # A bug in a responder must not kill the emulator: record it,
+                            # drop that connection, keep serving (leak/fuzz tests check it).
+                            self.errors.append(f"{type(e).__name__}: {e}")
+                            self._on_eof(conn)
+                            continue
             with self._lock:
                 pending, self._pending = self._pending, []
             for fn in pending:
@@ -131,10 +139,34 @@ class _Server:
             if injector is not None:      # timed faults fire even with no client attached
                 injector.tick(self)
             for conn in list(self._conns):
-                conn.out += conn.session.poll()
+                conn.out += self._poll(conn)
                 self._flush_out(conn)
         for conn in list(self._conns):
             self._drop_conn(conn)
+
+    def _poll_s(self) -> float:
+        """Select timeout: POLL_S, shorter when a delayed reply is due sooner (real s)."""
+        inj = getattr(self.controller.faults, "injector", None)
+        due = inj.next_release_in_s() if inj is not None else None
+        if due is None:
+            return POLL_S
+        speed = getattr(self.controller.clock, "speed", 1.0)
+        return min(POLL_S, max(0.0005, due / speed)) if speed != float("inf") else 0.0005
+
+    def _feed(self, conn: _Conn, data: bytes) -> bytes:
+        inj = getattr(self.controller.faults, "injector", None)
+        if inj is None or getattr(conn.session, "applies_faults", False):
+            return conn.session.feed(data)
+        # Sessions that do not run the injector themselves get it here, on the wire.
+        data = inj.on_input(data)
+        return inj.on_output(conn.session, conn.session.feed(data)) if data else b""
+
+    def _poll(self, conn: _Conn) -> bytes:
+        inj = getattr(self.controller.faults, "injector", None)
+        if inj is None or getattr(conn.session, "applies_faults", False):
+            return conn.session.poll()
+        out = conn.session.poll()
+        return (inj.on_output(conn.session, out) if out else b"") + inj.release(conn.session)
 
     def _flush_out(self, conn: _Conn) -> None:
         if not conn.out:

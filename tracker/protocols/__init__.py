@@ -32,6 +32,24 @@ for _name in ("gs232a", "gs23", "gs232b", "gs232b-manual", "k3ng"):
     register_driver(_name, _gs232_factory(_name))
 
 
+def _lazy_factory(module: str, attr: str) -> DriverFactory:
+    def open_lazily(url: str, **kw) -> RotatorDriver:
+        import importlib
+
+        return getattr(importlib.import_module(f"tracker.protocols.{module}"), attr)(url, **kw)
+    return open_lazily
+
+
+# The other seed controllers and Hamlib's rotctld (issue 7), imported on first use.
+for _name, _module, _attr in (("rotorez", "rotorez", "open_rotorez"),
+                              ("dcu1", "rotorez", "open_dcu1"),
+                              ("sak232", "sak232", "open_sak232"),
+                              ("gs232b-azaz", "azaz", "open_azaz"),
+                              ("gs232b-azaz2", "azaz", "open_azaz2"),
+                              ("rotctld", "rotctld", "open_rotctld")):
+    register_driver(_name, _lazy_factory(_module, _attr))
+
+
 def open_driver(url: str, protocol: str = "gs232b", **kw) -> RotatorDriver:
     """Open ``url`` (``/dev/ttyUSB0``, ``socket://host:port``, ...) with ``protocol``'s driver.
     Keyword arguments go to the driver (``baudrate``, ``timeout_s``, ``has_elevation``, ...)."""

@@ -26,14 +26,21 @@ from typing import Literal
 
 from tracker.errors import LimitError
 from tracker.protocols.base import Capabilities, Direction, RotatorDriver
-from tracker.protocols.gs232 import Gs232Driver, Gs232Profile, fmt3
+from tracker.protocols.gs232 import (
+    Gs232Driver,
+    Gs232Profile,
+    encode_table,
+    fmt3,
+    parse_table_status,
+)
 
 AZAZ_PROFILE = Gs232Profile(
     name="gs232b-azaz", family="b", c2_separator=b"", set_ack=b"", b_commands=True,
     help_pages=("", "2", "3"), baudrate=9600,
     description="GS-232B-AZ/AZ dual azimuth (VE2DX proposal): AZ=aaaEL=bbb with azimuth 2 "
                 "in the EL field, silent set commands")
-AXIS_CAPS = Capabilities(has_elevation=False, has_step_tables=False, az_max_deg=360.0,
+AXIS_CAPS = Capabilities(has_elevation=False, has_step_tables=True,
+                         max_table_points=AZAZ_PROFILE.max_table_points, az_max_deg=360.0,
                          el_max_deg=0.0)
 
 
@@ -59,7 +66,11 @@ class AzAzDriver(RotatorDriver):
 
         port = open_port(url, baudrate=baudrate or AZAZ_PROFILE.baudrate, timeout_s=0.05,
                          rtscts=rtscts)
-        return cls(port, **kw)
+        try:
+            return cls(port, **kw)
+        except BaseException:
+            port.close()
+            raise
 
     def axis(self, n: Literal[1, 2]) -> AzAzAxis:
         if n not in (1, 2):
@@ -157,6 +168,27 @@ class AzAzAxis(RotatorDriver):
 
     def set_speed(self, step: int) -> None:
         self.parent.set_speed(step, self.n)
+
+    # Timed stepping: M / T / N for antenna 1, MB / TB / NB for antenna 2 ------------------
+
+    def upload_table(self, interval_s: int, points) -> None:
+        """Long-form ``Msss aaa bbb ...`` (``MBsss ...`` for antenna 2): azimuths only."""
+        p = self.parent
+        if len(points) and not isinstance(points[0], (int, float)):
+            raise LimitError("an AZ/AZ antenna is azimuth-only: upload azimuths, not pairs")
+        if not 2 <= len(points) <= AZAZ_PROFILE.max_table_points:
+            raise LimitError(f"{len(points)} table points; allowed 2.."
+                             f"{AZAZ_PROFILE.max_table_points}")
+        if self.n == 2 and p.sync_offset is not None:
+            raise LimitError("azimuth 2 is synced to azimuth 1 (Y): unsync() first")
+        line = encode_table(interval_s, points, az_max_deg=p.az_max_deg)[:-1]
+        p.io._command(line if self.n == 1 else b"MB" + line[1:])
+
+    def start_table(self) -> None:
+        self.parent.io._command(b"T" if self.n == 1 else b"TB")
+
+    def table_status(self) -> tuple[int | None, int]:
+        return parse_table_status(self.parent.io._query(b"N" if self.n == 1 else b"NB"))
 
     def close(self) -> None:
         if self.owns_port:

@@ -28,8 +28,8 @@ from typing import Literal
 import serial
 
 from tracker.clock import Clock, SystemClock
-from tracker.errors import LimitError, PortLostError, RotatorTimeout
-from tracker.mount import AxisMotor
+from tracker.errors import ConfigError, LimitError, PortLostError, RotatorTimeout
+from tracker.mount import AxisMotor, RotatorSpec
 from tracker.protocols.base import Capabilities, Direction, RotatorDriver
 
 try:  # tcflush/tcsetattr on a vanished tty raise termios.error, which is not an OSError
@@ -136,34 +136,61 @@ class OpenLoopAz:
     """Where an azimuth rotator without a position query should be, from what was sent.
 
     The same :class:`tracker.mount.AxisMotor` the planner and emulator use, advanced on the
-    driver's clock. The estimate starts at ``start_az_deg`` (assumed, not measured): run a
-    calibration (park against a stop, SAK-232 ``O``) before trusting it.
+    driver's clock, in the mechanical frame of a rotator whose end stop is at
+    ``stop_bearing_deg`` (so a move takes the way the real rotator must take); positions in
+    and out are the controller's bearings. The estimate starts at ``start_az_deg`` (assumed,
+    not measured): calibrate (park against a stop, SAK-232 ``O``) before trusting it.
     """
 
-    def __init__(self, clock: Clock, min_deg: float = 0.0, max_deg: float = 359.0,
-                 rate_deg_s: float = 6.0, start_delay_s: float = 0.5,
-                 start_az_deg: float = 0.0):
+    def __init__(self, clock: Clock, rate_deg_s: float = 6.0, start_delay_s: float = 0.5,
+                 start_az_deg: float = 0.0, stop_bearing_deg: float = 0.0,
+                 span_deg: float = 359.0):
         self.clock = clock
-        self.motor = AxisMotor(min_deg, max_deg, rate_deg_s, start_delay_s, 1.0,
-                               start_az_deg, clock.monotonic())
+        self.stop_bearing_deg = float(stop_bearing_deg)
+        self.motor = AxisMotor(0.0, span_deg, rate_deg_s, start_delay_s, 1.0,
+                               self._mech(start_az_deg), clock.monotonic())
+
+    def _mech(self, bearing: float) -> float:
+        return (float(bearing) - self.stop_bearing_deg) % 360.0
 
     def command(self, az_deg: float) -> None:
-        self.motor.command(az_deg, self.clock.monotonic())
+        self.motor.command(self._mech(az_deg), self.clock.monotonic())
+
+    def command_relative(self, delta_deg: float) -> None:
+        self.motor.command(self.motor.target_deg + float(delta_deg), self.clock.monotonic())
 
     def stop(self) -> None:
         self.motor.stop(self.clock.monotonic())
 
     def set(self, az_deg: float) -> None:
         """The antenna is known to be at ``az_deg`` now (calibration)."""
-        t = self.clock.monotonic()
-        self.motor = AxisMotor(self.motor.min_deg, self.motor.max_deg, self.motor.rate_deg_s,
-                               self.motor.start_delay_s, 1.0, az_deg, t)
+        m = self.motor
+        self.motor = AxisMotor(m.min_deg, m.max_deg, m.rate_deg_s, m.start_delay_s, 1.0,
+                               self._mech(az_deg), self.clock.monotonic())
 
     def position(self) -> float:
-        return float(self.motor.position(self.clock.monotonic()))
+        m = float(self.motor.position(self.clock.monotonic()))
+        return (m + self.stop_bearing_deg) % 360.0
 
     def moving(self) -> bool:
         return self.motor.moving(self.clock.monotonic())
+
+
+def open_loop_estimate(clock: Clock, spec: RotatorSpec | None, rate_deg_s: float,
+                       start_delay_s: float, start_az_deg: float,
+                       stop_bearing_deg: float) -> OpenLoopAz:
+    """The estimate from ``spec`` when given (its rate, start delay, stop bearing, and the
+    park position as the assumed start), else from the explicit values."""
+    if spec is None:
+        return OpenLoopAz(clock, rate_deg_s, start_delay_s, start_az_deg, stop_bearing_deg)
+    # The wire carries true bearings only when the controller maps them (DESIGN.md, Frames);
+    # otherwise it carries mechanical degrees, whose "stop bearing" is 0.
+    if spec.controller_maps_south:
+        park, stop = float(spec.bearing_of(spec.park_az_deg)), spec.stop_bearing_deg
+    else:
+        park, stop = float(spec.park_az_deg), 0.0
+    return OpenLoopAz(clock, spec.az_rate_deg_s, spec.start_delay_s, park, stop,
+                      min(spec.az_span_deg, 359.0))
 
 
 def encode_bearing(az_deg: float, max_deg: float = 360.0) -> bytes:
@@ -206,13 +233,15 @@ class RotorEzDriver(RotatorDriver):
                  set_style: Literal["cr", "am"] | None = None, pace_cmd_s: float = 0.05,
                  accept_old_reply: bool = False, clock: Clock | None = None,
                  rate_deg_s: float = 6.0, start_az_deg: float = 0.0,
-                 has_elevation: bool | None = None, az_max_deg: float | None = None,
-                 el_max_deg: float | None = None, autobaud: bool = False):
+                 start_delay_s: float = 0.5, stop_bearing_deg: float = 0.0,
+                 spec: RotatorSpec | None = None, has_elevation: bool | None = None,
+                 az_max_deg: float | None = None, el_max_deg: float | None = None,
+                 autobaud: bool = False):
         # has_elevation / az_max_deg / el_max_deg / autobaud are what generic callers (tracker
         # rotator, tracker track) pass to every driver; this controller is azimuth-only 0-360
         # with no autobaud, so they change nothing.
         if variant not in ("rotorez", "dcu1"):
-            raise ValueError(f"variant must be rotorez or dcu1, got {variant!r}")
+            raise ConfigError(f"variant must be rotorez or dcu1, got {variant!r}")
         self.variant = variant
         self.link = ByteLink(port, clock, pace_cmd_s)
         self.clock = self.link.clock
@@ -220,15 +249,17 @@ class RotorEzDriver(RotatorDriver):
         self.retries = int(retries)
         self.set_style = set_style or ("cr" if variant == "rotorez" else "am")
         if self.set_style not in ("cr", "am"):
-            raise ValueError(f"set_style must be 'cr' or 'am', got {set_style!r}")
+            raise ConfigError(f"set_style must be 'cr' or 'am', got {set_style!r}")
         if variant == "dcu1" and self.set_style == "cr":
-            raise ValueError("a DCU-1 only understands AP1ddd; + AM1; (set_style='am')")
+            raise ConfigError("a DCU-1 only understands AP1ddd; + AM1; (set_style='am')")
         self.accept_old_reply = accept_old_reply
         self.capabilities = Capabilities(
             has_elevation=False, has_position_query=variant == "rotorez",
             has_axis_stop=False, has_manual_move=False, has_speed=False, speed_steps=0,
             az_max_deg=360.0, el_max_deg=0.0)
-        self.estimate = OpenLoopAz(self.clock, 0.0, 359.0, rate_deg_s, 0.5, start_az_deg)
+        # open-loop estimate (DCU-1): rate, start delay and stop bearing of the rotator
+        self.estimate = open_loop_estimate(self.clock, spec, rate_deg_s, start_delay_s,
+                                           start_az_deg, stop_bearing_deg)
         self.stop_on_exit = True
 
     @classmethod
@@ -237,7 +268,11 @@ class RotorEzDriver(RotatorDriver):
         from tracker.transport import open_port
 
         port = open_port(url, baudrate=baudrate or BAUDRATE, timeout_s=0.05)
-        return cls(port, variant, **kw)
+        try:
+            return cls(port, variant, **kw)
+        except BaseException:
+            port.close()
+            raise
 
     # Public API --------------------------------------------------------------------------------
 

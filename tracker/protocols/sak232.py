@@ -12,8 +12,9 @@ from __future__ import annotations
 
 from tracker.clock import Clock
 from tracker.errors import LimitError
+from tracker.mount import RotatorSpec
 from tracker.protocols.base import Capabilities, Direction, RotatorDriver
-from tracker.protocols.rotorez import ByteLink, OpenLoopAz
+from tracker.protocols.rotorez import ByteLink, open_loop_estimate
 
 BAUDRATE = 9600
 
@@ -40,7 +41,9 @@ def check_gear(pulses: int, degrees: int) -> None:
 class Sak232Driver(RotatorDriver):
     def __init__(self, port, *, timeout_s: float = 1.0, pace_cmd_s: float = 0.05,
                  clock: Clock | None = None, rate_deg_s: float = 4.0,
-                 start_az_deg: float = 0.0, has_elevation: bool | None = None,
+                 start_az_deg: float = 0.0, start_delay_s: float = 0.2,
+                 stop_bearing_deg: float = 0.0, spec: RotatorSpec | None = None,
+                 has_elevation: bool | None = None,
                  az_max_deg: float | None = None, el_max_deg: float | None = None,
                  autobaud: bool = False):
         # has_elevation / az_max_deg / el_max_deg / autobaud are what generic callers pass
@@ -52,14 +55,20 @@ class Sak232Driver(RotatorDriver):
             has_elevation=False, has_position_query=False, has_axis_stop=False,
             has_manual_move=False, has_speed=False, speed_steps=0, az_max_deg=359.0,
             el_max_deg=0.0)
-        self.estimate = OpenLoopAz(self.clock, 0.0, 359.0, rate_deg_s, 0.2, start_az_deg)
+        self.estimate = open_loop_estimate(self.clock, spec, rate_deg_s, start_delay_s,
+                                           start_az_deg, stop_bearing_deg)
         self.stop_on_exit = True
 
     @classmethod
     def from_url(cls, url: str, *, baudrate: int | None = None, **kw) -> Sak232Driver:
         from tracker.transport import open_port
 
-        return cls(open_port(url, baudrate=baudrate or BAUDRATE, timeout_s=0.05), **kw)
+        port = open_port(url, baudrate=baudrate or BAUDRATE, timeout_s=0.05)
+        try:
+            return cls(port, **kw)
+        except BaseException:
+            port.close()
+            raise
 
     def _send(self, line: str) -> None:
         with self.link.lock:
@@ -80,7 +89,7 @@ class Sak232Driver(RotatorDriver):
         if not -359 <= d <= 359:
             raise LimitError(f"relative move {delta_deg!r} deg is invalid; allowed -359..359")
         self._send(f"R {d}")
-        self.estimate.command(min(max(self.estimate.motor.target_deg + d, 0.0), 359.0))
+        self.estimate.command_relative(d)      # the motor model clamps to the span
 
     def orient(self, az_deg: float) -> None:
         """``O aaa``: the antenna is known to point at ``az_deg`` now."""

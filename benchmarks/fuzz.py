@@ -1,0 +1,75 @@
+"""Fuzz every parser and emulator with many random and near-valid inputs.
+
+    python benchmarks/fuzz.py                       # 100k inputs per target
+    python benchmarks/fuzz.py --count 10000 --only emulator --time-limit-s 60
+
+Prints, per target: inputs run, exceptions outside the documented typed errors (grouped by
+type, with the first offending input), and inputs per second. Exit status 1 if any target
+raised an undocumented exception. The targets are the ones the CI hypothesis tests use
+(``tests/_fuzz_targets.py``); the CI runs a few hundred, this runs the full count.
+"""
+
+from __future__ import annotations
+
+import argparse
+import random
+import sys
+import time
+from collections import Counter
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
+
+import _fuzz_targets as F
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--count", type=int, default=100_000, help="inputs per target")
+    ap.add_argument("--seed", type=int, default=2026, help="RNG seed (reproducible runs)")
+    ap.add_argument("--only", default="", help="run targets whose name contains this")
+    ap.add_argument("--time-limit-s", type=float, default=None,
+                    help="stop a target after this many seconds (its count is then lower; "
+                         "the table says so)")
+    args = ap.parse_args(argv)
+
+    targets = [t for t in F.targets() if args.only in t.name]
+    print(f"fuzz: {len(targets)} targets, {args.count} inputs each, seed {args.seed}")
+    print(f"{'target':30s} {'inputs':>8s} {'bad':>5s} {'inputs/s':>9s}  notes")
+    total_bad = 0
+    t_all = time.perf_counter()
+    for t in targets:
+        rng = random.Random(f"{args.seed}:{t.name}")
+        bad: Counter[str] = Counter()
+        first: dict[str, bytes] = {}
+        n = 0
+        t0 = time.perf_counter()
+        deadline = None if args.time_limit_s is None else t0 + args.time_limit_s
+        while n < args.count:
+            data = F.random_input(rng, t)
+            err = F.check(t, data)
+            n += 1
+            if err is not None:
+                key = f"{type(err).__name__}: {str(err)[:70]}"
+                bad[type(err).__name__] += 1
+                first.setdefault(type(err).__name__, data[:80])
+                first.setdefault(key, b"")
+            if deadline is not None and n % 200 == 0 and time.perf_counter() > deadline:
+                break
+        dt = time.perf_counter() - t0
+        notes = "" if n == args.count else f"time limit: {n}/{args.count}"
+        tolerated = F.KNOWN_ESCAPES.get(t.name)
+        if tolerated:
+            notes += (" " if notes else "") + "tolerating known escapes: " + ", ".join(
+                e.__name__ for e in tolerated)
+        nbad = sum(bad.values())
+        total_bad += nbad
+        print(f"{t.name:30s} {n:8d} {nbad:5d} {n / dt:9.0f}  {notes}", flush=True)
+        for kind, count in bad.items():
+            print(f"    {count} x {kind}; first input {first[kind]!r}")
+    print(f"total: {total_bad} undocumented exceptions; {time.perf_counter() - t_all:.1f} s")
+    return 1 if total_bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

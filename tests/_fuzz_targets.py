@@ -1,0 +1,393 @@
+"""Fuzz targets shared by the hypothesis tests (``test_fuzz_*.py``) and ``benchmarks/fuzz.py``.
+
+Each :class:`Target` takes arbitrary bytes and either returns, raises one of its documented
+``allowed`` errors, or fails (any other exception, or an AssertionError from a liveness check
+such as "the emulator still answers C2"). ``seeds`` are valid inputs that mutations start
+from, so most inputs are *near-valid* and reach deep into the parsers.
+"""
+
+from __future__ import annotations
+
+import atexit
+import random
+import shutil
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+
+from tle.errors import TleError
+from tracker.errors import ConfigError, LimitError, ProtocolError
+
+DATA = Path(__file__).parent / "data"
+T0 = "2026-08-23T12:00:00+00:00"
+
+
+@dataclass
+class Target:
+    name: str
+    run: Callable[[bytes], object]
+    seeds: list[bytes]
+    allowed: tuple[type[BaseException], ...] = ()
+    tokens: list[bytes] = field(default_factory=list)
+
+
+def _text(data: bytes) -> str:
+    return data.decode("utf-8", "replace")
+
+
+# Reply parsers -----------------------------------------------------------------------------
+
+
+def _gs232_parsers(data: bytes) -> None:
+    from tracker.protocols import gs232
+
+    for fn in (gs232.parse_position, gs232.parse_elevation, gs232.parse_table_status):
+        try:
+            out = fn(data)
+        except ProtocolError as e:
+            assert e.raw == data
+            continue
+        assert out is not None
+    assert gs232.is_error_reply(data) in (True, False)
+
+
+def _framer(data: bytes) -> None:
+    from tracker.protocols.framing import LineFramer
+
+    # split the input into chunks at bytes < 8 so chunking varies with the data
+    f = LineFramer(b"\r\n", ignore=b"\x00", max_line=64)
+    whole = LineFramer(b"\r\n", ignore=b"\x00", max_line=1 << 20)
+    got: list[bytes] = []
+    overrun = False
+    chunk = bytearray()
+    for b in data:
+        chunk.append(b)
+        if b < 8:
+            try:
+                got += f.feed(bytes(chunk))
+            except ProtocolError:
+                overrun = True
+            chunk.clear()
+    try:
+        got += f.feed(bytes(chunk))
+    except ProtocolError:
+        overrun = True
+    if not overrun:   # chunking never changes the lines
+        assert got == whole.feed(data) and f.pending == whole.pending
+
+
+def _rotorez_parser(data: bytes) -> None:
+    from tracker.protocols.rotorez import parse_ai_reply
+
+    for old in (False, True):
+        v = parse_ai_reply(data, accept_old=old)
+        assert v is None or 0 <= v <= 999
+
+
+def _rotctld_codes(data: bytes) -> None:
+    from tracker.protocols import rotctld
+
+    m = rotctld._RPRT_RE.search(data)
+    if m:
+        err = rotctld.rprt_error(int(m.group(1)), "fuzz")
+        assert isinstance(err, Exception) and str(err)
+    try:
+        rotctld.rotctld_url(_text(data))
+    except ConfigError:
+        pass
+
+
+# Emulators ---------------------------------------------------------------------------------
+
+
+def _clock():
+    from tracker.clock import ManualClock
+
+    return ManualClock(datetime.fromisoformat(T0))
+
+
+def gs232_emulator_target(profile: str) -> Callable[[bytes], None]:
+    from tracker.emulator import Gs232Controller
+    from tracker.mount import preset
+
+    def run(data: bytes) -> None:
+        clock = _clock()
+        ctrl = Gs232Controller(profile, preset("G-5500"), clock, az_deg=100, el_deg=30)
+        s = ctrl.open_session()
+        # the input in a few chunks with time passing in between
+        for i in range(0, len(data), 97):
+            s.feed(data[i:i + 97])
+            s.poll()
+            clock.advance(0.7)
+        # leave any dialogue (calibration prompt, F stream, partial line), then ask C2
+        s.feed(b"\r\r\r")
+        clock.advance(1.0)
+        s.poll()
+        reply = s.feed(b"C2\r")
+        assert b"AZ=" in reply or b"+0" in reply or b"-0" in reply, (profile, reply)
+    return run
+
+
+# What proves a non-GS-232 emulator is still alive after the garbage: (query, reply marker);
+# the DCU-1 and the SAK-232 never answer, so for them only "did not raise" is checked.
+_ALIVE = {"rotorez": (b"AI1;", b";"), "dcu1": (b"AI1;", b""), "sak232": (b"C\r", b""),
+          "gs232b-azaz": (b"C2\r", b"AZ=")}
+
+
+def other_emulator_target(protocol: str) -> Callable[[bytes], None]:
+    from tracker.emulator.rotorez_controller import make_other_controller
+
+    def run(data: bytes) -> None:
+        clock = _clock()
+        ctrl = make_other_controller(protocol, clock)
+        s = ctrl.open_session()
+        for i in range(0, len(data), 97):
+            s.feed(data[i:i + 97])
+            s.poll()
+            clock.advance(0.7)
+        s.feed(b";\r\r")
+        clock.advance(1.0)
+        s.poll()
+        query, marker = _ALIVE[protocol]
+        reply = s.feed(query)
+        assert marker in reply, (protocol, reply)
+        assert ctrl.status_line()
+    return run
+
+
+# Files: TLE, OMM, config, schedule, horizon mask, fault specs ------------------------------
+
+
+def _tle(data: bytes) -> None:
+    from tle.elements import parse_text
+
+    try:
+        sets = parse_text(_text(data), "<fuzz>")
+    except TleError:
+        return
+    for es in sets:
+        assert es.name is not None
+
+
+def _tle_skip_bad(data: bytes) -> None:
+    import warnings
+
+    from tle.elements import parse_text
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            parse_text(_text(data), "<fuzz>", skip_bad=True, on_warning=lambda m: None)
+        except TleError:
+            return
+
+
+# Escapes from tle/omm.py found by this fuzzing (not this helper's file; see the report and
+# the strict xfail regressions in test_fuzz_parsers.py). They are tolerated here so the fuzz
+# runs keep looking for *new* problems; remove them once omm.py translates them.
+KNOWN_ESCAPES: dict[str, tuple[type[BaseException], ...]] = {
+    "omm.csv": (__import__("csv").Error,), "omm.xml": (LookupError,)}
+
+
+def _omm(kind: str) -> Callable[[bytes], None]:
+    def run(data: bytes) -> None:
+        from tle import omm
+
+        fn = {"json": omm.parse_omm_json, "csv": omm.parse_omm_csv,
+              "xml": omm.parse_omm_xml}[kind]
+        fn(_text(data), "<fuzz>")
+    return run
+
+
+# config and mask parsers read files; /dev/shm keeps 100k writes from hitting the disk
+_TMP = Path(tempfile.mkdtemp(prefix="tracker-fuzz-",
+                             dir="/dev/shm" if Path("/dev/shm").is_dir() else None))
+atexit.register(shutil.rmtree, _TMP, True)
+
+
+def _config(data: bytes) -> None:
+    from tracker.config import load_config
+
+    p = _TMP / "config.toml"
+    p.write_bytes(data)
+    load_config(p)
+
+
+def _schedule(data: bytes) -> None:
+    from tracker.schedule_file import ScheduleTarget
+
+    t = ScheduleTarget.from_text(_text(data))
+    assert len(t.t_s) >= 2
+
+
+def _mask(data: bytes) -> None:
+    from tracker.station import HorizonMask
+
+    p = _TMP / "mask.txt"
+    p.write_bytes(data)
+    m = HorizonMask.load(p)
+    assert m.az_deg
+
+
+def _fault_spec(data: bytes) -> None:
+    from tracker.emulator.faults import parse_fault
+
+    parse_fault(_text(data))
+
+
+def _encoders(data: bytes) -> None:
+    """Random numbers into the GS-232 encoders: bytes out or LimitError, nothing else."""
+    import struct
+
+    from tracker.protocols.gs232 import encode_goto, encode_table
+
+    vals = [struct.unpack("<d", data[i:i + 8].ljust(8, b"\0"))[0]
+            for i in range(0, max(len(data), 1), 8)][:8]
+    try:
+        out = encode_goto(vals[0], vals[1] if len(vals) > 1 else None)
+        assert out.endswith(b"\r")
+    except LimitError:
+        pass
+    try:
+        encode_table(int(vals[0]) if abs(vals[0]) < 1e6 else 1, vals[1:] or [0.0])
+    except (LimitError, ValueError, OverflowError):
+        pass
+
+
+# Seeds -------------------------------------------------------------------------------------
+
+
+def _read(p: Path) -> bytes:
+    return p.read_bytes() if p.exists() else b""
+
+
+def _transcript_bytes(name: str) -> list[bytes]:
+    out = []
+    for line in _read(DATA / "transcripts" / name).decode().splitlines():
+        if line.startswith((">>", "<<")):
+            import codecs
+
+            out.append(codecs.escape_decode(line[3:].encode())[0])
+    return [b for b in out if b]
+
+
+def _seeds_replies() -> list[bytes]:
+    return [b"AZ=123  EL=045", b"AZ=123 EL=045", b"AZ=123EL=045", b"+0123+0045", b"+0123",
+            b"AZ=-001  EL=-002", b"EL=045", b"+0001+0020", b"=0001=0020", b"20", b"?>",
+            b"AI1;", b";123", b"123;", b"RPRT -8\n", b"RPRT 0\n", b"127.0.0.1:4533"]
+
+
+def _tle_seed() -> bytes:
+    lines = _read(DATA / "tle" / "amateur5.txt").splitlines()
+    return b"\n".join(lines[:9]) + b"\n"
+
+
+def _json_seed() -> bytes:
+    import json
+
+    records = json.loads(_read(DATA / "tle" / "amateur5.json") or b"[]")
+    return json.dumps(records[:2], indent=1).encode()
+
+
+def _config_seed() -> bytes:
+    from tracker.config import TEMPLATE
+
+    return TEMPLATE.encode()
+
+
+TOKENS = [b"\r", b"\n", b" ", b"0", b"9", b"-", b"+", b".", b"e", b"=", b",", b";", b"#",
+          b"nan", b"inf", b"999", b"-1", b"1e308", b"AZ=", b"EL=", b"W", b"M", b"C2", b"T",
+          b"N", b"O", b"F", b"Y", b"[", b"]", b"{", b"}", b'"', b"<", b">", b"\x00", b"\xff",
+          b"\xc3\xa9", b"\t", b"1 ", b"2 ", b"  "]
+
+
+def targets() -> list[Target]:
+    sched = _read(DATA / "schedule_sweep.csv") or (
+        b"time_utc, az_deg, el_deg\n2026-08-22T18:00:00Z, 10, 20\n"
+        b"2026-08-22T18:01:00Z, 20, 30\n")
+    gs_cmds = [b"C2\r", b"W180 045\r", b"M005 010 020 030\r", b"T\r", b"N\r", b"O\rY\r",
+               b"F\r\r", b"H\r", b"P45\r", b"Z\r", b"X3\r", b"R\rL\rS\r",
+               b"W002 010 020 030 040\rT\r"]
+    gs_cmds += [b for b in _transcript_bytes("gs232b.txt") if not b.startswith((b"AZ", b"+"))]
+    rz_cmds = [b"AI1;", b"AP1180\r", b"AP1090;AM1;", b";", b"S;"]
+    rz_cmds += _transcript_bytes("rotorez.transcript")
+    ts = [
+        Target("gs232.parse_*", _gs232_parsers, _seeds_replies(), (), TOKENS),
+        Target("framing.LineFramer", _framer, [b"AZ=1\r\nEL=2\r", b"\x01ab\r\x02c\n"], (),
+               TOKENS),
+        Target("rotorez.parse_ai_reply", _rotorez_parser, [b"AI1;", b";123", b"123;",
+                                                           b"\xe0Rotor-EZ;123"], (), TOKENS),
+        Target("rotctld.replies", _rotctld_codes, [b"RPRT -8\n", b"RPRT 0\n",
+                                                   b"127.0.0.1:4533"], (), TOKENS),
+        Target("encode_goto/table", _encoders, [b"\x00" * 16, bytes(range(32))], (), []),
+    ]
+    for prof in ("gs232a", "gs23", "gs232b", "gs232b-manual", "k3ng"):
+        ts.append(Target(f"emulator.{prof}", gs232_emulator_target(prof), gs_cmds, (), TOKENS))
+    for proto in _ALIVE:
+        seeds = rz_cmds if proto in ("rotorez", "dcu1") else _transcript_bytes(
+            "sak232.transcript" if proto == "sak232" else "azaz.transcript")
+        ts.append(Target(f"emulator.{proto}", other_emulator_target(proto), seeds or rz_cmds,
+                         (), TOKENS))
+    ts += [
+        Target("tle.parse_text", _tle, [_tle_seed()], (TleError,), TOKENS),
+        Target("tle.parse_text(skip_bad)", _tle_skip_bad, [_tle_seed()], (TleError,), TOKENS),
+        Target("omm.json", _omm("json"), [_json_seed()], (TleError,), TOKENS),
+        Target("omm.csv", _omm("csv"), [b"\n".join(
+            _read(DATA / "tle" / "amateur5.csv").splitlines()[:3])],
+               (TleError, *KNOWN_ESCAPES["omm.csv"]), TOKENS),
+        Target("omm.xml", _omm("xml"), [_read(DATA / "tle" / "amateur5.xml")],
+               (TleError, *KNOWN_ESCAPES["omm.xml"]), TOKENS),
+        Target("config.load_config", _config, [_config_seed()], (ConfigError,), TOKENS),
+        Target("schedule.parse", _schedule, [sched], (ConfigError,), TOKENS),
+        Target("station.HorizonMask.load", _mask, [b"0 5\n90 10\n180, 3 # x\n270 0\n"],
+               (ConfigError,), TOKENS),
+        Target("faults.parse_fault", _fault_spec, [b"drop=0.01", b"silent=30@120",
+                                                   b"jam=el:30@60", b"drift=-0.5%"],
+               (ConfigError,), TOKENS),
+    ]
+    return ts
+
+
+def mutate(rng: random.Random, seed: bytes, tokens: list[bytes], max_ops: int = 8) -> bytes:
+    """A near-valid input: ``seed`` with a few random edits (flip, insert, delete, splice)."""
+    b = bytearray(seed)
+    for _ in range(rng.randint(1, max_ops)):
+        op = rng.random()
+        pos = rng.randint(0, len(b))
+        if op < 0.25 and b:
+            b[min(pos, len(b) - 1)] = rng.randrange(256)
+        elif op < 0.45 and tokens:
+            b[pos:pos] = rng.choice(tokens)
+        elif op < 0.6 and b:
+            del b[pos:pos + rng.randint(1, 8)]
+        elif op < 0.7 and b:
+            seg = b[pos:pos + rng.randint(1, 16)]
+            b[pos:pos] = seg * rng.randint(1, 4)
+        elif op < 0.8:
+            b[pos:pos] = bytes(rng.randrange(48, 58) for _ in range(rng.randint(1, 6)))
+        else:
+            b[pos:pos] = bytes(rng.randrange(32, 127) for _ in range(rng.randint(1, 4)))
+    return bytes(b)
+
+
+def random_input(rng: random.Random, target: Target) -> bytes:
+    """Half near-valid mutations of a seed, a quarter random bytes, a quarter token soup."""
+    r = rng.random()
+    if r < 0.5 and target.seeds:
+        return mutate(rng, rng.choice(target.seeds), target.tokens)
+    if r < 0.75 or not target.tokens:
+        return bytes(rng.randrange(256) for _ in range(rng.randint(0, 64)))
+    return b"".join(rng.choice(target.tokens) for _ in range(rng.randint(0, 24)))
+
+
+def check(target: Target, data: bytes) -> BaseException | None:
+    """Run one input; None if it passed or raised an allowed error, else the exception."""
+    try:
+        target.run(data)
+    except target.allowed:
+        return None
+    except Exception as e:
+        return e
+    return None

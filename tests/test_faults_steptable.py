@@ -1,0 +1,231 @@
+"""Step tables under scripted faults over a real pty and a real TCP socket, with figures.
+
+The controller steps through the table on its own clock (the emulator's SimClock, with the
+fault plan); the host's :class:`~tracker.upload.TableRunner` monitors with N / C2 and
+resyncs. Pointing error is measured at the emulated antenna; every table line the controller
+received is checked against the rotator's limits. Figures print with ``pytest -s``.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from datetime import datetime, timezone
+
+import numpy as np
+import pytest
+from test_upload import G5500, compile_mid
+
+from tracker.clock import SimClock
+from tracker.emulator import Gs232Controller, serve_pty, serve_tcp
+from tracker.emulator.faults import install
+from tracker.errors import PortLostError, RotatorIOError, RotatorTimeout, StallError
+from tracker.protocols.gs232 import Gs232Driver
+from tracker.steptable import pointing_error_deg
+from tracker.upload import TableRunner, resume_schedule
+
+pytestmark = pytest.mark.slow
+SPEED = 25.0
+DRIVER_TIMEOUT_S = 0.1        # 2.5 s of the 25x simulation
+
+
+class TableBench:
+    """Emulator with a fault plan (times ``@S+n`` = n s after the table's T time), a sampler
+    of the antenna, and drivers for the host side."""
+
+    def __init__(self, prog, specs, transport, tmp_path, seed=5):
+        self.prog = prog
+        first = prog.tables[0]
+        self.t_start = first.upload_t_s - 2.0
+        self.clock = SimClock(datetime.fromtimestamp(self.t_start, timezone.utc), SPEED)
+        self.ctrl = Gs232Controller("gs232b", G5500, clock=self.clock,
+                                    az_deg=float(first.az_deg[0]),
+                                    el_deg=float(first.el_deg[0]))
+        base = first.start_t_s - self.t_start
+        specs = [s.replace("@S+", "@") for s in specs]
+        specs = [self._at(s, base) for s in specs]
+        self.inj = install(self.ctrl, specs, seed)
+        self.received: list[bytes] = []          # every line (the controller keeps 200)
+        handle = self.ctrl.handle_line
+
+        def recording(line, state):
+            self.received.append(bytes(line))
+            return handle(line, state)
+        self.ctrl.handle_line = recording
+        self.server = serve_tcp(self.ctrl) if transport == "tcp" else serve_pty(
+            self.ctrl, link=str(tmp_path / "ttyEMU0"))
+        self.samples: list[tuple[float, float, float]] = []
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._sample, daemon=True)
+        self._thread.start()
+
+    @staticmethod
+    def _at(spec: str, base: float) -> str:
+        if "@" not in spec:
+            return spec
+        head, when = spec.split("@", 1)
+        return f"{head}@{base + float(when):.3f}"
+
+    def driver(self):
+        d = Gs232Driver.from_url(self.server.url, "gs232b", timeout_s=DRIVER_TIMEOUT_S)
+        d.stop_on_exit = False
+        return d
+
+    def _sample(self):
+        while not self._stop.is_set():
+            t = self.clock.timestamp()
+            az, el = self.ctrl.antenna()
+            self.samples.append((t, az, el))
+            time.sleep(0.005)
+
+    def close(self):
+        self._stop.set()
+        self._thread.join()
+        deadline = time.monotonic() + 1.0   # let a final silent S reach the emulator
+        while time.monotonic() < deadline and not (
+                self.ctrl.log and self.ctrl.log[-1][1].strip() == b"S"):
+            time.sleep(0.01)
+        self.server.close()
+
+    def error(self, path, t_from=None, t_to=None):
+        s = np.array(self.samples)
+        lo = path.t_s[0] if t_from is None else t_from
+        hi = path.t_s[-1] if t_to is None else t_to
+        s = s[(s[:, 0] >= lo) & (s[:, 0] <= hi)]
+        assert len(s) > 50
+        return pointing_error_deg(G5500, path, s[:, 0], s[:, 1], s[:, 2])
+
+    def assert_tables_in_limits(self) -> int:
+        n = 0
+        for line in self.received:
+            parts = line.split()
+            if not parts or parts[0][:1] not in (b"W", b"M") or len(parts) < 3:
+                continue
+            values = [int(parts[0][1:])] + [int(p) for p in parts[1:]]
+            pairs = values[1:]
+            az = pairs[0::2] if parts[0][:1] == b"W" else pairs
+            el = pairs[1::2] if parts[0][:1] == b"W" else []
+            assert all(0 <= a <= G5500.az_span_deg for a in az), line
+            assert all(G5500.el_min_deg <= e <= G5500.el_max_deg for e in el), line
+            n += 1
+        return n
+
+
+@pytest.fixture
+def bench(tmp_path):
+    made = []
+
+    def make(prog, specs, transport="tcp", **kw):
+        b = TableBench(prog, specs, transport, tmp_path, **kw)
+        made.append(b)
+        return b
+    yield make
+    for b in made:
+        b.close()
+
+
+def _print(name, b, report, err, extra=""):
+    print(f"\n[{name}] tables_sent={report.tables_sent} resyncs={report.resyncs} "
+          f"polls={report.polls} max_err={err.max():.2f} deg faults={dict(b.inj.stats)} {extra}")
+
+
+def test_power_cycle_gets_the_rest_of_the_table_back(bench):
+    path, prog = compile_mid(half_s=60.0, interval_s=2)
+    b = bench(prog, ["powercycle=2@S+30"])
+    report = TableRunner(b.driver(), b.clock, poll_s=1.0).run(prog.tables)
+    assert any("no table" in r for r in report.resyncs), report.resyncs
+    assert report.tables_sent == 2
+    table = prog.tables[0]
+    assert report.uploads[1]["points"] >= len(table) - 20
+    err = b.error(path, t_from=table.start_t_s + 40.0)
+    assert err.max() <= prog.prediction.max_error_deg + 0.5
+    assert b.assert_tables_in_limits() >= 2
+    _print("powercycle", b, report, err, f"re-uploaded {report.uploads[1]['points']} points")
+
+
+@pytest.mark.parametrize("drift", ["2%", "-2%"])
+def test_step_clock_drift_is_resynced(bench, drift):
+    path, prog = compile_mid(half_s=60.0, interval_s=2)
+    b = bench(prog, [f"drift={drift}"])
+    report = TableRunner(b.driver(), b.clock, poll_s=1.0).run(prog.tables)
+    assert any("drift" in r for r in report.resyncs), report.resyncs
+    err = b.error(path)
+    assert err.max() <= prog.prediction.max_error_deg + 1.0
+    b.assert_tables_in_limits()
+    _print(f"drift {drift}", b, report, err)
+
+
+@pytest.mark.parametrize("transport", ["tcp", "pty"])
+def test_host_disconnect_the_controller_keeps_stepping_then_resume(bench, transport):
+    path, prog = compile_mid(half_s=60.0, interval_s=2)
+    b = bench(prog, ["disconnect=6@S+30"], transport)
+    t_fault = time.monotonic()
+    with pytest.raises((PortLostError, RotatorTimeout, RotatorIOError)):
+        TableRunner(b.driver(), b.clock, poll_s=1.0).run(prog.tables)
+    bound = time.monotonic() - t_fault
+    # the port returns at S+36: reconnect and hand the rest of the pass to a new runner
+    table = prog.tables[0]
+    while b.clock.timestamp() < table.start_t_s + 36.0:
+        time.sleep(0.01)
+    back = b.clock.timestamp()
+    while True:
+        try:
+            drv = b.driver()
+            break
+        except RotatorIOError:
+            assert b.clock.timestamp() - back < 3.0
+            time.sleep(0.02)
+    rest = resume_schedule(prog.tables, b.clock.timestamp())
+    runner = TableRunner(drv, b.clock, poll_s=1.0)
+    report = runner.run(rest)
+    resumed_s = b.clock.timestamp()
+    t_sent = [t for t, line, _r in b.ctrl.log if line.strip() == b"T"]
+    resume_s = t_sent[-1] - (b.inj.t0 + table.start_t_s + 36.0 - b.t_start)
+    assert resume_s <= 3.0 + rest[0].start_t_s - rest[0].upload_t_s, resume_s
+    err = b.error(path)       # the whole pass: the controller stepped on while unplugged
+    assert err.max() <= prog.prediction.max_error_deg + 0.5
+    b.assert_tables_in_limits()
+    _print(f"host disconnect 6 s ({transport})", b, report, err,
+           f"T re-sent {resume_s:.2f} s after the port returned (run took {bound:.2f} s real "
+           f"to surface the loss; pass ended {resumed_s - table.end_t_s:+.0f} s)")
+
+
+def test_jam_is_stopped_and_reported(bench):
+    _path, prog = compile_mid(half_s=60.0, interval_s=2)
+    b = bench(prog, ["jam=az@S+20"])
+    with pytest.raises(StallError, match="not following"):
+        TableRunner(b.driver(), b.clock, poll_s=1.0).run(prog.tables)
+    t_stop = b.ctrl.log[-1][0] if b.ctrl.log[-1][1].strip() == b"S" else None
+    deadline = time.monotonic() + 1.0
+    while t_stop is None and time.monotonic() < deadline:
+        time.sleep(0.01)
+        if b.ctrl.log[-1][1].strip() == b"S":
+            t_stop = b.ctrl.log[-1][0]
+    assert t_stop is not None
+    jam_t = b.inj.t0 + prog.tables[0].start_t_s + 20.0 - b.t_start
+    latency = t_stop - jam_t
+    b.assert_tables_in_limits()
+    print(f"\n[jam az under a table] all-stop {latency:.2f} s after the jam (follow tolerance "
+          f"4 deg, poll 1 s, two misses)")
+    if latency > 3.0:
+        pytest.xfail(f"TableRunner stops a jam {latency:.0f} s after it (issue: 3 s): it "
+                     f"compares C2 with the span of the last 40 s of points; see the report")
+
+
+def test_reply_line_noise_table_completes_or_stops_with_a_typed_error(bench):
+    path, prog = compile_mid(half_s=60.0, interval_s=2)
+    b = bench(prog, ["drop=0.003:out", "garble=0.003:out"])
+    runner = TableRunner(b.driver(), b.clock, poll_s=1.0)
+    try:
+        report = runner.run(prog.tables)
+        outcome = "completed"
+    except RotatorIOError as e:          # typed, and the runner stopped the rotator first
+        report, outcome = runner.report, f"gave up: {str(e)[:90]}"
+        assert report.stopped
+    err = b.error(path, t_to=b.clock.timestamp() if outcome != "completed" else None)
+    assert err.max() <= prog.prediction.max_error_deg + 0.5
+    b.assert_tables_in_limits()
+    _print("reply line noise", b, report, err, outcome)
+    if outcome != "completed":
+        pytest.xfail("TableRunner treats any unreadable N reply as 'no table' and resyncs; "
+                     "garbled replies use up its 5 resyncs (see the report)")

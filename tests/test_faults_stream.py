@@ -1,0 +1,266 @@
+"""The live loop under scripted faults over a real pty and a real TCP socket, with figures.
+
+The emulator runs a :mod:`tracker.emulator.faults` plan on the same fast SimClock as the loop.
+Every test checks that no command ever left the rotator's limits or went below the horizon
+mask (read from the controller's own log of what it received), and prints its figures
+(``pytest -s``): commands, reconnects, pointing error after the fault, reaction times.
+"""
+
+from __future__ import annotations
+
+from datetime import datetime, timezone
+
+import numpy as np
+import pytest
+from _gs232_helpers import wait_until
+from _stream_fakes import T0, arc_pass
+
+from tracker.clock import SimClock
+from tracker.emulator import Gs232Controller, serve_pty, serve_tcp
+from tracker.emulator.faults import install
+from tracker.errors import StallError
+from tracker.mount import preset
+from tracker.planner import plan_pass
+from tracker.protocols import open_driver
+from tracker.skytrack import angular_separation_deg
+from tracker.station import HorizonMask, Station
+from tracker.stream import Link, StreamSettings, TrackCore, run_pass
+
+pytestmark = pytest.mark.slow
+SPEC = preset("G-5500", 50)
+SPEED = 50.0
+DEADBAND = 3.0
+DRIVER_TIMEOUT_S = 0.06
+MASK = HorizonMask((0.0, 90.0, 180.0, 270.0), (4.0, 8.0, 6.0, 3.0))
+STATION = Station(mask=MASK)
+
+
+class FaultBench:
+    """Emulator with a fault plan + the live loop, one SimClock. Fault times in the specs are
+    written as ``@A+n`` = n seconds after AOS and translated to the injector's time base."""
+
+    def __init__(self, transport, specs, tmp_path, duration_s=150.0, seed=11, start_az=95.0,
+                 **settings):
+        self.track = arc_pass(duration_s=duration_s, pad_s=20.0)
+        self.plan = plan_pass(self.track, SPEC, STATION, current=(start_az, 5.0))
+        self.start = min(self.plan.preposition_t_s, T0 - 25.0) - 2.0
+        self.clock = SimClock(datetime.fromtimestamp(self.start, timezone.utc), SPEED)
+        self.ctl = Gs232Controller("gs232b", SPEC, clock=self.clock, az_deg=start_az,
+                                   el_deg=5.0)
+        specs = [s.replace("@A+", f"@{T0 - self.start:.3f}+") for s in specs]
+        specs = [self._shift(s) for s in specs]
+        self.inj = install(self.ctl, specs, seed)
+        self.server = serve_tcp(self.ctl) if transport == "tcp" else serve_pty(
+            self.ctl, link=str(tmp_path / "ttyEMU0"))
+        self.core = TrackCore(self.plan, self.track, SPEC, STATION,
+                              StreamSettings(deadband_deg=DEADBAND, **settings))
+        self.errors: list[tuple[float, float]] = []
+        self.events: list[tuple[float, str, dict]] = []
+        self.sent: list[tuple[float, bytes]] = []
+
+    @staticmethod
+    def _shift(spec: str) -> str:
+        if "@" in spec and "+" in spec.split("@", 1)[1]:
+            head, when = spec.split("@", 1)
+            base, off = when.split("+")
+            return f"{head}@{float(base) + float(off):.3f}"
+        return spec
+
+    def injector_t(self, t_unix: float) -> float:
+        return t_unix - self.start
+
+    def connect(self):
+        # The driver times out on the real clock: 0.06 s real is 3 s of the 50x simulation,
+        # the cost of a lost reply on a real 1 s-timeout link, order of magnitude.
+        return open_driver(self.server.url, "gs232b", timeout_s=DRIVER_TIMEOUT_S)
+
+    def on_status(self, st):
+        az, el = self.ctl.antenna()
+        if self.core.aos_s <= st.t_s <= self.core.los_s:
+            taz, tel = self.track.direction_at(st.t_s)
+            self.errors.append((st.t_s, float(angular_separation_deg(
+                SPEC.bearing_of(az), el, taz, tel))))
+
+    def event(self, kind, **data):
+        self.events.append((self.clock.timestamp(), kind, data))
+
+    def run(self):
+        try:
+            return run_pass(self.core, Link(self.connect, SPEC), self.clock,
+                            on_status=self.on_status, events=self.event)
+        finally:
+            # the final all-stop is a silent write: let the emulator read it before closing
+            wait_until(lambda: bool(self.ctl.log) and self.ctl.log[-1][1].strip() == b"S", 1.0)
+            self.server.close()
+
+    def states(self):
+        return [d.get("state") for _t, k, d in self.events if k == "state"]
+
+    def errors_after(self, t_unix):
+        return np.array([e for t, e in self.errors if t > t_unix])
+
+    def assert_commands_safe(self):
+        """Every W the controller received is inside the limits and above the mask."""
+        n = 0
+        for _t, line, _reply in self.ctl.log:
+            if not line.startswith(b"W") or len(line.split()) != 2:
+                continue
+            az_s, el_s = line[1:].split()
+            az, el = int(az_s), int(el_s)
+            n += 1
+            assert 0 <= az <= SPEC.az_span_deg and SPEC.el_min_deg <= el <= SPEC.el_max_deg
+            look_b = (SPEC.bearing_of(az) + (180 if el > 90 else 0)) % 360
+            look_el = 180 - el if el > 90 else el
+            # the wire carries whole degrees: rounding may lose up to half a degree
+            floor = float(STATION.horizon_at(look_b))
+            assert look_el >= floor - 0.5 - 1e-9, (line, floor)
+        return n
+
+
+@pytest.fixture(params=["tcp", "pty"])
+def transport(request):
+    return request.param
+
+
+def _figures(name, b, res, extra=""):
+    err = b.errors_after(T0)
+    print(f"\n[{name}] completed={res.completed} commands={res.commands} "
+          f"reconnects={res.reconnects} max_err={err.max():.2f} deg "
+          f"(plan {b.plan.max_error_deg:.2f} + deadband {DEADBAND}) "
+          f"faults={dict(b.inj.stats)} {extra}")
+
+
+def test_reply_line_noise_pass_completes_within_bound(transport, tmp_path):
+    b = FaultBench(transport, ["drop=0.002:out", "garble=0.002:out", "duplicate=0.002:out"],
+                   tmp_path)
+    res = b.run()
+    assert res.completed and b.inj.stats["bytes_dropped"] + b.inj.stats["bytes_garbled"] > 0
+    err = b.errors_after(T0)
+    bound = b.plan.max_error_deg + DEADBAND + 1.0
+    # a lost reply costs a retry (3 s simulated): allow a few samples above the bound
+    assert np.mean(err <= bound) >= 0.97, err.max()
+    assert b.assert_commands_safe() > 5
+    _figures("line-noise", b, res, f"share within bound {np.mean(err <= bound):.3f}")
+
+
+def test_slow_replies_pass_completes(tmp_path):
+    b = FaultBench("tcp", ["delay=0.2"], tmp_path)
+    res = b.run()
+    assert res.completed
+    assert b.errors_after(T0).max() <= b.plan.max_error_deg + DEADBAND + 1.5
+    b.assert_commands_safe()
+    _figures("delay=0.2", b, res)
+
+
+def _resume_s(b, back_t):
+    """Seconds from the port's return to the loop's first good cycle after it."""
+    first = [t for t, _e in b.errors if t >= back_t]
+    assert first, b.states()
+    return first[0] - back_t, first[0]
+
+
+def test_silent_controller_resumes_after_the_window(tmp_path):
+    # pty: on TCP pyserial's socket close() sleeps 0.3 s real (15 s at 50x), see the report
+    b = FaultBench("pty", ["silent=20@A+40"], tmp_path, reconnect_max_s=2.0)
+    res = b.run()
+    assert res.completed
+    resume_s, rec_t = _resume_s(b, T0 + 60.0)
+    assert resume_s <= 3.0, resume_s
+    late = b.errors_after(rec_t + 10.0)
+    assert late.max() <= b.plan.max_error_deg + DEADBAND + 1.0
+    b.assert_commands_safe()
+    _figures("silent 20 s (pty)", b, res, f"resumed {resume_s:.2f} s after the window")
+
+
+def test_pty_disconnect_reconnects_and_resumes_within_3_s(tmp_path):
+    b = FaultBench("pty", ["disconnect=9@A+40"], tmp_path, reconnect_max_s=2.0)
+    res = b.run()
+    assert res.completed and res.reconnects >= 1
+    resume_s, rec_t = _resume_s(b, T0 + 49.0)      # the device is back at A+49
+    assert resume_s <= 3.0, resume_s
+    late = b.errors_after(rec_t + 10.0)
+    assert len(late) > 20 and late.max() <= b.plan.max_error_deg + DEADBAND + 1.0
+    b.assert_commands_safe()
+    _figures("disconnect 9 s (pty, reconnect_max_s=2)", b, res,
+             f"resumed {resume_s:.2f} s after the port returned")
+
+
+@pytest.mark.xfail(strict=True, reason="StreamSettings.reconnect_max_s defaults to 8 s: after "
+                   "an outage of more than ~4 s the next attempt can come up to 8 s after the "
+                   "port is back (issue: resume within 3 s); cap it at <= 2.5 s")
+def test_pty_disconnect_resumes_within_3_s_with_default_settings(tmp_path):
+    b = FaultBench("pty", ["disconnect=9@A+40"], tmp_path)
+    res = b.run()
+    resume_s, _ = _resume_s(b, T0 + 49.0)
+    print(f"\n[disconnect 9 s (pty, default settings)] resumed {resume_s:.2f} s after the "
+          f"port returned; completed={res.completed}")
+    assert resume_s <= 3.0, resume_s
+
+
+def test_tcp_disconnect_reconnects_and_completes(tmp_path):
+    b = FaultBench("tcp", ["disconnect=5@A+40"], tmp_path, reconnect_max_s=2.0)
+    res = b.run()
+    assert res.completed and res.reconnects >= 1
+    resume_s, rec_t = _resume_s(b, T0 + 45.0)
+    late = b.errors_after(rec_t + 10.0)
+    assert len(late) > 20 and late.max() <= b.plan.max_error_deg + DEADBAND + 1.0
+    b.assert_commands_safe()
+    # not asserted: includes pyserial's 0.3 s real sleep in socket close() = 15 s at 50x
+    _figures("disconnect 5 s (tcp)", b, res, f"resumed {resume_s:.2f} s (simulated) after the "
+             f"port returned; includes pyserial's 0.3 s real sleep in close() = 15 s at 50x")
+
+
+def _stop_latency(b, jam_t):
+    """Seconds from the first move into the jam to the all-stop, on the emulator's clock."""
+    t_last, line, _reply = b.ctl.log[-1]
+    assert line.strip() == b"S"
+    moves = [t for t, ln, _r in b.ctl.log if ln.startswith(b"W") and t >= jam_t]
+    told = max(jam_t, moves[0]) if moves else jam_t
+    after = [ln for t, ln, _r in b.ctl.log if t > t_last]
+    assert not after
+    return t_last - told
+
+
+def test_jam_during_a_slew_all_stop_within_3_s(transport, tmp_path):
+    b = FaultBench(transport, ["jam=az@0"], tmp_path, start_az=300.0)
+    with pytest.raises(StallError):
+        b.run()
+    latency = _stop_latency(b, b.inj.t0)
+    assert latency <= 3.0, latency
+    b.assert_commands_safe()
+    print(f"\n[jam az during the pre-position slew ({transport})] all-stop {latency:.2f} s "
+          f"after the move into the jam")
+
+
+def test_jam_while_tracking_slowly_is_stopped_and_reported(transport, tmp_path):
+    """With 1-degree tracking steps the loop's stall watch restarts on every command, so
+    detection can take >10 s: an xfail with the figure until the loop is fixed."""
+    b = FaultBench(transport, ["jam=az@A+20"], tmp_path)
+    with pytest.raises(StallError):
+        b.run()
+    latency = _stop_latency(b, b.inj.t0 + (T0 + 20 - b.start))
+    b.assert_commands_safe()
+    print(f"\n[jam az while tracking ({transport})] all-stop {latency:.2f} s after the first "
+          f"move into the jam")
+    if latency > 3.0:
+        pytest.xfail(f"the loop stopped a jam {latency:.0f} s after it (issue: 3 s): its stall "
+                     f"watch restarts on every small tracking command; see the report")
+
+
+def test_powercycle_mid_pass_completes(tmp_path):
+    b = FaultBench("tcp", ["powercycle=2@A+30"], tmp_path)
+    res = b.run()
+    assert res.completed and b.inj.stats["powercycle_events"] == 1
+    late = b.errors_after(T0 + 30 + 2 + 12)
+    assert late.max() <= b.plan.max_error_deg + DEADBAND + 1.0
+    b.assert_commands_safe()
+    _figures("powercycle", b, res, f"late max {late.max():.2f}")
+
+
+def test_wrongside_read_back_does_not_fool_the_loop(tmp_path):
+    b = FaultBench("tcp", ["wrongside"], tmp_path)
+    res = b.run()
+    assert res.completed
+    assert b.errors_after(T0).max() <= b.plan.max_error_deg + DEADBAND + 1.0
+    b.assert_commands_safe()
+    _figures("wrongside", b, res)
