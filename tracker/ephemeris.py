@@ -1,6 +1,6 @@
 """The planetary ephemeris (JPL DE421), loaded offline; times via :mod:`tracker.timescale`.
 
-DE421 comes from the ``skyfield-data`` package (``pip install 'rotator-tracker[ephem]'``),
+DE421 comes from the ``skyfield-data`` package (``pip install skyfield-data``),
 about 17 MB, so it is an extra rather than a runtime dependency: satellite tracking does not
 need it. ``TRACKER_EPHEMERIS=/path/to/file.bsp`` points at another JPL kernel (e.g. de440s.bsp)
 instead. Nothing here ever downloads: a missing file is a :class:`~tracker.errors.ConfigError`
@@ -21,7 +21,7 @@ from tracker.errors import ConfigError
 
 ENV_VAR = "TRACKER_EPHEMERIS"
 KERNEL_NAME = "de421.bsp"
-INSTALL_HINT = ("install it with: pip install 'rotator-tracker[ephem]' (the skyfield-data "
+INSTALL_HINT = ("install it with: pip install skyfield-data (the skyfield-data "
                 f"package), or set {ENV_VAR}=/path/to/de421.bsp")
 
 _UNIX_EPOCH_JD = 2440587.5

@@ -111,28 +111,8 @@ def to_table(records: Sequence[dict]) -> str:
 # iCalendar (RFC 5545) ---------------------------------------------------------------------
 
 
-def _ics_text(value: str) -> str:
-    """Escape a TEXT value (RFC 5545 3.3.11)."""
-    return (value.replace("\\", "\\\\").replace(";", "\\;").replace(",", "\\,")
-            .replace("\r\n", "\\n").replace("\n", "\\n"))
-
-
-def _fold(line: str) -> str:
-    """Fold a content line at 75 octets (RFC 5545 3.1), never splitting a UTF-8 character."""
-    out, cur, size = [], "", 0
-    for ch in line:
-        n = len(ch.encode("utf-8"))
-        if size + n > 75:
-            out.append(cur)
-            cur, size = " ", 1
-        cur += ch
-        size += n
-    out.append(cur)
-    return "\r\n".join(out)
-
-
-def _ics_time(t_s: float) -> str:
-    return datetime.fromtimestamp(round(float(t_s)), timezone.utc).strftime("%Y%m%dT%H%M%SZ")
+def _utc(t_s: float) -> datetime:
+    return datetime.fromtimestamp(round(float(t_s)), timezone.utc)
 
 
 def pass_uid(rec: dict) -> str:
@@ -163,26 +143,28 @@ def to_ics(records: Sequence[dict], stamp_s: float, name: str = "Satellite passe
     """An RFC 5545 calendar with one VEVENT per pass (AOS -> LOS).
 
     ``stamp_s`` is the DTSTAMP (the run's "as of" time, so the same input gives the same
-    file).
+    file). Escaping, folding and CRLF line ends are the ``icalendar`` library's.
     """
-    lines = ["BEGIN:VCALENDAR", "VERSION:2.0", "PRODID:-//rotator-tracker//batch//EN",
-             "CALSCALE:GREGORIAN", "METHOD:PUBLISH", f"X-WR-CALNAME:{_ics_text(name)}"]
+    from icalendar import Calendar, Event
+
+    cal = Calendar()
+    cal.add("prodid", "-//rotator-tracker//batch//EN")
+    cal.add("version", "2.0")
+    cal.add("calscale", "GREGORIAN")
+    cal.add("method", "PUBLISH")
+    cal.add("x-wr-calname", name)
     for rec in records:
-        summary = f"{rec['satellite']} max {rec['max_el_deg']:.0f}°"
-        lines += [
-            "BEGIN:VEVENT",
-            f"UID:{pass_uid(rec)}",
-            f"DTSTAMP:{_ics_time(stamp_s)}",
-            f"DTSTART:{_ics_time(rec['aos_s'])}",
-            f"DTEND:{_ics_time(max(rec['los_s'], rec['aos_s'] + 1))}",
-            f"SUMMARY:{_ics_text(summary)}",
-            f"LOCATION:{_ics_text(rec['station'])}",
-            f"DESCRIPTION:{_ics_text(_description(rec))}",
-            "TRANSP:TRANSPARENT",
-            "END:VEVENT",
-        ]
-    lines.append("END:VCALENDAR")
-    return "".join(_fold(line) + "\r\n" for line in lines)
+        event = Event()
+        event.add("uid", pass_uid(rec))
+        event.add("dtstamp", _utc(stamp_s))
+        event.add("dtstart", _utc(rec["aos_s"]))
+        event.add("dtend", _utc(max(rec["los_s"], rec["aos_s"] + 1)))
+        event.add("summary", f"{rec['satellite']} max {rec['max_el_deg']:.0f}°")
+        event.add("location", rec["station"])
+        event.add("description", _description(rec))
+        event.add("transp", "TRANSPARENT")
+        cal.add_component(event)
+    return cal.to_ical().decode("utf-8")
 
 
 FORMATS = ("table", "csv", "json", "ics")

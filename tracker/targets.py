@@ -54,7 +54,7 @@ def ephemeris_note() -> str | None:
     if _ephemeris_or_none() is not None:
         return None
     return ("sunlit/visible flags unavailable: the JPL DE421 ephemeris is not installed "
-            "(pip install 'rotator-tracker[ephem]')")
+            "(pip install skyfield-data)")
 
 
 class SatelliteTarget:

@@ -31,6 +31,8 @@ DEMO_SECONDS = 60.0        # a whole demo pass in about this much wall time
 STALE_ELEMENTS_DAYS = 14.0  # older elements: the demo replays a pass near their epoch
 PASS_SEARCH_DAYS = 3.0
 PAD_S = 60.0
+# Controllers that cannot report their position: the loop runs them on an estimate.
+OPEN_LOOP_PROTOCOLS = ("dcu1", "sak232")
 
 
 def register(sub) -> None:
@@ -234,6 +236,12 @@ def run(args: argparse.Namespace) -> int:
               "el_max_deg": spec.el_max_deg or 90.0}
         if args.baud or tr.get("baudrate"):
             kw["baudrate"] = args.baud or tr.get("baudrate")
+        if protocol in OPEN_LOOP_PROTOCOLS:
+            # No position query: the driver estimates the antenna with the rotator's motor
+            # model, which must run on the loop's (possibly simulated) clock. Closed-loop
+            # drivers keep wall-clock read timeouts.
+            kw["clock"] = clock
+            kw["spec"] = spec
         return open_driver(url, protocol, **kw)
 
     sinks = []
