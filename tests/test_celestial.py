@@ -258,7 +258,7 @@ def test_missing_skyfield_data_says_how_to_install(monkeypatch):
 
     monkeypatch.delenv("TRACKER_EPHEMERIS", raising=False)
     monkeypatch.setitem(sys.modules, "skyfield_data", None)  # import now raises ImportError
-    with pytest.raises(ConfigError, match=r"pip install 'rotator-tracker\[ephem\]'"):
+    with pytest.raises(ConfigError, match=r"pip install skyfield-data"):
         resolve("moon").observe(STATIONS[0], np.array([T0_S]))
 
 

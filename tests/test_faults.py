@@ -271,12 +271,13 @@ def test_silent_window_times_out_then_recovers(bench):
 
 
 def test_powercycle_over_the_wire_table_lost_autobaud_recovers(bench):
-    b = bench(["powercycle=0.3@0.6"], autobaud=True)
+    b = bench(["powercycle=0.3@1.5"], autobaud=True)
     d = b.driver()
     d.autobaud(attempts=5, interval_s=0.1)
     d.upload_table(5, [130, 140, 150])
     assert d.table_status() == (1, 3)
-    assert wait_until(lambda: b.inj.elapsed_s() > 1.0, 3)
+    assert b.inj.elapsed_s() < 1.5, "the machine is too busy for this timing"
+    assert wait_until(lambda: b.inj.elapsed_s() > 1.9, 4)
     out, _ = bounded(d.table_status)
     assert isinstance(out, RotatorTimeout)          # needs autobaud again: no answers
     d.autobaud(attempts=5, interval_s=0.1)

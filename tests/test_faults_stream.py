@@ -173,7 +173,7 @@ def test_silent_controller_resumes_after_the_window(tmp_path):
 
 
 def test_pty_disconnect_reconnects_and_resumes_within_3_s(tmp_path):
-    b = FaultBench("pty", ["disconnect=9@A+40"], tmp_path, reconnect_max_s=2.0)
+    b = FaultBench("pty", ["disconnect=9@A+40"], tmp_path, reconnect_max_s=1.0)
     res = b.run()
     assert res.completed and res.reconnects >= 1
     resume_s, rec_t = _resume_s(b, T0 + 49.0)      # the device is back at A+49
@@ -181,19 +181,19 @@ def test_pty_disconnect_reconnects_and_resumes_within_3_s(tmp_path):
     late = b.errors_after(rec_t + 10.0)
     assert len(late) > 20 and late.max() <= b.plan.max_error_deg + DEADBAND + 1.0
     b.assert_commands_safe()
-    _figures("disconnect 9 s (pty, reconnect_max_s=2)", b, res,
+    _figures("disconnect 9 s (pty, reconnect_max_s=1)", b, res,
              f"resumed {resume_s:.2f} s after the port returned")
 
 
-@pytest.mark.xfail(strict=True, reason="StreamSettings.reconnect_max_s defaults to 8 s: after "
-                   "an outage of more than ~4 s the next attempt can come up to 8 s after the "
-                   "port is back (issue: resume within 3 s); cap it at <= 2.5 s")
 def test_pty_disconnect_resumes_within_3_s_with_default_settings(tmp_path):
+    """The defaults must meet the issue's 3 s (reconnect_max_s was 8 s when this was
+    written, which gave 6.8 s here)."""
     b = FaultBench("pty", ["disconnect=9@A+40"], tmp_path)
     res = b.run()
+    assert res.completed
     resume_s, _ = _resume_s(b, T0 + 49.0)
     print(f"\n[disconnect 9 s (pty, default settings)] resumed {resume_s:.2f} s after the "
-          f"port returned; completed={res.completed}")
+          f"port returned")
     assert resume_s <= 3.0, resume_s
 
 

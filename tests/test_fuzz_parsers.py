@@ -57,10 +57,7 @@ def test_every_seed_is_accepted_where_it_is_valid():
             t.run(seed)     # raises on a bad seed
 
 
-# Found by fuzzing: exceptions that escape tle/omm.py instead of TleError. Strict xfail: they
-# turn into failures (remove the mark) the moment omm.py is fixed.
-@pytest.mark.xfail(strict=True, raises=AssertionError,
-                   reason="tle/omm.py: csv.Error escapes parse_omm_csv")
+# Found by fuzzing: exceptions that escaped the TLE/OMM parsers instead of TleError.
 def test_omm_csv_with_a_newline_in_an_unquoted_field_is_a_tle_error():
     from tle.omm import parse_omm_csv
 
@@ -72,8 +69,6 @@ def test_omm_csv_with_a_newline_in_an_unquoted_field_is_a_tle_error():
         raise AssertionError(f"{type(e).__name__}: {e}") from e
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError,
-                   reason="tle/omm.py: LookupError escapes parse_omm_xml")
 def test_omm_xml_with_an_unknown_encoding_is_a_tle_error():
     from tle.omm import parse_omm_xml
 
@@ -85,8 +80,6 @@ def test_omm_xml_with_an_unknown_encoding_is_a_tle_error():
         raise AssertionError(f"{type(e).__name__}: {e}") from e
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError,
-                   reason="tle/elements.py: a blank inside the epoch day escapes as ValueError")
 def test_tle_with_a_blank_in_the_epoch_is_a_tle_error():
     """Found by ``benchmarks/fuzz.py`` (100k inputs): ``float(line1[20:32])`` unguarded."""
     from tle.checksum import compute_checksum

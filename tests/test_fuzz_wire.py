@@ -110,6 +110,7 @@ TIMEOUT_S = 0.1
 N_REPLIES = 12
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["tcp", "pty"])
 @pytest.mark.parametrize("protocol", list(DRIVERS))
 def test_driver_turns_garbage_replies_into_typed_errors(kind, protocol):

@@ -145,7 +145,12 @@ def _build(name: str, line1: str, line2: str, l1_no: int, l2_no: int,
                      f"catalogue number {line2[2:7].strip()!r} does not match line 1's "
                      f"{line1[2:7].strip()!r} (columns 3-7 of both lines must agree)", line2,
                      layout=False)
-    day = float(line1[20:32])
+    try:
+        day = float(line1[20:32])
+    except ValueError:
+        raise _fault(source, l1_no, name, 1,
+                     f"epoch day of year {line1[20:32]!r} is not a number (columns 21-32, "
+                     "like 234.50538338)", line1) from None
     if not 1.0 <= day < 367.0:
         raise _fault(source, l1_no, name, 1,
                      f"epoch day of year {day} is outside 1..366 (columns 21-32)", line1)

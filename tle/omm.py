@@ -7,6 +7,7 @@ whose ``satrec()`` goes through ``sgp4.omm.initialize``.
 
 from __future__ import annotations
 
+import csv
 import io
 import json
 import warnings
@@ -128,7 +129,11 @@ def parse_omm_csv(text: str, source: str = "<string>", skip_bad: bool = False,
     """CelesTrak ``FORMAT=csv``: a header row of OMM field names, one record per row."""
     from sgp4 import omm
 
-    rows = omm.parse_csv(io.StringIO(text.lstrip("\ufeff")))
+    try:
+        rows = list(omm.parse_csv(io.StringIO(text.lstrip("\ufeff"))))
+    except csv.Error as e:
+        raise TleFormatError(f"{source}: not valid CSV ({e}); expected a header row of OMM "
+                             "field names and one record per line", source=source) from None
     # Row numbers count the header as line 1, as an editor shows them.
     return _collect(enumerate(rows, start=2), source, "line", skip_bad, on_warning)
 
@@ -145,6 +150,10 @@ def parse_omm_xml(text: str, source: str = "<string>", skip_bad: bool = False,
         raise TleFormatError(f"{source}:{line}: not well-formed XML (column {column}); "
                              "expected an <ndm> of <omm> segments", source=source,
                              line_no=line) from None
+    except (LookupError, ValueError) as e:
+        # An unknown or mismatched encoding declaration in the XML prolog.
+        raise TleFormatError(f"{source}: cannot decode the XML ({e}); expected UTF-8 OMM "
+                             "XML", source=source) from None
     except AttributeError:
         # sgp4.omm.parse_xml dereferences metadata/data/meanElements without checks.
         raise TleFormatError(f"{source}: an OMM <segment> lacks <metadata>, <data>, "
