@@ -2,6 +2,7 @@
 
     python benchmarks/fuzz.py                       # 100k inputs per target
     python benchmarks/fuzz.py --count 10000 --only emulator --time-limit-s 60
+    python benchmarks/fuzz.py --reply-integrity 20000   # noisy line vs the GS-232 parser
 
 Prints, per target: inputs run, exceptions outside the documented typed errors (grouped by
 type, with the first offending input), and inputs per second. Exit status 1 if any target
@@ -31,7 +32,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--time-limit-s", type=float, default=None,
                     help="stop a target after this many seconds (its count is then lower; "
                          "the table says so)")
+    ap.add_argument("--reply-integrity", type=int, default=0, metavar="N",
+                    help="instead: N C2 replies through 1 %% byte noise, count how many the "
+                         "GS-232 parser accepts with a wrong value")
     args = ap.parse_args(argv)
+    if args.reply_integrity:
+        return reply_integrity(args.reply_integrity, args.seed)
 
     targets = [t for t in F.targets() if args.only in t.name]
     print(f"fuzz: {len(targets)} targets, {args.count} inputs each, seed {args.seed}")
@@ -69,6 +75,41 @@ def main(argv: list[str] | None = None) -> int:
             print(f"    {count} x {kind}; first input {first[kind]!r}")
     print(f"total: {total_bad} undocumented exceptions; {time.perf_counter() - t_all:.1f} s")
     return 1 if total_bad else 0
+
+
+def reply_integrity(n: int, seed: int) -> int:
+    """GS-232 replies carry no checksum: how often does line noise pass as a reading?"""
+    from datetime import datetime
+
+    from tracker.clock import ManualClock
+    from tracker.emulator import Gs232Controller
+    from tracker.emulator.faults import install
+    from tracker.errors import ProtocolError
+    from tracker.protocols.framing import LineFramer
+    from tracker.protocols.gs232 import parse_position
+
+    print(f"reply integrity: {n} C2 replies 'AZ=123  EL=045' per noise kind, seed {seed}")
+    print(f"{'noise':22s} {'correct':>8s} {'rejected':>8s} {'wrong':>6s}  examples")
+    for spec in ("drop=0.01:out", "duplicate=0.01:out", "garble=0.01:out"):
+        ctrl = Gs232Controller("gs232b", clock=ManualClock(datetime.fromisoformat(F.T0)),
+                               az_deg=123, el_deg=45)
+        install(ctrl, [spec], seed)
+        session, framer = ctrl.open_session(), LineFramer(b"\r\n", keep_empty=False)
+        counts, examples = Counter(), []
+        for _ in range(n):
+            for line in framer.feed(session.feed(b"C2\r")):
+                try:
+                    value = parse_position(line)
+                except ProtocolError:
+                    counts["rejected"] += 1
+                    continue
+                ok = value == (123.0, 45.0)
+                counts["correct" if ok else "wrong"] += 1
+                if not ok and len(examples) < 3:
+                    examples.append(f"{line!r}->{value}")
+        print(f"{spec:22s} {counts['correct']:8d} {counts['rejected']:8d} {counts['wrong']:6d}"
+              f"  {', '.join(examples)}")
+    return 0
 
 
 if __name__ == "__main__":

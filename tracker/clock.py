@@ -64,7 +64,9 @@ class SimClock:
 
     Thread-safe and shared: an emulator thread and a tracking loop that use the same SimClock
     see the same simulated time, so a pass of ten minutes can be replayed in thirty seconds
-    with the emulator's motor lag scaled consistently.
+    with the emulator's motor lag scaled consistently. The owner of a private simulation (the
+    embedded demo, whose emulator runs on this very clock) may also :meth:`pause` it while it
+    plans and :meth:`skip` idle stretches; simulated time never runs backwards.
     """
 
     def __init__(self, start: datetime, speed: float = 1.0):
@@ -72,10 +74,36 @@ class SimClock:
             raise ValueError(f"SimClock speed must be > 0, got {speed}")
         self.speed = float(speed)
         self._start_ts = _require_aware(start).timestamp()
+        self._lock = threading.Lock()
         self._real0 = time.monotonic()
+        self._paused_at: float | None = None
+        self._paused_total_s = 0.0
+        self._skipped_s = 0.0
+
+    def _real_elapsed_s(self) -> float:
+        with self._lock:
+            now = self._paused_at if self._paused_at is not None else time.monotonic()
+            return now - self._real0 - self._paused_total_s
+
+    def pause(self) -> None:
+        """Freeze simulated time (e.g. while a slow pass search runs at a high speed)."""
+        with self._lock:
+            if self._paused_at is None:
+                self._paused_at = time.monotonic()
+
+    def resume(self) -> None:
+        with self._lock:
+            if self._paused_at is not None:
+                self._paused_total_s += time.monotonic() - self._paused_at
+                self._paused_at = None
+
+    def skip(self, seconds: float) -> None:
+        """Jump simulated time forward by ``seconds`` (ignored when negative)."""
+        with self._lock:
+            self._skipped_s += max(0.0, seconds)
 
     def monotonic(self) -> float:
-        return (time.monotonic() - self._real0) * self.speed
+        return self._real_elapsed_s() * self.speed + self._skipped_s
 
     def timestamp(self) -> float:
         return self._start_ts + self.monotonic()

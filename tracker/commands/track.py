@@ -12,10 +12,9 @@ import argparse
 import math
 import signal
 import sys
-import threading
-import time
 from datetime import datetime, timedelta, timezone
 
+from tracker.clock import SimClock
 from tracker.commands._common import (
     add_station_args,
     add_target_args,
@@ -71,60 +70,6 @@ def register(sub) -> None:
     add_target_args(p)
     add_time_args(p)
     p.set_defaults(func=run)
-
-
-class DemoClock:
-    """The embedded demo's simulated clock, shared with the in-process emulator.
-
-    Like :class:`tracker.clock.SimClock` (``speed`` times real time from ``start``), plus two
-    things only a private simulation may do: :meth:`pause` freezes simulated time while the
-    next pass is planned (a slow Moon pass search must not eat the pre-position time at 600x)
-    and :meth:`skip` jumps over idle hours between passes. Time never runs backwards.
-    """
-
-    def __init__(self, start: datetime, speed: float):
-        if speed <= 0:
-            raise ConfigError(f"--speed must be > 0, got {speed}")
-        self.speed = float(speed)
-        self._start_ts = start.timestamp()
-        self._lock = threading.Lock()
-        self._real0 = time.monotonic()   # a Clock implementation: the one place to read it
-        self._paused_at: float | None = None
-        self._paused_total = 0.0
-        self._skipped = 0.0
-
-    def _real_elapsed(self) -> float:
-        with self._lock:
-            now = self._paused_at if self._paused_at is not None else time.monotonic()
-            return now - self._real0 - self._paused_total
-
-    def pause(self) -> None:
-        with self._lock:
-            if self._paused_at is None:
-                self._paused_at = time.monotonic()
-
-    def resume(self) -> None:
-        with self._lock:
-            if self._paused_at is not None:
-                self._paused_total += time.monotonic() - self._paused_at
-                self._paused_at = None
-
-    def skip(self, seconds: float) -> None:
-        with self._lock:
-            self._skipped += max(0.0, seconds)
-
-    def monotonic(self) -> float:
-        return self._real_elapsed() * self.speed + self._skipped
-
-    def timestamp(self) -> float:
-        return self._start_ts + self.monotonic()
-
-    def now(self) -> datetime:
-        return datetime.fromtimestamp(self.timestamp(), timezone.utc)
-
-    def sleep(self, seconds: float) -> None:
-        if seconds > 0:
-            time.sleep(seconds / self.speed)
 
 
 def _start_time(args, target, demo: bool) -> tuple[datetime, str]:
@@ -205,11 +150,11 @@ def run(args: argparse.Namespace) -> int:
         span = first.los.timestamp() - max(first.aos.timestamp() - 120.0, start.timestamp())
         speed = args.speed or max(1.0, round(span / DEMO_SECONDS))
         if demo:
-            clock = DemoClock(max(start, first.aos - timedelta(seconds=150)), speed)
+            if speed <= 0:
+                raise ConfigError(f"--speed must be > 0, got {speed}")
+            clock = SimClock(max(start, first.aos - timedelta(seconds=150)), speed)
             clock.pause()   # until the first pass is planned
         else:
-            from tracker.clock import SimClock
-
             clock = SimClock(start, speed)
     else:
         from tracker.clock import SystemClock
@@ -279,7 +224,7 @@ def run(args: argparse.Namespace) -> int:
             # Re-plan from the real antenna position (read back now, not assumed).
             link.events = out.event
             az, el = link.position()
-            if isinstance(clock, DemoClock):
+            if demo:
                 clock.pause()
             current = _mech_guess(spec, az, el)
             track = pas.track(step_s=1.0, pad_s=PAD_S)
@@ -296,7 +241,7 @@ def run(args: argparse.Namespace) -> int:
             out.event("state", state="plan", mode=plan.mode,
                       predicted_max_error_deg=round(plan.max_error_deg, 2),
                       aos=pas.aos.isoformat(), los=pas.los.isoformat())
-            if isinstance(clock, DemoClock):
+            if demo:
                 lead = min(plan.preposition_t_s, pas.aos.timestamp() - 120.0) - 10.0
                 gap = lead - clock.timestamp()
                 if gap > 0 and n > 0:
