@@ -207,25 +207,17 @@ def test_jam_is_stopped_and_reported(bench):
     b.assert_tables_in_limits()
     print(f"\n[jam az under a table] all-stop {latency:.2f} s after the jam (follow tolerance "
           f"4 deg, poll 1 s, two misses)")
-    if latency > 3.0:
-        pytest.xfail(f"TableRunner stops a jam {latency:.0f} s after it (issue: 3 s): it "
-                     f"compares C2 with the span of the last 40 s of points; see the report")
+    # was 47 s when first measured (C2 compared with the span of the last 40 s of points)
+    assert latency <= 3.0, latency
 
 
-def test_reply_line_noise_table_completes_or_stops_with_a_typed_error(bench):
+def test_reply_line_noise_table_still_completes(bench):
+    """A garbled N reply is not a lost table (it once used up the runner's 5 resyncs)."""
     path, prog = compile_mid(half_s=60.0, interval_s=2)
     b = bench(prog, ["drop=0.003:out", "garble=0.003:out"])
-    runner = TableRunner(b.driver(), b.clock, poll_s=1.0)
-    try:
-        report = runner.run(prog.tables)
-        outcome = "completed"
-    except RotatorIOError as e:          # typed, and the runner stopped the rotator first
-        report, outcome = runner.report, f"gave up: {str(e)[:90]}"
-        assert report.stopped
-    err = b.error(path, t_to=b.clock.timestamp() if outcome != "completed" else None)
+    report = TableRunner(b.driver(), b.clock, poll_s=1.0).run(prog.tables)
+    assert b.inj.stats["bytes_dropped"] + b.inj.stats["bytes_garbled"] > 5
+    err = b.error(path)
     assert err.max() <= prog.prediction.max_error_deg + 0.5
     b.assert_tables_in_limits()
-    _print("reply line noise", b, report, err, outcome)
-    if outcome != "completed":
-        pytest.xfail("TableRunner treats any unreadable N reply as 'no table' and resyncs; "
-                     "garbled replies use up its 5 resyncs (see the report)")
+    _print("reply line noise", b, report, err)

@@ -9,9 +9,14 @@ The procedure for each table of a :class:`~tracker.steptable.StepProgram` (or a 
 3. monitor until the next table is due: ``N`` must report all the points (a short count is a
    truncated upload) and the index the host clock expects (a different index is drift or a
    lost step; no list at all is a power cycle); any of these → resync by uploading the
-   remaining points and sending ``T`` again at the next point's time. ``C2`` must show the
-   antenna within the span of the recently commanded points, else the rotator is stopped and
-   :class:`~tracker.errors.StallError` raised.
+   remaining points and sending ``T`` again at the next point's time. An ``N`` reply that
+   cannot be read (line noise, a timeout) is asked again, and a bad count is confirmed by a
+   second ``N``, before anything is concluded: noise must not cost a resync. ``C2`` must show
+   each axis moving toward the table: :class:`_StallWatch` drives the shared motor model
+   (:func:`tracker.mount.predict_axis`) from each recent read-back through the points due
+   since, and an axis the model says must have moved >= 1 deg that has not moved at all (read
+   twice) is a jam: all-stop and :class:`~tracker.errors.StallError`, within about
+   start delay + 1 deg of travel + one poll of the point change.
 
 Every exit path (end, error, Ctrl-C) sends all-stop, except ``detach`` after a successful T
 (the controller is meant to go on by itself).
@@ -26,13 +31,42 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tracker.clock import Clock
-from tracker.errors import ConfigError, ProtocolError, RotatorIOError, StallError, TrackerError
+from tracker.errors import (
+    ConfigError,
+    ProtocolError,
+    RotatorIOError,
+    StallError,
+    TrackerError,
+)
+from tracker.mount import AxisMotor, RotatorSpec, predict_axis
+from tracker.protocols.gs232 import is_error_reply
 from tracker.steptable import BITS_PER_BYTE, StepTable
 
 # Reading N at a step boundary may see either side; allow this much clock slack.
 INDEX_SLACK_S = 0.6
 # How many resyncs before the host gives up (stops the rotator and reports).
 MAX_RESYNCS = 5
+# An unreadable N / C2 reply (garbled, cut short) is asked again this many times in
+# one poll; only this many polls in a row without a readable N count as a lost controller.
+READ_ATTEMPTS = 3
+UNREADABLE_POLLS = 3
+
+# Stall detection. Read-backs are whole degrees: from a read-back that sits on its table point
+# (the antenna is exactly there) the model must predict >= STALL_MOVE_DEG of travel; from one
+# taken mid-move (up to 0.5 deg off the real position) >= STALL_MOVE_DEG + 0.5. The axis has
+# stalled when it then shows < STALL_STILL_DEG of progress toward the point, read twice (a
+# garbled digit must not stop a pass).
+STALL_MOVE_DEG = 1.0
+STALL_STILL_DEG = 0.5
+STALL_HISTORY_S = 8.0
+# Command times are the host's; the controller may step a little late (clock drift up to the
+# resync slack is measured from N, this covers the poll and the emulator/controller tick).
+STALL_TIMING_MARGIN_S = 0.25
+# Without a RotatorSpec the model assumes a slow rotator (slower than every preset, at 50 Hz
+# too), so a healthy one is never predicted further than it can be; a jam is then caught a
+# little later.
+FALLBACK_RATE_DEG_S = 2.0
+FALLBACK_START_DELAY_S = 0.75
 
 
 @dataclass
@@ -56,12 +90,14 @@ class TableRunner:
     decides when a chained table's upload must start. ``poll_s`` is the monitoring period
     (clock seconds; default: half the step period, within 1..5 s). ``follow_tol_deg`` is how
     far outside the recently commanded points the antenna may read before it counts as not
-    following (twice in a row → stall).
+    following (twice in a row → stall; a coarse backstop to the motor-model check). ``spec``
+    gives the motor model its rates and start delay (a slow generic rotator without it).
     """
 
     def __init__(self, driver, clock: Clock, *, baud: int = 9600, poll_s: float | None = None,
                  follow_tol_deg: float = 4.0, follow_window_s: float = 40.0,
-                 log: Callable[[str], None] | None = None, monitor: bool = True):
+                 log: Callable[[str], None] | None = None, monitor: bool = True,
+                 spec: RotatorSpec | None = None):
         self.driver = driver
         self.clock = clock
         self.baud = int(baud)
@@ -72,6 +108,8 @@ class TableRunner:
         self.monitor = monitor
         self.report = UploadReport()
         self._misses = 0
+        self._unreadable = 0
+        self._watch = _StallWatch(spec)
 
     # Public --------------------------------------------------------------------------------
 
@@ -131,6 +169,7 @@ class TableRunner:
                                     "wire_s": wire_s, "upload_s": upload_s,
                                     "upload_real_s": time.perf_counter() - r0})
         self.report.tables_sent += 1
+        self._watch.start(table, self.clock.timestamp())
         self.log(f"uploaded {what}: {len(table)} points, {nbytes} bytes in "
                  f"{upload_s:.2f} s (wire time at {self.baud} baud {wire_s:.2f} s)")
 
@@ -146,6 +185,7 @@ class TableRunner:
     def _send_t(self, table: StepTable) -> None:
         self._wait_until(table.start_t_s)
         self.driver.start_table()
+        self._watch.t_sent(self.clock.timestamp())
         late = self.clock.timestamp() - table.start_t_s
         self.report.t_late_s.append(late)
         self.log(f"T sent ({late * 1000:+.0f} ms)")
@@ -172,27 +212,57 @@ class TableRunner:
             self._check_follows(active)
 
     def _check_status(self, table: StepTable, now: float) -> str | None:
-        """None if N agrees with the host clock, else what is wrong."""
+        """None if N agrees with the host clock (or cannot be read this poll), else what is
+        wrong. A problem is only reported when a second N shows it too."""
         if table.profile.clears_at_end and \
                 now >= table.command_times()[-1] - INDEX_SLACK_S:
             return None  # the list is gone once the last point is reached, by design (K3NG)
-        t_before = self.clock.timestamp()
-        try:
-            current, total = self.driver.table_status()
-        except ProtocolError as e:
-            return f"controller has no table any more (power cycle or reset?): {e}"
-        t_after = self.clock.timestamp()
-        self.report.polls += 1
-        if total != len(table):
-            return f"controller holds {total} of {len(table)} points (truncated upload)"
-        if current is None:
+        first = self._status_problem(table)
+        if first is None:
             return None
-        lo = table.index_at(t_before - INDEX_SLACK_S)
-        hi = table.index_at(t_after + INDEX_SLACK_S)
-        if not lo <= current <= hi:
-            return (f"controller is on point {current}, the host clock says {lo}"
-                    + (f"..{hi}" if hi != lo else "") + " (drift or a lost step)")
-        return None
+        if first == "unreadable":
+            self._unreadable += 1
+            if self._unreadable < UNREADABLE_POLLS:
+                self.log(f"N unreadable ({self._unreadable} poll(s) in a row); asking again "
+                         "next poll")
+                return None
+            self._unreadable = 0
+            return (f"controller has no table any more or does not answer N ({UNREADABLE_POLLS} "
+                    "polls without a readable reply; power cycle or reset?)")
+        second = self._status_problem(table)
+        if second is None or second == "unreadable":
+            self.log(f"N: {first}, not confirmed by a second N (line noise?); carrying on")
+            return None
+        return second
+
+    def _status_problem(self, table: StepTable) -> str | None:
+        """One N reading (asked again on noise): None, "unreadable" or the problem."""
+        for _attempt in range(READ_ATTEMPTS):
+            t_before = self.clock.timestamp()
+            try:
+                current, total = self.driver.table_status()
+            except ProtocolError as e:
+                if is_error_reply(e.raw):
+                    return f"controller has no table any more (power cycle or reset?): {e}"
+                self.log(f"N unreadable: {e}")
+                continue
+            # RotatorTimeout propagates: the driver has already asked 1 + retries times, and a
+            # silent controller (port lost, cable out) must surface, not be polled for ever.
+            t_after = self.clock.timestamp()
+            self.report.polls += 1
+            self._unreadable = 0
+            if total != len(table):
+                return f"controller holds {total} of {len(table)} points (truncated upload)"
+            if current is None:
+                return None
+            lo = table.index_at(t_before - INDEX_SLACK_S)
+            hi = table.index_at(t_after + INDEX_SLACK_S)
+            if not lo <= current <= hi:
+                return (f"controller is on point {current}, the host clock says {lo}"
+                        + (f"..{hi}" if hi != lo else "") + " (drift or a lost step)")
+            self._watch.note_index(current, t_before)
+            return None
+        return "unreadable"
 
     def _resync(self, table: StepTable, problem: str) -> StepTable | None:
         self.report.resyncs.append(problem)
@@ -213,21 +283,49 @@ class TableRunner:
         self._send_t(rest)
         return rest
 
+    def _read_position(self) -> tuple[float, float, float, float | None] | None:
+        """(t_before, t_after, az, el) from C2, asked again on noise; None if unreadable."""
+        for _attempt in range(READ_ATTEMPTS):
+            t_before = self.clock.timestamp()
+            try:
+                az, el = self.driver.position()
+            except ProtocolError as e:      # garbled; silence propagates as for N
+                self.log(f"C2 unreadable: {e}")
+                continue
+            return t_before, self.clock.timestamp(), float(az), el
+        return None
+
     def _check_follows(self, table: StepTable) -> None:
-        """C2 must read within the span of the recently commanded points (± tolerance)."""
+        """Each axis must move toward its table point as the motor model says (a jam is
+        caught within seconds); C2 must also read within the span of the recently commanded
+        points (± tolerance), a coarse backstop."""
         if not np.isfinite(table.end_t_s) or len(table) == 0:
             return
+        read = self._read_position()
+        if read is None:
+            return
+        t_before, t_after, az, el = read
+        stalled = self._watch.stalled(t_before, az, el)
+        if stalled is not None:
+            again = self._read_position()       # a garbled digit must not stop a pass
+            if again is not None:
+                t_before, t_after, az, el = again
+                stalled = self._watch.stalled(t_before, az, el)
+            if stalled is not None and again is not None:
+                axis, msg = stalled
+                self.log(f"stall: {msg}")
+                self._all_stop(quiet=True)
+                raise StallError(f"the antenna is not following the table: the {axis} axis "
+                                 f"{msg}; stopped the rotator. Check the motors, the control "
+                                 "box power and the cabling")
+        self._watch.add(t_before, t_after, az, el)
+
         now = self.clock.timestamp()
         times = table.command_times()
         if now < table.start_t_s:
             return
         recent = (times >= now - self.follow_window_s - table.period_s) & (times <= now)
         recent[max(np.searchsorted(times, now, side="right") - 1, 0)] = True
-        try:
-            az, el = self.driver.position()
-        except ProtocolError as e:
-            self.log(f"C2 unreadable: {e}")
-            return
         az_pts = np.asarray(table.az_deg)[recent].astype(float)
         bad = _outside(az, az_pts, self.follow_tol_deg, wrap=True)
         if table.kind == "W" and el is not None:
@@ -287,3 +385,104 @@ def resume_schedule(tables: Sequence[StepTable], now_s: float, baud: int = 9600
         raise ConfigError("the pass in this plan is over; nothing left to send. Plan the next "
                           "pass (`tracker plan ... --steptable FILE`)")
     return out
+
+
+class _StallWatch:
+    """Is each axis moving toward the table as the shared motor model says it must?
+
+    Keeps the recent C2 read-backs of the active table. For each one (the reference) an
+    :class:`~tracker.mount.AxisMotor` is put at rest on the reference reading and driven by
+    :func:`~tracker.mount.predict_axis` through the point active then and the points due
+    since, at their (late-shifted) command times. Starting from rest adds a start delay the
+    real motor may not need, so a healthy axis is always at least as far along as predicted:
+    if the model has it >= 1 deg further toward the point and the read-back shows no progress,
+    the axis is not turning. Points equal to the previous one, a rotator waiting on a point
+    and start delays all predict no travel, so they never count.
+    """
+
+    def __init__(self, spec: RotatorSpec | None):
+        self.spec = spec
+        self.table: StepTable | None = None
+        self.readings: list[tuple[float, float, float, float | None]] = []
+        self._times = np.zeros(0)
+        self._lag_s = 0.0
+
+    def start(self, table: StepTable, uploaded_t_s: float) -> None:
+        """A (re)uploaded table: point 1 is commanded when the line has landed."""
+        self.table = table
+        self.readings = []
+        self._lag_s = 0.0
+        self._times = table.command_times().astype(float)
+        self._times[0] = max(self._times[0], uploaded_t_s)
+
+    def t_sent(self, t_s: float) -> None:
+        """T went out at ``t_s``: the controller steps from then on (a late T, e.g. after a
+        slow paced upload, shifts every later point)."""
+        if len(self._times) > 1:
+            self._times[1:] += max(0.0, t_s - float(self._times[1]))
+
+    def note_index(self, current: int, t_s: float) -> None:
+        """N said point ``current`` (1-based) at ``t_s``: the next one was not yet due there,
+        so the controller runs at least that late (drift within the resync slack)."""
+        if 0 < current < len(self._times):
+            self._lag_s = max(self._lag_s, t_s - float(self._times[current]))
+
+    def add(self, t_before: float, t_after: float, az: float, el: float | None) -> None:
+        self.readings.append((t_before, t_after, az, el))
+        cut = t_before - STALL_HISTORY_S
+        self.readings = [r for r in self.readings if r[0] >= cut]
+
+    def _axis(self, which: str, position_deg: float, t_s: float) -> AxisMotor:
+        spec = self.spec
+        if spec is None:
+            rate, delay = FALLBACK_RATE_DEG_S, FALLBACK_START_DELAY_S
+        else:
+            rate = spec.az_rate_deg_s if which == "az" else (spec.el_rate_deg_s or 1.0)
+            if which == "az" and spec.az_speed_rates_deg_s:
+                rate = min(rate, *spec.az_speed_rates_deg_s)   # X1 may be selected
+            delay = spec.start_delay_s
+        return AxisMotor(-1e9, 1e9, rate, delay, 1.0, position_deg, t_s)
+
+    def stalled(self, t_s: float, az: float, el: float | None) -> tuple[str, str] | None:
+        """("az"/"el", what is wrong) if an axis read at ``t_s`` should have moved and has
+        not, else None."""
+        table = self.table
+        if table is None or not self.readings:
+            return None
+        times = self._times.copy()
+        times[1:] += self._lag_s
+        times += STALL_TIMING_MARGIN_S
+        axes = [("az", 2, az, np.asarray(table.az_deg, dtype=float))]
+        if table.kind == "W" and el is not None and table.el_deg is not None:
+            axes.append(("el", 3, el, np.asarray(table.el_deg, dtype=float)))
+        for name, col, now_deg, points in axes:
+            for ref in self.readings:
+                t_ref, ref_deg = ref[1], ref[col]
+                if ref_deg is None or t_ref >= t_s:
+                    continue
+                i0 = int(np.searchsorted(times, t_ref, side="right")) - 1
+                i1 = int(np.searchsorted(times, t_s, side="right"))
+                if i0 < 0:          # nothing commanded yet at the reference
+                    i0 = 0
+                    if i1 == 0:
+                        continue
+                    cmd_t = times[:i1]
+                else:
+                    cmd_t = np.concatenate(([t_ref], times[i0 + 1:i1]))
+                cmd_deg = points[i0:i1] if i1 > i0 else points[i0:i0 + 1]
+                cmd_t = cmd_t[:len(cmd_deg)]
+                if name == "az" and abs(float(cmd_deg[0]) - ref_deg) > 180.0:
+                    continue        # an unwind or a different az frame: leave it to the span
+                exact = abs(float(points[i0]) - ref_deg) < 0.25 and t_ref >= times[i0]
+                need = STALL_MOVE_DEG + (0.0 if exact else 0.5)
+                pred = float(predict_axis(self._axis(name, ref_deg, t_ref), cmd_t, cmd_deg,
+                                          np.array([t_s]))[0][0])
+                travel = pred - ref_deg
+                if abs(travel) < need - 1e-6:
+                    continue
+                progress = (now_deg - ref_deg) * np.sign(travel)
+                if progress < STALL_STILL_DEG:
+                    return name, (f"reads {now_deg:g} deg, {t_s - t_ref:.1f} s after it read "
+                                  f"{ref_deg:g}; the motor model has it at {pred:.1f} by now "
+                                  f"(table point {float(cmd_deg[-1]):g})")
+        return None
