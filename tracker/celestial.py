@@ -30,6 +30,7 @@ import numpy as np
 from tracker.errors import TargetError
 from tracker.skytrack import SkyTrack, enu_to_azel
 from tracker.station import Station
+from tracker.targets import event_labels
 
 # DE421 segment names for each body we accept.
 SOLAR_SYSTEM: dict[str, tuple[str, str]] = {
@@ -312,17 +313,6 @@ def resolve(name: str):
                             "note": src.note, "reference": "SIMBAD J2000"},
                            ra_hours=src.ra_hours, dec_deg=src.dec_deg)
     return None
-
-
-EVENT_LABELS: dict[str, tuple[str, str, str]] = {
-    "satellite": ("AOS", "TCA", "LOS"),
-    "schedule": ("start", "max el", "end"),
-}
-
-
-def event_labels(kind: str) -> tuple[str, str, str]:
-    """Column labels for a pass of a target of ``kind``: AOS/TCA/LOS or rise/transit/set."""
-    return EVENT_LABELS.get(kind, ("rise", "transit", "set"))
 
 
 def _register() -> None:

@@ -29,6 +29,19 @@ class Target(Protocol):
         """Az/el (and range, range rate, sunlit where meaningful) at UTC POSIX seconds."""
 
 
+# What the three events of a pass are called, by target kind: satellites have AOS/TCA/LOS,
+# the Sun, Moon, planets and radio sources rise, transit and set.
+EVENT_LABELS: dict[str, tuple[str, str, str]] = {
+    "satellite": ("AOS", "TCA", "LOS"),
+    "schedule": ("start", "max el", "end"),
+}
+
+
+def event_labels(kind: str) -> tuple[str, str, str]:
+    """Labels for the start, highest point and end of a pass of a target of ``kind``."""
+    return EVENT_LABELS.get(kind, ("rise", "transit", "set"))
+
+
 # Resolvers are tried in order before the satellite catalogue; each returns a Target for a
 # name it knows, or None. tracker.celestial registers itself here.
 RESOLVERS: list[Callable[[str], Target | None]] = []

@@ -17,6 +17,7 @@ from tracker.commands._common import (
     station_from_args,
     target_from_args,
 )
+from tracker.targets import event_labels
 
 
 def register(sub) -> None:
@@ -57,12 +58,14 @@ def next_line(target, station, now, days: float) -> tuple[str, bool]:
         los = p.los.strftime("%H:%M:%S UTC")
         more = "+" if not p.los_known else ""
         return (f"{target.name}: up now at az {az_now:.0f}° {compass_point(az_now)}, el "
-                f"{el_now:.0f}°, LOS in {format_duration((p.los - now).total_seconds())}"
+                f"{el_now:.0f}°, {event_labels(target.kind)[2]} in "
+                f"{format_duration((p.los - now).total_seconds())}"
                 f"{more} ({los}, az {p.los_az_deg:.0f}° {compass_point(p.los_az_deg)}), "
                 f"max el {p.max_el_deg:.0f}°"), True
-    return (f"{target.name}: next AOS {p.aos.strftime('%Y-%m-%d %H:%M:%S UTC')} in "
+    rise, _, _ = event_labels(target.kind)
+    return (f"{target.name}: next {rise} {p.aos.strftime('%Y-%m-%d %H:%M:%S UTC')} in "
             f"{format_duration((p.aos - now).total_seconds())}, max el {p.max_el_deg:.0f}°, "
-            f"AOS az {p.aos_az_deg:.0f}° {compass_point(p.aos_az_deg)}, duration "
+            f"{rise} az {p.aos_az_deg:.0f}° {compass_point(p.aos_az_deg)}, duration "
             f"{format_duration(p.duration_s)}"), True
 
 

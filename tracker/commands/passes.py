@@ -26,6 +26,7 @@ from tracker.commands._common import (
     station_from_args,
     target_from_args,
 )
+from tracker.targets import event_labels
 
 CSV_COLUMNS = ("target", "kind", "aos_utc", "tca_utc", "los_utc", "duration_s", "max_el_deg",
                "aos_az_deg", "tca_az_deg", "los_az_deg", "aos_compass", "los_compass",
@@ -205,8 +206,13 @@ def table_rows(passes, show_target: bool) -> tuple[list[str], list[list[str]]]:
     """Header and cells; a separate UTC column only when local time is not UTC."""
     zone = passes[0].aos.astimezone().strftime("%Z") if passes else ""
     local_is_utc = bool(passes) and passes[0].aos.astimezone().utcoffset().total_seconds() == 0
-    header = [f"AOS ({zone or 'local'})", "AOS UTC", "Duration", "Max El", "AOS Az", "LOS Az",
-              "Vis"]
+    kinds = {p.kind for p in passes}
+    if len(kinds) == 1:
+        start, _, end = (label[:1].upper() + label[1:] for label in event_labels(kinds.pop()))
+    else:
+        start, end = "AOS/Rise", "LOS/Set"
+    header = [f"{start} ({zone or 'local'})", f"{start} UTC", "Duration", "Max El",
+              f"{start} Az", f"{end} Az", "Vis"]
     if local_is_utc:
         header.pop(1)
     if show_target:
@@ -269,4 +275,4 @@ def write_table(passes, station, targets, start: datetime, end: datetime, out) -
             print("  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip(),
                   file=out)
     if any(p.in_progress_at_start for p in passes):
-        print("* already in progress at the window start (real AOS shown)", file=out)
+        print("* already in progress at the window start (real start time shown)", file=out)
