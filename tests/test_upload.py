@@ -291,3 +291,83 @@ def test_low_pass_full_length_with_default_interval_fits_one_table():
     # Sanity for the CLI default: one table covers a whole pass at 1 s steps.
     prog = compile_program(MountPath.from_track(low_pass(), G5500), G5500, "gs232b")
     assert len(prog.tables) == 1 and prog.interval_s == 1
+
+
+def _stop_time_after(rig, t_from: float) -> float | None:
+    """Sim time of the first S the controller received at or after ``t_from`` (host clock)."""
+    assert wait_for(lambda: last_line(rig) == b"S")
+    offset = rig.clock.timestamp() - rig.clock.monotonic()
+    stops = [t + offset for t, line, _ in rig.ctrl.log
+             if line.strip() == b"S" and t + offset >= t_from]
+    return stops[0] if stops else None
+
+
+@pytest.mark.parametrize("axis", ["az", "el"])
+def test_jam_is_stopped_within_3_s_by_the_motor_model(axis):
+    # Issue 10: all-stop within 3 s of a jam. The el axis moves 0-1 deg per 2 s point here,
+    # so only the motor model (not the span of recent points) can see it stop in time.
+    _, prog = compile_mid(half_s=60.0, interval_s=2)
+    table = prog.tables[0]
+    with Rig(prog, transport="tcp") as rig:
+        jam_t = table.start_t_s + 21.0
+
+        def jam():
+            while rig.clock.timestamp() < jam_t:
+                time.sleep(0.002)
+            rig.ctrl.jam(axis)
+        th = threading.Thread(target=jam, daemon=True)
+        th.start()
+        with pytest.raises(StallError, match=f"not following the table: the {axis} axis"):
+            TableRunner(rig.driver(), rig.clock, poll_s=1.0, spec=G5500).run(prog.tables)
+        th.join()
+        t_stop = _stop_time_after(rig, jam_t)
+    assert t_stop is not None
+    # el: the next point that differs from the one it jammed on decides when it is visible
+    times = table.command_times()
+    pts = np.asarray(table.az_deg if axis == "az" else table.el_deg)
+    i = int(np.searchsorted(times, jam_t))
+    held = pts[i - 1]
+    due = next(t for t, p in zip(times[i:], pts[i:], strict=False) if p != held)
+    assert t_stop - max(jam_t, due) <= 3.0, (t_stop - jam_t, due - jam_t)
+
+
+def test_waiting_on_repeated_points_and_a_slew_is_not_a_stall():
+    # Repeated points (the rotator waits), a 40 deg jump (a long slew after a start delay)
+    # and back: a healthy rotator must never be flagged, with the fastest poll.
+    _, prog = compile_mid(half_s=20.0, interval_s=2)
+    base = prog.tables[0]
+    az0, el0 = int(base.az_deg[0]), int(base.el_deg[0])
+    pts = [(az0, el0)] * 4 + [(az0 + 40, el0 + 20)] * 6 + [(az0 + 39, el0 + 20)] * 2 \
+        + [(az0, el0)] * 8
+    table = tables_from_points("W", 2, pts, PROFILES["gs232b"], start_t_s=base.start_t_s)
+    table = type(table)(**{**table.__dict__, "upload_t_s": base.upload_t_s,
+                           "arrive_t_s": base.arrive_t_s})
+    with Rig(prog, transport="tcp") as rig:
+        for spec in (G5500, None):
+            runner = TableRunner(rig.driver(), rig.clock, poll_s=0.5, spec=spec)
+            shift = rig.clock.timestamp() + 3.0 - table.upload_t_s
+            t = type(table)(**{**table.__dict__,
+                               "upload_t_s": table.upload_t_s + shift,
+                               "arrive_t_s": table.arrive_t_s + shift,
+                               "start_t_s": table.start_t_s + shift})
+            report = runner.run([t])
+            assert report.polls >= 20 and not report.resyncs
+            assert abs(rig.ctrl.antenna()[0] - az0) <= 1.0
+
+
+def test_garbled_replies_are_asked_again_not_resynced():
+    # Heavy noise on every reply: unreadable N / C2 replies are asked again and a bad count
+    # must be seen twice; the table completes with no resync and no false stall.
+    from tracker.emulator.faults import install
+
+    path, prog = compile_mid(half_s=45.0, interval_s=2)
+    with Rig(prog, transport="tcp") as rig:
+        inj = install(rig.ctrl, ["garble=0.01:out"], 11)
+        logs: list[str] = []
+        report = TableRunner(rig.driver(), rig.clock, poll_s=1.0, spec=G5500,
+                             log=logs.append).run(prog.tables)
+        err = rig.measured_error(path, G5500)
+    assert inj.stats["bytes_garbled"] > 0
+    assert any("unreadable" in m or "not confirmed" in m for m in logs), logs
+    assert not report.resyncs and report.tables_sent == 1
+    assert err.max() <= prog.prediction.max_error_deg + 0.5
