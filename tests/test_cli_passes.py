@@ -85,6 +85,8 @@ def test_group_lists_several_targets(capsys):
     assert out.splitlines()[1].startswith("Target")
     assert "ES'HAIL 2" in out and "always up" in out
     assert "YAMAL" not in out  # never rises here
+    # No row is marked "*" (ES'HAIL 2 says "always up"), so no "*" footnote either.
+    assert " *" not in out and "already in progress" not in out
 
 
 def test_in_progress_marker(capsys):
@@ -134,13 +136,24 @@ def test_bad_tle_file_names_file_and_line(capsys, tmp_path):
     lines[2] = lines[2][:-1] + str((int(lines[2][-1]) + 1) % 10)  # break the checksum
     bad.write_text("\n".join(lines) + "\n")
     code, _, err = run(capsys, "passes", "ISS", "--tle", str(bad), "--at", AT)
-    assert code == 2
-    warning, error = err.strip().splitlines()[-2:]
-    # the broken set is skipped with one warning naming file:line and the fault ...
-    assert warning.startswith(f"tracker: warning: skipped a broken element set: {bad}:3: ")
-    assert "checksum expected" in warning
-    # ... and then the name is simply not in the catalogue
-    assert error.startswith("tracker: error: no satellite 'ISS'")
+    assert code == 2 and "Traceback" not in err
+    # Nothing usable in the file: the one line is the fault itself, naming file:line.
+    (line,) = err.strip().splitlines()
+    assert line.startswith(f"tracker: error: no usable element set: {bad}:3: ")
+    assert "checksum expected" in line
+
+
+def test_broken_set_among_good_ones_is_skipped_with_a_warning(capsys, tmp_path):
+    mixed = tmp_path / "mixed.tle"
+    good = (DATA / "passes_sats.tle").read_text()
+    lines = good.splitlines()[:3]
+    lines[0] = "BROKEN"
+    lines[2] = lines[2][:-1] + str((int(lines[2][-1]) + 1) % 10)
+    mixed.write_text(good + "\n".join(lines) + "\n")
+    code, out, err = run(capsys, "next", "ISS", "--tle", str(mixed), "--at", AT, *HERE)
+    assert code == 0 and out.startswith("ISS (ZARYA): next AOS")
+    warnings = [ln for ln in err.splitlines() if "skipped a broken element set" in ln]
+    assert len(warnings) == 1 and f"{mixed}:" in warnings[0] and "'BROKEN'" in warnings[0]
 
 
 def test_bad_config_exit_2(capsys, tmp_path):
@@ -148,8 +161,10 @@ def test_bad_config_exit_2(capsys, tmp_path):
     cfg.write_text("[station]\nlat_deg = 52\nlon_deg = 400\n")
     code, _, err = run(capsys, "passes", "ISS", "--tle", SATS, "--config", str(cfg))
     assert code == 2
-    assert f"{cfg}: [station] lon_deg = 400 is invalid; allowed: a number from -180 to 180" \
-        in err
+    # Only the error: no element-age warning or other note before it.
+    (line,) = err.strip().splitlines()
+    assert line == (f"tracker: error: {cfg}: [station] lon_deg = 400 is invalid; allowed: a "
+                    "number from -180 to 180")
 
 
 def test_config_station_used_and_flags_override(capsys, tmp_path):

@@ -170,3 +170,34 @@ def test_schedule_plans_into_a_mount_plan():
     assert np.all((plan.cmd_az_deg >= 0) & (plan.cmd_az_deg <= spec.az_span_deg))
     assert np.nanmin(plan.cmd_el_deg) >= 0.0
     assert len(plan.t_s) == len(track)
+
+
+def test_schedule_round_trips_into_a_step_table():
+    """File -> target -> pass -> GS-232 W table lines -> parsed back: every point the
+    controller will step to is the schedule's direction at that point's time (to the 1°
+    wire resolution plus the slow sweep's motion within a hold window)."""
+    steptable = pytest.importorskip("tracker.steptable")
+    from tracker.mount import preset
+    from tracker.skytrack import angular_separation_deg
+
+    target = ScheduleTarget.load(SWEEP)
+    p = find_rise_set(target, STATION, T18 - 3600, T18 + 3 * 3600)[0]
+    program = steptable.compile_pass(p.track(target, STATION, step_s=5.0), preset("G-5500"),
+                                     STATION, "gs232b", interval_s=10)
+    points = []
+    for line in program.lines():
+        kind, interval, nums = steptable.parse_table_line(line)
+        if kind == "W":
+            assert interval == 10
+            points += list(zip(nums[0::2], nums[1::2], strict=True))
+    t = np.concatenate([table.command_times() for table in program.tables])
+    assert len(points) == len(t) == program.points > 250  # 48 min at 10 s, one table
+    az = np.array([a for a, _ in points], dtype=float) % 360.0
+    el = np.array([e for _, e in points], dtype=float)
+    # Point 1 is the pre-position (before the schedule starts): the first row, 300/0.
+    assert (az[0], el[0]) == (300.0, 0.0)
+    want = target.observe(STATION, t[1:])
+    sep = angular_separation_deg(az[1:], el[1:], want.az_deg, want.el_deg)
+    assert np.all(np.isfinite(sep)) and sep.max() < 1.0
+    # The table really follows the sweep across north (300 -> 0 -> ~58 deg).
+    assert az[1:].max() > 350.0 and 50.0 < az[-1] < 65.0

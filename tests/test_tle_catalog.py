@@ -10,7 +10,7 @@ import pytest
 
 from tle.catalog import Catalog, age_warning
 from tle.checksum import compute_checksum
-from tle.errors import AmbiguousSatelliteError, UnknownSatelliteError
+from tle.errors import AmbiguousSatelliteError, TleFormatError, TleWarning, UnknownSatelliteError
 from tle.store import TleStore
 from tracker.clock import ManualClock
 
@@ -111,6 +111,38 @@ def test_load_skips_bad_sets_with_warnings():
                             DATA / "amateur5.json"], on_warning=seen.append)
     assert len(seen) == 2 and len(catalog) == 5
     assert not catalog.bundled
+
+
+def _only_broken(tmp_path: Path) -> Path:
+    """The shifted-column ISS set of shifted_column.txt on its own (lines 4-6)."""
+    bad = tmp_path / "only_bad.txt"
+    lines = (DATA / "shifted_column.txt").read_text().splitlines()[3:6]
+    bad.write_text("\n".join(lines) + "\n")
+    return bad
+
+
+def test_load_of_only_broken_sets_raises_the_first_fault(tmp_path):
+    bad = _only_broken(tmp_path)
+    seen: list[str] = []
+    with pytest.raises(TleFormatError, match=r"^no usable element set: " + re.escape(str(bad))
+                       + r":\d+: ") as info:
+        Catalog.load([bad], on_warning=seen.append)
+    assert seen == []  # the error replaces the warnings, it does not follow them
+    assert "layout:" in str(info.value)  # a misplaced column shows the expected layout
+
+
+def test_load_without_handler_warns_per_skipped_set():
+    with pytest.warns(TleWarning, match="skipped a broken element set") as record:
+        catalog = Catalog.load([DATA / "bad_checksum.txt", DATA / "amateur5.txt"])
+    assert len(catalog) == 5 and len(record) == 1
+
+
+def test_broken_cache_falls_back_to_nothing_not_an_error(tmp_path):
+    store = TleStore(cache_dir=tmp_path, clock=ManualClock(T0))
+    _only_broken(tmp_path)  # the store's cache dir now holds one all-broken file
+    seen: list[str] = []
+    catalog = Catalog.default(store, on_warning=seen.append)
+    assert len(catalog) == 0 and len(seen) >= 1
 
 
 def test_default_prefers_the_cache(tmp_path):

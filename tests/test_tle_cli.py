@@ -49,6 +49,9 @@ def test_list_and_show_on_the_bundled_snapshot(cache, capsys):
     assert "1 25544U 98067A   26234.50053383" in captured.out
     assert "tracker: warning: elements for ISS (ZARYA) are 13.5 days old" in captured.err
     assert "bundled element snapshot" in captured.err
+    assert main(["tle", "show", "ISS", "--at", "2026-10-05T00:00Z"]) == 0
+    err = capsys.readouterr().err
+    assert "tracker: WARNING: elements for ISS (ZARYA) are 43 days old" in err  # louder, once
 
 
 def test_update_then_list_then_show_from_cache(cache, capsys, celestrak):

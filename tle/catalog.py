@@ -12,17 +12,25 @@ from __future__ import annotations
 import difflib
 import re
 import statistics
+import warnings
 from collections.abc import Iterable, Iterator
 from datetime import datetime, timezone
 from pathlib import Path
 
 from tle.alpha5 import alpha5_to_int
 from tle.elements import ElementSet, WarningHandler, format_intl_designator, parse_text
-from tle.errors import AmbiguousSatelliteError, TleError, UnknownSatelliteError
+from tle.errors import (
+    AmbiguousSatelliteError,
+    TleError,
+    TleFormatError,
+    TleWarning,
+    UnknownSatelliteError,
+)
 
 AGE_WARN_DAYS = 7.0
 AGE_LOUD_DAYS = 30.0
 MAX_LISTED = 8
+SKIPPED_PREFIX = "skipped a broken element set: "  # what tle.elements/omm warn with
 
 # Nicknames people type that match several names otherwise ("ISS" is in both ISS (ZARYA) and
 # ISS (NAUKA)); each maps to the object everyone means. Only used if that id is loaded.
@@ -76,14 +84,31 @@ class Catalog:
 
     @classmethod
     def load(cls, paths: Iterable[str | Path], skip_bad: bool = True,
-             on_warning: WarningHandler | None = None) -> Catalog:
-        """Load TLE/3LE/OMM files; broken sets are skipped with one warning each by default."""
+             on_warning: WarningHandler | None = None, empty_is_error: bool = True
+             ) -> Catalog:
+        """Load TLE/3LE/OMM files; broken sets are skipped with one warning each by default.
+
+        If every set in the files is broken (nothing loaded), the first fault is raised as a
+        :class:`TleFormatError` instead (``empty_is_error``): a catalogue of nothing plus a
+        list of warnings would bury the one line that says what to fix.
+        """
         from tle.elements import load_file
 
+        faults: list[str] = []
         catalog = cls()
         for path in paths:
-            for es in load_file(path, skip_bad=skip_bad, on_warning=on_warning):
+            # Collect the skip warnings and pass them on once we know something loaded.
+            for es in load_file(path, skip_bad=skip_bad, on_warning=faults.append):
                 catalog.add(es)
+        if empty_is_error and faults and not catalog._by_id:
+            first = faults[0].removeprefix(SKIPPED_PREFIX)
+            more = f" (and {len(faults) - 1} more broken sets)" if len(faults) > 1 else ""
+            raise TleFormatError(f"no usable element set: {first}{more}")
+        for message in faults:
+            if on_warning is not None:
+                on_warning(message)
+            else:
+                warnings.warn(message, TleWarning, stacklevel=2)
         return catalog
 
     @classmethod
@@ -115,7 +140,7 @@ class Catalog:
             store = TleStore()
         paths = store.paths()
         if paths:
-            return cls.load(paths, skip_bad=True, on_warning=on_warning)
+            return cls.load(paths, skip_bad=True, on_warning=on_warning, empty_is_error=False)
         return cls.bundled_snapshot(on_warning=on_warning)
 
     def __iter__(self) -> Iterator[ElementSet]:

@@ -69,7 +69,7 @@ def window_s(args: argparse.Namespace) -> float:
 
 
 def targets_from_args(args: argparse.Namespace, now: datetime) -> list:
-    """Named targets, or every satellite of --group; prints element-age warnings."""
+    """Named targets, or every satellite of --group (age warnings: :func:`warn_element_age`)."""
     from tracker.errors import ConfigError
     from tracker.targets import SatelliteTarget
 
@@ -80,7 +80,6 @@ def targets_from_args(args: argparse.Namespace, now: datetime) -> list:
     else:
         raise ConfigError('name a target, e.g. tracker passes "ISS (ZARYA)", or a group, '
                           "e.g. tracker passes --group amateur")
-    warn_element_age(targets, now)
     return targets
 
 
@@ -131,8 +130,10 @@ def run(args: argparse.Namespace) -> int:
     clock = clock_from_args(args, manual=True)
     now = clock.now()
     targets = targets_from_args(args, now)
-    station = station_from_args(args, quiet=args.format != "table")
+    # Age warnings only once station and window are valid: an error is then the one line.
     end = now + timedelta(seconds=window_s(args))
+    station = station_from_args(args, quiet=args.format != "table")
+    warn_element_age(targets, now)
     passes = collect_passes(targets, station, now, end)
     note = ephemeris_note()
     if note and args.format == "table":
@@ -274,5 +275,6 @@ def write_table(passes, station, targets, start: datetime, end: datetime, out) -
         for r in rows:
             print("  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip(),
                   file=out)
-    if any(p.in_progress_at_start for p in passes):
+    # Only rows that carry the "*" (an always-up or up-at-start row says so itself).
+    if any(p.in_progress_at_start and p.aos_known and not p.always_up for p in passes):
         print("* already in progress at the window start (real start time shown)", file=out)

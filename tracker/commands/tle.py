@@ -131,7 +131,9 @@ def _show(args: argparse.Namespace) -> int:
             print(f"{key:<18} {es.omm[key]}")
     warning = age_warning(es, now)
     if warning:
-        print(f"tracker: warning: {warning}", file=sys.stderr)
+        # The loud (> 30 days) text already starts with "WARNING:".
+        label = "" if warning.startswith("WARNING") else "warning: "
+        print(f"tracker: {label}{warning}", file=sys.stderr)
     if catalog.bundled and catalog.note:
         print(f"tracker: note: {catalog.note}", file=sys.stderr)
     return 0
