@@ -3,7 +3,9 @@
 Data: CelesTrak's active catalogue of 2026-03-19 (../shared/tle/active.txt, 14,710 objects),
 window 2026-03-19 04:51 UTC + 7 days (see ../shared/tle/SOURCES.md), station Delft.
 
-Measured in one run, so every ratio compares figures taken under the same machine load:
+Measured in one run, so every ratio compares figures taken under the same machine load.
+Every timing is printed as wall time and as CPU time (this process plus its worker
+processes): on a machine shared with other jobs the CPU figures are the steadier ones.
 
 1. raw ``SatrecArray`` SGP4 rate (evaluations/s) - the ceiling for any SGP4-based finder;
 2. skyfield ``find_events`` in a loop over a sample of the first 1000 objects, scaled to 1000
@@ -41,34 +43,47 @@ def read_sets(path: Path):
     return [(lines[i], lines[i + 1], lines[i + 2]) for i in range(0, len(lines) - 2, 3)]
 
 
-def raw_sgp4_rate(satrecs) -> float:
+def cpu_s() -> float:
+    """CPU seconds of this process and of its finished children (the worker processes)."""
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + kids.ru_utime + kids.ru_stime
+
+
+def raw_sgp4_rate(satrecs) -> tuple[float, float]:
+    """(evaluations per wall second, per CPU second) of one SatrecArray call."""
     arr = SatrecArray(satrecs[:1000])
     jd0, fr0 = jday(2026, 3, 19, 4, 51, 0.0)
     fr = fr0 + np.arange(2016) * (300.0 / 86400.0)  # 7 days at 5 min
-    t = time.perf_counter()
-    arr.sgp4(np.full(fr.shape, jd0), fr)
-    return min(1000, len(satrecs)) * len(fr) / (time.perf_counter() - t)
+    n = min(1000, len(satrecs)) * len(fr)
+    (_, wall, cpu) = timed(lambda: arr.sgp4(np.full(fr.shape, jd0), fr))
+    return n / wall, n / cpu
 
 
-def skyfield_loop_s(sets, days: float) -> float:
+def skyfield_loop_s(sets, days: float) -> tuple[float, float]:
     from skyfield.api import EarthSatellite, load
 
     ts = load.timescale(builtin=True)
     topos = STATION.topos()
     t0, t1 = ts.from_datetime(START), ts.from_datetime(START + timedelta(days=days))
-    t = time.perf_counter()
-    n_events = 0
-    for name, l1, l2 in sets:
-        sat = EarthSatellite(l1, l2, name, ts)
-        times, _ = sat.find_events(topos, t0, t1, altitude_degrees=0.0)
-        n_events += len(times)
-    return time.perf_counter() - t
+
+    def loop():
+        for name, l1, l2 in sets:
+            sat = EarthSatellite(l1, l2, name, ts)
+            sat.find_events(topos, t0, t1, altitude_degrees=0.0)
+
+    _, wall, cpu = timed(loop)
+    return wall, cpu
 
 
 def timed(fn):
-    t = time.perf_counter()
+    """(result, wall seconds, CPU seconds incl. worker processes)."""
+    c, t = cpu_s(), time.perf_counter()
     out = fn()
-    return out, time.perf_counter() - t
+    return out, time.perf_counter() - t, cpu_s() - c
+
+
+def wc(wall: float, cpu: float) -> str:
+    return f"{wall:6.2f} s wall / {cpu:6.2f} s CPU"
 
 
 def evals(table) -> int:
@@ -105,27 +120,32 @@ def main() -> int:
           f"{DAYS:g} days; station {STATION.name} ({STATION.lat_deg}, {STATION.lon_deg})")
     print("(figures taken on the shared 2-core machine while other jobs were running)")
 
-    raw = raw_sgp4_rate(satrecs)
-    print(f"\n[1] raw SatrecArray SGP4 rate: {raw / 1e6:.2f} M evaluations/s")
+    raw, raw_cpu = raw_sgp4_rate(satrecs)
+    print(f"\n[1] raw SatrecArray SGP4 rate: {raw / 1e6:.2f} M evaluations/s wall, "
+          f"{raw_cpu / 1e6:.2f} M per CPU second")
 
     if not args.quick:
         rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
         tracemalloc.start()
-        full, t_full = timed(lambda: find_passes_batch(satrecs, names, [STATION], START, end))
+        full, t_full, _ = timed(lambda: find_passes_batch(satrecs, names, [STATION], START,
+                                                           end))
         _, peak = tracemalloc.get_traced_memory()
         tracemalloc.stop()
         rss1 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-        full1, t_full1 = timed(lambda: find_passes_batch(satrecs, names, [STATION], START,
-                                                         end))
-        full2, t_full2 = timed(lambda: find_passes_batch(satrecs, names, [STATION], START, end,
-                                                         workers=2))
+        full1, t_full1, c_full1 = timed(lambda: find_passes_batch(satrecs, names, [STATION],
+                                                                  START, end))
+        full2, t_full2, c_full2 = timed(lambda: find_passes_batch(satrecs, names, [STATION],
+                                                                  START, end, workers=2))
         same = all(np.array_equal(full1.passes[k], full2.passes[k])
                    for k in full1.passes.dtype.names)
         st = full1.stats
         print(f"\n[3] whole catalogue x {DAYS:g} days, 1 station: {len(full1)} passes, "
               f"{len(full1.errors)} satellites with SGP4 errors (reported)")
-        print(f"    1 process:   {t_full1:6.2f} s   (with tracemalloc on: {t_full:.2f} s)")
-        print(f"    2 processes: {t_full2:6.2f} s   identical result: {same}")
+        print(f"    1 process:   {wc(t_full1, c_full1)}   (with tracemalloc on: "
+              f"{t_full:.2f} s wall)")
+        print(f"    2 processes: {wc(t_full2, c_full2)}   identical result: {same}")
+        print(f"    target <= 15 s: 2 processes {t_full2:.1f} s wall; on an idle 2-core "
+              f"machine expect about CPU/2 = {c_full2 / 2:.1f} s")
         print(f"    SGP4 evaluations: {evals(full1) / 1e6:.2f} M (coarse "
               f"{st['sgp4_coarse'] / 1e6:.2f} M, fine {st['sgp4_fine'] / 1e6:.2f} M, refine "
               f"{st['sgp4_refine'] / 1e6:.2f} M); a plain 60 s grid would need "
@@ -133,30 +153,42 @@ def main() -> int:
         print(f"    screening kept {st['candidate_intervals'] / st['intervals']:.1%} of the "
               f"coarse intervals")
         print(f"    achieved {evals(full1) / t_full1 / 1e6:.2f} M evaluations/s end to end "
-              f"= {evals(full1) / t_full1 / raw:.0%} of the raw SatrecArray rate")
+              f"= {evals(full1) / t_full1 / raw:.0%} of the raw SatrecArray rate (wall); per "
+              f"CPU second {evals(full1) / c_full1 / 1e6:.2f} M = "
+              f"{evals(full1) / c_full1 / raw_cpu:.0%} of the raw rate")
         print(f"    peak memory: tracemalloc {peak / 2**20:.0f} MiB; ru_maxrss {rss1:.0f} MiB "
               f"(before the run {rss0:.0f} MiB)")
         del full, full1, full2
 
     first = slice(0, 1000)
     sat1k, names1k, sets1k = satrecs[first], names[first], sets[first]
-    one, t_one = timed(lambda: find_passes_batch(sat1k, names1k, [STATION], START, end))
+    one, t_one, c_one = timed(lambda: find_passes_batch(sat1k, names1k, [STATION], START,
+                                                        end))
+    _, t_two, c_two = timed(lambda: find_passes_batch(sat1k, names1k, [STATION], START, end,
+                                                      workers=2))
     step = max(1, len(sets1k) // args.sky_sample)
     sample = sets1k[::step]
-    t_sky = skyfield_loop_s(sample, DAYS)
-    t_sky_1000 = t_sky * len(sets1k) / len(sample)
+    t_sky, c_sky = skyfield_loop_s(sample, DAYS)
+    scale = len(sets1k) / len(sample)
+    t_sky_1000, c_sky_1000 = t_sky * scale, c_sky * scale
     print(f"\n[2] 1000 objects x {DAYS:g} days, 1 station:")
-    print(f"    batch finder: {t_one:.2f} s ({len(one)} passes)")
-    print(f"    skyfield find_events loop: {t_sky:.2f} s for {len(sample)} objects (every "
-          f"{step}th) -> {t_sky_1000:.1f} s scaled to 1000")
-    print(f"    speed-up: {t_sky_1000 / t_one:.1f}x")
+    print(f"    batch finder, 1 process:   {wc(t_one, c_one)} ({len(one)} passes)")
+    print(f"    batch finder, 2 processes: {wc(t_two, c_two)}")
+    print(f"    skyfield find_events loop: {wc(t_sky, c_sky)} for {len(sample)} objects "
+          f"(every {step}th) -> {t_sky_1000:.1f} s wall / {c_sky_1000:.1f} s CPU scaled to "
+          f"1000")
+    print(f"    speed-up, 1 process:   {t_sky_1000 / t_one:.1f}x wall, "
+          f"{c_sky_1000 / c_one:.1f}x CPU (target >= 20x)")
+    print(f"    speed-up, 2 processes: {t_sky_1000 / t_two:.1f}x wall (both cores; "
+          f"the skyfield loop uses one)")
 
     net = network(100)
-    hundred, t_100 = timed(lambda: find_passes_batch(sat1k, names1k, net, START, end))
-    single, t_1 = timed(lambda: find_passes_batch(sat1k, names1k, net[:1], START, end))
+    hundred, t_100, c_100 = timed(lambda: find_passes_batch(sat1k, names1k, net, START, end))
+    single, t_1, c_1 = timed(lambda: find_passes_batch(sat1k, names1k, net[:1], START, end))
     print(f"\n[4] 100 stations (global spiral) vs 1 station, 1000 objects x {DAYS:g} days:")
     print(f"    1 station: {t_1:.2f} s ({len(single)} passes); 100 stations: {t_100:.2f} s "
-          f"({len(hundred)} passes) -> {t_100 / t_1:.1f}x the time for 100x the stations")
+          f"({len(hundred)} passes) -> {t_100 / t_1:.1f}x the time for 100x the stations "
+          f"(CPU: {c_1:.2f} s vs {c_100:.2f} s -> {c_100 / c_1:.1f}x)")
     print(f"    SGP4 evaluations: {evals(single) / 1e6:.2f} M vs {evals(hundred) / 1e6:.2f} M")
     return 0
 

@@ -165,3 +165,34 @@ def test_sky_plots_of_planned_passes(capsys, tmp_path):
     code, _, err = run(capsys, "batch", "amateur", "--lat", "52", "--lon", "4.37", "--at", AT,
                        "--sky-plots", str(folder))
     assert code == 2 and "--sky-plots needs --rotator" in err
+
+
+def test_dask_missing_is_one_clear_line(tmp_path):
+    """The base install has no dask: ``--dask`` says which extra to install (exit 2)."""
+    # None in sys.modules makes ``import dask...`` fail exactly as when it is not installed.
+    code = ("import sys; sys.modules['dask'] = sys.modules['distributed'] = None; "
+            "from tracker.cli import main; sys.exit(main(sys.argv[1:]))")
+    proc = subprocess.run([sys.executable, "-c", code, "batch", "amateur", "--lat", "52",
+                           "--lon", "4.37", "--at", AT, "--days", "0.1", "--dask"],
+                          capture_output=True, text=True, timeout=120,
+                          env={"PATH": "/usr/bin:/bin", "XDG_CONFIG_HOME": str(tmp_path),
+                               "XDG_CACHE_HOME": str(tmp_path), "HOME": str(tmp_path)})
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr == ("tracker: error: --dask needs dask.distributed: pip install "
+                           "'rotator-tracker[dask]'\n")
+
+
+def test_json_meta_and_schedule_fields_are_documented(capsys):
+    doc_text = (Path(__file__).parent.parent / "docs" / "batch-json-schema.md").read_text()
+    code, out, err = run(capsys, "schedule", "amateur", "--lat", "52", "--lon", "4.37",
+                         "--at", AT, "--days", "0.3", "--min-max-el", "20", "--format", "json",
+                         "--rotator", "G-5500", "--all")
+    assert code == 0, err
+    doc = json.loads(out)
+    assert set(doc) == {"schema", "meta", "passes", "errors"}
+    for key in doc["meta"]:
+        assert f"`{key}`" in doc_text, f"meta.{key} is not documented"
+    assert doc["passes"]
+    for p in doc["passes"]:
+        for key in p:
+            assert f"`{key}`" in doc_text, f"passes[].{key} is not documented"

@@ -61,3 +61,10 @@ def test_unreachable_scheduler_is_a_clear_error():
     with pytest.raises(ConfigError, match="cannot reach the Dask scheduler"):
         find_passes_dask(sets()[:3], STATIONS, START, START + timedelta(hours=1),
                          address="tcp://127.0.0.1:9", connect_timeout_s=1.0)
+
+
+@pytest.mark.parametrize("address", ["foo:bar", "xyz://host:1"])
+def test_malformed_scheduler_address_is_a_clear_error(address):
+    with pytest.raises(ConfigError, match="not a scheduler address"):
+        find_passes_dask(sets()[:3], STATIONS, START, START + timedelta(hours=1),
+                         address=address, connect_timeout_s=1.0)

@@ -177,3 +177,32 @@ def test_stations_toml_errors(tmp_path):
     path.write_text("[[station]\n")
     with pytest.raises(ConfigError, match=r"st\.toml"):
         load_stations(path)
+
+
+def test_memory_is_bounded_by_chunking_not_by_catalogue_size():
+    """The working set follows ``memory_mb``: four times the catalogue adds only the result
+    rows (and the merge's copies of them), not four times the sample arrays."""
+    import tracemalloc
+
+    sets = read_sets(HERE / "data" / "batch_active_sample.txt")
+    satrecs = [Satrec.twoline2rv(a, b) for _, a, b in sets]
+    names = [n for n, _, _ in sets]
+    start = datetime(2026, 3, 19, 4, 51, tzinfo=timezone.utc)
+    end = start + timedelta(days=2)
+    station = [Station("Boulder", 40.0, -105.3, 1650.0)]
+    find_passes_batch(satrecs[:3], names[:3], station, start, end)  # load skyfield data first
+    budget_mb = 8.0
+    peaks_mb, tables = [], []
+    for k in (1, 4):
+        tracemalloc.start()
+        try:
+            tables.append(find_passes_batch(satrecs * k, names * k, station, start, end,
+                                            memory_mb=budget_mb))
+            peaks_mb.append(tracemalloc.get_traced_memory()[1] / 2**20)
+        finally:
+            tracemalloc.stop()
+    one, four = tables
+    assert len(four) == 4 * len(one) > 2000
+    result_mb = four.passes.nbytes / 2**20
+    assert peaks_mb[1] < 3 * budget_mb, peaks_mb
+    assert peaks_mb[1] - peaks_mb[0] < 4 * result_mb + 2.0, (peaks_mb, result_mb)

@@ -5,6 +5,8 @@ from __future__ import annotations
 import csv
 import io
 import json
+import os
+import stat
 from datetime import datetime, timedelta, timezone
 from pathlib import Path
 
@@ -137,3 +139,30 @@ def test_write_atomic_failed_rename_keeps_what_is_there(tmp_path):
 def test_records_carry_clipping_and_flags(table, records):
     assert [r["aos_clipped"] for r in records] == table.passes["aos_clipped"].tolist()
     assert np.array_equal([r["sunlit"] for r in records], table.passes["sunlit"])
+
+
+def test_clipped_passes_say_so_in_the_calendar(records):
+    clipped = [r for r in records if r["aos_clipped"] or r["los_clipped"]]
+    assert clipped  # a one-day window over GEO/long passes cuts some at the edges
+    cal = icalendar.Calendar.from_ical(to_ics(records, START.timestamp()))
+    by_uid = {str(e["UID"]): str(e["DESCRIPTION"]) for e in cal.walk("VEVENT")}
+    for rec in records:
+        desc = by_uid[pass_uid(rec)]
+        assert ("already up at the window start" in desc) == rec["aos_clipped"]
+        assert ("still up at the window end" in desc) == rec["los_clipped"]
+
+
+def test_write_atomic_gives_normal_file_permissions(tmp_path):
+    # mkstemp creates 0600 files; the output must get what open() would give instead, and an
+    # existing file keeps its own mode.
+    umask = os.umask(0o022)
+    try:
+        fresh = write_atomic(tmp_path / "new.ics", "x\r\n")
+        assert stat.S_IMODE(fresh.stat().st_mode) == 0o644
+        kept = tmp_path / "kept.csv"
+        kept.write_text("old\n")
+        kept.chmod(0o640)
+        write_atomic(kept, "new\n")
+        assert stat.S_IMODE(kept.stat().st_mode) == 0o640 and kept.read_text() == "new\n"
+    finally:
+        os.umask(umask)

@@ -128,6 +128,12 @@ def _description(rec: dict) -> str:
              f"LOS {rec['los']} az {rec['los_az_deg']:.0f}",
              f"sunlit: {'yes' if rec['sunlit'] else 'no'}, "
              f"visible: {'yes' if rec['visible'] else 'no'}"]
+    # A clipped pass's DTSTART/DTEND are the window edges, not a rise or a set: say so.
+    if rec.get("aos_clipped"):
+        parts.append("already up at the window start (AOS shown is the start)")
+    if rec.get("los_clipped"):
+        parts.append("still up at the window end, or the elements stopped propagating "
+                     "(LOS shown is that time)")
     plan = rec.get("plan")
     if plan:
         parts.append(f"plan: {plan['mode']}, predicted max error {plan['max_error_deg']} deg, "
@@ -183,6 +189,15 @@ def render(fmt: str, records: Sequence[dict], *, meta: dict | None = None,
     raise ConfigError(f"--format {fmt!r} is unknown; use one of {', '.join(FORMATS)}")
 
 
+def _target_mode(path: Path) -> int:
+    try:
+        return path.stat().st_mode & 0o7777
+    except OSError:
+        umask = os.umask(0o022)
+        os.umask(umask)
+        return 0o666 & ~umask
+
+
 def write_atomic(path: str | Path, text: str) -> Path:
     """Write ``text`` to ``path`` via a temporary file in the same folder and a rename, so a
     failure leaves any existing file untouched. ICS keeps its CRLF line ends byte for byte."""
@@ -195,6 +210,9 @@ def write_atomic(path: str | Path, text: str) -> Path:
     except OSError as e:
         raise ConfigError(f"--out {path}: cannot write there: {e.strerror}") from None
     try:
+        # mkstemp makes the file 0600; give it what a plain open() would (the existing
+        # file's mode, else 0666 less the umask) so a shared calendar stays readable.
+        os.fchmod(fd, _target_mode(path))
         with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
             f.write(text)
             f.flush()

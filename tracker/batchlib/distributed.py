@@ -49,6 +49,12 @@ def _client(address: str | None, n_workers: int, processes: bool, timeout_s: flo
             return Client(address, timeout=f"{timeout_s}s"), None
         except OSError as e:
             raise ConfigError(f"cannot reach the Dask scheduler at {address}: {e}") from None
+        except (ValueError, TypeError) as e:
+            # distributed parses the address itself; a typo (bad port, unknown scheme)
+            # surfaces as ValueError/TypeError rather than a connection error.
+            raise ConfigError(f"--dask {address}: not a scheduler address ({e}); give "
+                              f"e.g. tcp://host:8786, or no address for a local "
+                              f"cluster") from None
     cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=processes,
                            dashboard_address=None)
     return Client(cluster), cluster
