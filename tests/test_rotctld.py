@@ -175,3 +175,43 @@ def test_daemon_gone_is_reported_not_hung():
         drv.position()
     assert time.monotonic() - t < 2.0
     drv.close()
+
+
+@pytest.mark.hamlib
+@pytest.mark.slow
+@needs_hamlib
+def test_tracker_track_through_rotctld_to_the_gs232b_emulator(tmp_path, capsys, monkeypatch):
+    """``tracker track --protocol rotctld`` as a user runs it: a whole ISS pass through a
+    real ``rotctld -m 603`` to the project's GS-232B emulator on a pty, all-stop at the end."""
+    import json
+
+    from tracker.cli import main
+
+    speed = 50.0      # rotctld paces its GS-232B backend in real time (50 ms per write)
+    clock = SimClock(datetime.fromisoformat("2026-08-23T02:06:05+00:00"), speed=speed)
+    ctrl = Gs232Controller("gs232b", preset("G-5500"), clock)
+    server = serve_pty(ctrl)
+    proc, port = _start_rotctld("-m", "603", "-r", server.url)
+    cfg = tmp_path / "empty.toml"
+    cfg.write_text("")
+    monkeypatch.setenv("TRACKER_CONFIG", str(cfg))
+    log = tmp_path / "track.jsonl"
+    try:
+        rc = main(["track", "ISS (ZARYA)", "--protocol", "rotctld", "--port",
+                   f"127.0.0.1:{port}", "--at", "2026-08-23T02:06:05Z", "--speed", str(speed),
+                   "--plain", "--stay", "--log", str(log)])
+    finally:
+        proc.terminate()
+        proc.wait(5)
+        server.close()
+    assert rc == 0, capsys.readouterr()
+    recs = [json.loads(line) for line in log.read_text().splitlines()]
+    gotos = [r for r in recs if r["kind"] == "command" and r["cmd"] == "goto"]
+    done = [r for r in recs if r["kind"] == "state" and r.get("state") == "pass_done"]
+    assert len(gotos) >= 5 and len(done) == 1
+    # the emulated antenna really went where the tracker sent it last (--stay), through
+    # rotctld, and rotctld passed the final all-stop on
+    az, el = ctrl.antenna()
+    assert abs(az - gotos[-1]["az_m"]) <= 1.0 and abs(el - gotos[-1]["el"]) <= 1.0
+    lines = [line for _t, line, _r in ctrl.log]
+    assert b"S" in lines[-4:]

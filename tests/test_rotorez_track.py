@@ -20,7 +20,9 @@ from tracker.protocols import open_driver
 from tracker.station import Station
 from tracker.stream import Link, StreamSettings, TrackCore, run_pass
 
-SPEED = 100.0
+# Simulated seconds per real second: low enough that a loaded machine (a write that goes out
+# late is a command late in simulated time) does not show up as pointing error.
+SPEED = 25.0
 # The Rotor-EZ, DCU-1 and SAK-232 take true bearings (controller_maps_south); the AZ/AZ
 # antenna-2 channel takes mechanical degrees like a GS-232.
 BEARINGS = preset("G-400").with_(name="G-400-bearings", controller_maps_south=True,
@@ -106,3 +108,44 @@ def test_tracker_track_cli_drives_a_rotor_ez(tmp_path, capsys, monkeypatch):
     assert sum(c.startswith(b"AP1") for c in cmds) == len(gotos)
     assert cmds[-1] == b";"                       # all-stop last
     assert b"AI1;" in cmds
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("protocol", ["rotorez", "dcu1", "sak232", "gs232b-azaz2"])
+def test_tracker_track_demo_serves_the_protocols_own_emulator(tmp_path, capsys, monkeypatch,
+                                                              protocol):
+    """``tracker track --protocol X`` without ``--port``: the simulated pass runs on X's own
+    emulator and rotator (not the GS-232B one), and an open-loop protocol says that the
+    antenna shown is the motor model's estimate."""
+    import json
+
+    from tracker.cli import main
+
+    cfg = tmp_path / "empty.toml"
+    cfg.write_text("")
+    monkeypatch.setenv("TRACKER_CONFIG", str(cfg))
+    log = tmp_path / "track.jsonl"
+    rc = main(["track", "ISS (ZARYA)", "--protocol", protocol, "--at",
+               "2026-08-23T02:06:05Z", "--speed", "150", "--plain", "--log", str(log)])
+    out, err = capsys.readouterr()
+    assert rc == 0, err
+    emulator = "gs232b-azaz" if protocol == "gs232b-azaz2" else protocol
+    assert f"SIMULATION: built-in {emulator} emulator" in out
+    open_loop = "no position query: tracking open loop" in out
+    assert open_loop == (protocol in ("dcu1", "sak232")), out
+    recs = [json.loads(line) for line in log.read_text().splitlines()]
+    gotos = [r for r in recs if r["kind"] == "command" and r["cmd"] == "goto"]
+    assert len(gotos) >= 5
+    assert any(r["kind"] == "state" and r.get("state") == "pass_done" for r in recs)
+
+
+def test_tracker_track_rotctld_needs_a_port(tmp_path, capsys, monkeypatch):
+    from tracker.cli import main
+
+    cfg = tmp_path / "empty.toml"
+    cfg.write_text("")
+    monkeypatch.setenv("TRACKER_CONFIG", str(cfg))
+    rc = main(["track", "ISS (ZARYA)", "--protocol", "rotctld"])
+    _out, err = capsys.readouterr()
+    assert rc == 2 and err.startswith("tracker: error:") and "--port" in err
+    assert len(err.strip().splitlines()) == 1

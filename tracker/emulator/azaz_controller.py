@@ -16,7 +16,10 @@ real GS-232B (``?>`` for invalid ones); while synced every command-set-3 command
 MB, XB, ZB, P36B, P45B, TB, NB) is ignored silently, as the proposal says, but ``B`` and
 ``C2`` still answer; synced azimuth-1 commands (M, W, R, L, A, X, tables) drive azimuth 2 to
 azimuth 1's target + offset, and W's second value is ignored; ``S`` stops both
-(``s_stops`` = "az1" / "az2" makes it configurable, as the proposal suggests).
+(``s_stops`` = "az1" / "az2" makes it configurable, as the proposal suggests). The
+calibration commands ``O2B``/``FB``/``FB2`` are not emulated and answer ``?>`` (the proposal
+maps them to O2/F/F2 without saying how they differ from the elevation channel's own ``O2``
+and ``F2``, which calibrate azimuth 2 here).
 """
 
 from __future__ import annotations
