@@ -35,6 +35,46 @@ def test_presets_are_valid_and_have_published_rates():
         assert name in PRESETS
 
 
+@pytest.mark.parametrize("name, span, stop, el_max, n_speeds", [
+    ("G-5500", 450, 0, 180, 0),
+    # the GS-232B manual has the G-400 and G-5400B/G-5600B set to 360 deg mode (P36)
+    ("G-5400B", 360, 180, 180, 0),
+    ("G-5600B", 360, 180, 180, 0),
+    ("G-800DXA", 450, 0, None, 4),
+    ("G-1000DXA", 450, 0, None, 4),
+    ("G-2800DXA", 450, 0, None, 4),
+    ("G-400", 360, 180, None, 0),
+    ("generic-k3ng", 360, 180, 90, 0),
+])
+def test_every_preset(name, span, stop, el_max, n_speeds):
+    spec = preset(name)
+    assert spec is PRESETS[name] and preset(name.lower()) == spec
+    assert (spec.az_span_deg, spec.stop_bearing_deg, spec.el_max_deg) == (span, stop, el_max)
+    assert spec.has_elevation == (el_max is not None)
+    assert spec.has_elevation == (spec.el_rate_deg_s is not None)
+    assert len(spec.az_speed_rates_deg_s) == n_speeds
+    if n_speeds:  # X1 slowest .. X4 fastest; the default rate is the fastest step
+        rates = spec.az_speed_rates_deg_s
+        assert list(rates) == sorted(rates) and rates[-1] == pytest.approx(spec.az_rate_deg_s,
+                                                                        rel=1e-3)
+    slow = preset(name, 50)
+    if name.startswith("G-") and "DXA" not in name:  # AC motors: 5/6 of the 60 Hz speed
+        assert slow.az_rate_deg_s == pytest.approx(spec.az_rate_deg_s * 5 / 6)
+        assert slow.name == f"{name}@50Hz"
+        if spec.has_elevation:
+            assert slow.el_rate_deg_s == pytest.approx(spec.el_rate_deg_s * 5 / 6)
+    else:  # DC drives and the K3NG's own speed control do not care about mains
+        assert slow == spec
+
+
+def test_dxa_speed_steps_span_the_published_rotation_times():
+    for name, fastest_s, slowest_s in (("G-800DXA", 43, 99), ("G-1000DXA", 40, 100),
+                                       ("G-2800DXA", 50, 110)):
+        rates = preset(name).az_speed_rates_deg_s
+        assert 360 / rates[0] == pytest.approx(slowest_s, rel=1e-3)
+        assert 360 / rates[-1] == pytest.approx(fastest_s, rel=1e-3)
+
+
 def test_unknown_preset_and_mains():
     with pytest.raises(ConfigError, match="known presets"):
         preset("G-9999")
@@ -51,6 +91,9 @@ def test_unknown_preset_and_mains():
     ({"stop_bearing_deg": 360}, "stop_bearing_deg"),
     ({"park_az_deg": 400, "az_span_deg": 360}, "park_az_deg"),
     ({"az_speed_rates_deg_s": (1.0, 0.0)}, "az_speed_rates_deg_s[1]"),
+    ({"az_speed_rates_deg_s": (1.0, "x")}, "az_speed_rates_deg_s[1]"),
+    ({"start_delay_s": -1}, "start_delay_s"),
+    ({"resolution_deg": 0}, "resolution_deg"),
 ])
 def test_bad_specs_name_the_field(fields, key):
     with pytest.raises(ConfigError, match=re.escape(key)):

@@ -39,6 +39,38 @@ def assert_safe(plan: MountPlan, station: Station = STATION) -> None:
         assert 0 <= move.az_deg <= spec.az_span_deg
         if spec.has_elevation:
             assert boresight_horizon_ok(spec, station, move.az_deg, move.el_deg)
+    assert moves_clear_the_mask(plan, station)
+
+
+def moves_clear_the_mask(plan: MountPlan, station: Station) -> bool:
+    """Pre-position and park moves keep the boresight above the mask *along the way*.
+
+    Each move must turn one axis only and be sent after the previous one has arrived (by the
+    spec's rate and start delay), so the path between two commanded points is known: an
+    azimuth sweep at a fixed elevation (checked over every swept degree) or an elevation
+    change at a fixed azimuth (above the mask at both ends -> above it in between).
+    """
+    spec = plan.spec
+    if not spec.has_elevation:
+        return True
+    tracks = ((plan.preposition_moves, plan.meta["current"]), (plan.park_moves,
+              (float(plan.cmd_az_deg[-1]), float(plan.cmd_el_deg[-1]))))
+    for moves, start in tracks:
+        pos, ready_s = start, -np.inf
+        for mv in moves:
+            if pos is not None:
+                d_az, d_el = abs(mv.az_deg - pos[0]), abs(mv.el_deg - pos[1])
+                assert d_az < 1e-9 or d_el < 1e-9, f"two axes at once: {pos} -> {mv}"
+                assert mv.t_s >= ready_s - 1e-6, "sent before the previous move arrived"
+                if d_az > 1e-9:
+                    swept = np.linspace(pos[0], mv.az_deg, int(d_az) + 2)
+                    if not boresight_horizon_ok(spec, station, swept,
+                                                np.full(len(swept), mv.el_deg)).all():
+                        return False
+                rate = spec.az_rate_deg_s if d_az > 1e-9 else spec.el_rate_deg_s
+                ready_s = mv.t_s + spec.start_delay_s + max(d_az, d_el) / rate
+            pos = (mv.az_deg, mv.el_deg)
+    return True
 
 
 def no_stop_crossing_while_tracking(plan: MountPlan) -> bool:
@@ -139,6 +171,25 @@ def test_preposition_and_park_are_mask_safe():
     assert plan.park_moves[0].t_s > plan.t_s[plan.visible][-1]
 
 
+@pytest.mark.parametrize("spec, track, current", [
+    (G5500, synthetic_pass(40, 0), (440.0, 0.0)),  # overlap, swept from the far end
+    (preset("G-5400B", 50), synthetic_pass(35, 180), (0.0, 0.0)),  # flip: el 0 -> over the top
+    (G5500, synthetic_pass(89, 30, 480), (200.0, 170.0)),  # keyhole from a flipped position
+    (NORTH_360.with_(name="n360-el90", el_max_deg=90), synthetic_pass(40, 0), (300.0, 0.0)),
+])
+def test_preposition_and_park_sweep_over_a_wall(spec, track, current):
+    # a 30 deg wall from 20 to 160 deg and a 10 deg one behind: any azimuth sweep at low
+    # elevation would cross it, so every move must climb first
+    mask = HorizonMask((0.0, 20.0, 160.0, 200.0, 340.0), (10.0, 30.0, 30.0, 10.0, 10.0))
+    station = Station("walled", 48.0, 11.0, 0.0, mask=mask)
+    if not np.any(track.el_deg >= station.horizon_at(track.az_deg)):
+        pytest.skip("hidden by the mask")
+    current = (current[0], min(current[1], spec.el_max_deg))
+    plan = plan_pass(track, spec, station, current=current)
+    assert_safe(plan, station)
+    assert plan.preposition_moves and plan.park_moves
+
+
 def test_mask_lifts_commands():
     mask = HorizonMask((0.0, 180.0), (15.0, 15.0))
     station = Station("walled", 48.0, 11.0, 0.0, mask=mask)
@@ -165,7 +216,7 @@ def test_az_only_rotator_error_is_azimuth_only():
 
 
 def test_current_position_outside_the_limits_is_refused():
-    with pytest.raises(LimitError, match="outside rotator"):
+    with pytest.raises(LimitError, match="outside the limits of rotator"):
         plan_pass(synthetic_pass(40, 0), G5500, STATION, current=(999.0, 0.0))
 
 

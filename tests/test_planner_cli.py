@@ -71,3 +71,61 @@ def test_plan_runs_as_a_program(tmp_path):
                               "PATH": "/usr/bin:/bin", "HOME": str(tmp_path)})
     assert res.returncode == 0, res.stderr
     assert "mode: " in res.stdout
+
+
+ROOF = """
+[station]
+lat_deg = 48.15
+lon_deg = 11.57
+
+[rotator.roof]
+preset = "G-5500"
+mains_hz = 50
+az_span_deg = 360
+el_max_deg = 170
+park_az_deg = 180
+"""
+
+
+def test_plan_uses_a_rotator_from_the_config_file(tmp_path, capsys):
+    cfg = tmp_path / "tracker.toml"
+    cfg.write_text(ROOF)
+    assert main(["plan", "ISS", "--pass", "5", "--rotator", "roof", "--config", str(cfg),
+                 "--format", "json", "--at", "2026-08-23T00:00Z"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["rotator"] == "roof"
+    assert data["park_moves"][-1]["az_deg"] == 180  # the section's park position
+    for c in data["candidates"]:  # flips are clamped at the section's el max, not 180
+        if c["mode"] == "flip":
+            assert "clamped at 170" in c["note"]
+
+
+@pytest.mark.parametrize("override, field", [
+    ("stop_bearing_deg = 360", "stop_bearing_deg = 360"),
+    ("az_rate_deg_s = 0", "az_rate_deg_s = 0"),
+    ("el_rate_deg_s = -1", "el_rate_deg_s = -1"),
+    ("az_speed_rates_deg_s = [1, \"x\"]", "az_speed_rates_deg_s[1]"),
+])
+def test_bad_rotator_section_is_one_line_exit_2(override, field, tmp_path, capsys):
+    cfg = tmp_path / "tracker.toml"
+    cfg.write_text(ROOF + override + "\n")
+    assert main(["plan", "ISS", "--rotator", "roof", "--config", str(cfg), *AT]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("tracker: error: ") and err.count("\n") == 1
+    assert "[rotator.roof]" in err and field in err
+
+
+def test_plot_to_an_unwritable_path_is_one_line_exit_2(tmp_path, capsys):
+    pytest.importorskip("matplotlib")
+    assert main(["plan", "AO-7", "--plot", str(tmp_path / "no" / "sky.png"), *AT]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("tracker: error: --plot") and "cannot write" in err
+    assert "Traceback" not in err
+
+
+def test_mains_hz_flag_is_refused_for_a_config_rotator(tmp_path, capsys):
+    cfg = tmp_path / "tracker.toml"
+    cfg.write_text(ROOF)
+    assert main(["plan", "ISS", "--rotator", "roof", "--mains-hz", "60", "--config", str(cfg),
+                 "--at", "2026-08-23T00:00Z"]) == 2
+    assert "mains_hz = 60 in that section" in capsys.readouterr().err

@@ -66,6 +66,10 @@ def test_commands_stay_within_limits_and_mask(spec, track, station, current):
         assert boresight_horizon_ok(spec, station, plan.cmd_az_deg, plan.cmd_el_deg).all()
         for m in plan.preposition_moves + plan.park_moves:
             assert boresight_horizon_ok(spec, station, m.az_deg, m.el_deg)
+        # ... and along the way: one axis at a time, each sweep above the mask
+        from test_planner import moves_clear_the_mask
+
+        assert moves_clear_the_mask(plan, station)
     for m in plan.preposition_moves + plan.park_moves:
         assert 0 <= m.az_deg <= spec.az_span_deg
     assert plan.lost_track_s <= float(np.sum(plan.visible)) + 1

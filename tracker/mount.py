@@ -77,7 +77,8 @@ class RotatorSpec:
         if not (self.az_rate_deg_s > 0 and math.isfinite(self.az_rate_deg_s)):
             raise bad("az_rate_deg_s", self.az_rate_deg_s, "a finite number > 0")
         for i, r in enumerate(self.az_speed_rates_deg_s):
-            if not (r > 0 and math.isfinite(r)):
+            if isinstance(r, bool) or not isinstance(r, (int, float)) or not (
+                    r > 0 and math.isfinite(r)):
                 raise bad(f"az_speed_rates_deg_s[{i}]", r, "finite numbers > 0")
         if self.has_elevation:
             if not (0.0 <= self.el_min_deg < self.el_max_deg <= 180.0):
@@ -134,6 +135,8 @@ def _rate(seconds: float, degrees: float) -> float:
 # spec tables as recalled; they were NOT re-verified against a stored copy of the catalogue in
 # this repository, so measure your own rotator (time a full turn) and override the rate in
 # [rotator.NAME] when it matters.
+# The 360 deg spans of the G-400 and G-5400B/G-5600B follow the GS-232B manual, which has
+# them set to 360 deg mode (P36) at installation (../shared/seeds/000_*, 'P36').
 # AC motors turn in proportion to mains frequency: at 50 Hz they take 6/5 as long.
 
 

@@ -494,9 +494,10 @@ def _context(track: SkyTrack, spec: RotatorSpec, station: Station,
     if not az_lo <= current[0] <= az_hi or (
             el_lim is not None and not el_lim[0] <= current[1] <= el_lim[1]):
         raise LimitError(f"current antenna position (az {current[0]:g}, el {current[1]:g}) is "
-                         f"outside rotator {spec.name!r}'s limits (mechanical az "
+                         f"outside the limits of rotator {spec.name!r} (mechanical az "
                          f"{az_lo:g}-{az_hi:g}" + (f", el {el_lim[0]:g}-{el_lim[1]:g})"
-                                                   if el_lim else ")"))
+                                                   if el_lim else ")")
+                         + "; give the position in mechanical degrees within them")
     mask_max = float(np.max(station.horizon_at(np.arange(0.0, 360.0, 1.0))))
     return _Ctx(track, spec, station, t, weights, visible, ia, ib, float(lead_s),
                 float(threshold_deg), (float(current[0]), float(current[1])), mask_max)
@@ -533,7 +534,8 @@ def _assemble(ctx: _Ctx, chosen: _Result, results: list[_Result], reason: str,
         preposition=start, preposition_moves=pre_moves, park_moves=park_moves,
         max_error_deg=s.max_error_deg, mean_error_deg=s.mean_error_deg,
         p99_error_deg=s.p99_error_deg, lost_track_s=s.lost_track_s, travel_deg=s.travel_deg,
-        motor_starts=s.motor_starts, threshold_deg=ctx.threshold_deg, lead_s=ctx.lead_s)
+        motor_starts=s.motor_starts, threshold_deg=ctx.threshold_deg, lead_s=ctx.lead_s,
+        meta={"current": ctx.current})
 
 
 def plan_pass(track: SkyTrack, spec: RotatorSpec, station: Station,

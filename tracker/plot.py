@@ -79,6 +79,11 @@ def sky_plot(plan: MountPlan, station: Station, path: str | Path) -> Path:
                  f"travel {plan.travel_deg:.0f}°", fontsize=10)
     ax.legend(loc="lower left", bbox_to_anchor=(-0.1, -0.12), fontsize=8, ncol=3)
     fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
+    try:
+        fig.savefig(path)
+    except OSError as e:  # missing directory, no permission: a user error, not a crash
+        raise ConfigError(f"--plot {path}: cannot write the file ({e.strerror or e}); "
+                          f"choose a path in an existing, writable directory") from None
+    finally:
+        plt.close(fig)
     return path
