@@ -58,11 +58,11 @@ class Rig:
     """SimClock + emulator (pty or TCP) + driver, started just before the first upload."""
 
     def __init__(self, program, protocol="gs232b", spec=G5500, transport="pty",
-                 start_s=None):
+                 start_s=None, az_deg=None):
         first = program.tables[0]
         t0 = first.upload_t_s - 2.0 if start_s is None else start_s
         self.clock = SimClock(datetime.fromtimestamp(t0, timezone.utc), speed=SPEED)
-        az0 = float(program.tables[0].az_deg[0])
+        az0 = float(program.tables[0].az_deg[0]) if az_deg is None else az_deg
         el0 = None if spec.el_max_deg is None else float(program.tables[0].el_deg[0])
         self.ctrl = Gs232Controller(protocol, spec, clock=self.clock, az_deg=az0, el_deg=el0)
         self.server = serve_pty(self.ctrl) if transport == "pty" else serve_tcp(self.ctrl)
@@ -371,3 +371,78 @@ def test_garbled_replies_are_asked_again_not_resynced():
     assert any("unreadable" in m or "not confirmed" in m for m in logs), logs
     assert not report.resyncs and report.tables_sent == 1
     assert err.max() <= prog.prediction.max_error_deg + 0.5
+
+
+def _flicker_table(start_t_s: float, n: int = 12):
+    """A low pass as the compiler makes it: el held at 2 with a 1-deg blip to 3 every 5 s
+    (the best integer point for that hold window), az creeping down 1 deg per blip."""
+    pts = [(124 - k // 5, 3 if k % 5 == 1 else 2) for k in range(n)]
+    return tables_from_points("W", 1, pts, PROFILES["gs232b"], start_t_s=start_t_s)
+
+
+@pytest.mark.parametrize("spec", [G5500, None], ids=["G-5500", "no-spec"])
+def test_stall_watch_el_blip_up_and_back_is_not_a_jam(spec):
+    # Regression: `tracker upload ISS` on the emulator stopped 4 runs in 5 with "el reads 3,
+    # the motor model has it at 2.0": the axis had gone 3 -> 2 -> 3 again between readings,
+    # and the slow/late model had not yet started the last move back up.
+    from tracker.upload import _StallWatch
+
+    table = _flicker_table(1000.0)
+    times = table.command_times()
+    watch = _StallWatch(spec)
+    watch.start(table, times[0])
+    watch.t_sent(times[1])
+    # Read 3 while holding the first blip, then 3 again just after the next blip began.
+    watch.add(times[1] + 0.9, times[1] + 0.91, 124.0, 3.0)
+    t_now = times[6] + 0.76
+    assert watch.stalled(t_now, 123.0, 3.0, t_now + 0.01) is None
+    # The same watch still catches an el axis that really stuck at 3 on the way down.
+    assert watch.stalled(times[3] + 0.5, 124.0, 3.0, times[3] + 0.51) is not None
+
+
+@pytest.mark.parametrize("spec", [G5500, None], ids=["G-5500", "no-spec"])
+def test_el_blips_over_a_socket_run_to_the_end_without_a_false_stall(spec):
+    from types import SimpleNamespace
+
+    table = _flicker_table(1_800_000_000.0, n=80)
+    table = type(table)(**{**table.__dict__, "upload_t_s": table.start_t_s - 2.0,
+                           "arrive_t_s": table.start_t_s - 1.5})
+    with Rig(SimpleNamespace(tables=[table]), transport="tcp") as rig:
+        logs: list[str] = []
+        report = TableRunner(rig.driver(), rig.clock, poll_s=0.5, spec=spec,
+                             log=logs.append).run([table])
+        assert wait_for(lambda: last_line(rig) == b"S")
+    assert report.polls >= 60 and not report.resyncs, logs
+    assert not any(m.startswith("stall") for m in logs), logs
+    assert rig.ctrl.antenna() == pytest.approx((float(table.az_deg[-1]),
+                                                float(table.el_deg[-1])), abs=0.6)
+
+
+def _far_az(table) -> float:
+    return float(table.az_deg[0]) + (120.0 if table.az_deg[0] < 200 else -120.0)
+
+
+def test_resumed_table_far_from_the_antenna_slews_in_without_a_false_stall():
+    # `tracker upload --from FILE --now` (or a resync) uploads the rest of a pass whose point 1
+    # may be 100+ deg from the antenna: the slew takes longer than the follow check's two
+    # polls, but the antenna is closing in, so it is not "not following".
+    _, prog = compile_mid(half_s=40.0, interval_s=2)
+    table = prog.tables[0]
+    with Rig(prog, transport="tcp", az_deg=_far_az(table)) as rig:
+        logs: list[str] = []
+        report = TableRunner(rig.driver(), rig.clock, poll_s=1.0, spec=G5500,
+                             log=logs.append).run(prog.tables)
+        assert wait_for(lambda: last_line(rig) == b"S")
+        end_az = rig.ctrl.antenna()[0]
+    assert report.polls >= 10 and not report.resyncs, logs
+    assert not any(m.startswith("stall") for m in logs), logs
+    assert abs(end_az - float(table.az_deg[-1])) <= 1.0
+
+
+def test_antenna_jammed_far_from_the_table_is_still_stopped():
+    _, prog = compile_mid(half_s=40.0, interval_s=2)
+    with Rig(prog, transport="tcp", az_deg=_far_az(prog.tables[0])) as rig:
+        rig.ctrl.jam("az")
+        with pytest.raises(StallError, match="not following"):
+            TableRunner(rig.driver(), rig.clock, poll_s=1.0).run(prog.tables)
+        assert wait_for(lambda: last_line(rig) == b"S")

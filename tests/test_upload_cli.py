@@ -93,3 +93,29 @@ def test_simulation_without_port_says_so(capsys):
     assert rc == 0, out
     assert "SIMULATION" in out and "Nothing real moves" in out
     assert "all-stop sent" in out and "T sent" in out
+
+
+def test_from_file_with_now_resumes_at_the_point_due(tmp_path, capsys):
+    # T passed 2.5 s ago: --now sends only the points still to come, starting with the one
+    # due when the upload lands, and T when the next one is due.
+    f = tmp_path / "late.steps"
+    start = "2026-08-23T02:00:00"
+    f.write_text(
+        "# profile: gs232b\n# rotator: G-5500\n# target: test\n"
+        f"# table 1/1 points=7 upload_utc={start}.500Z arrive_utc={start}.700Z "
+        f"t_utc={start[:-1]}2.000Z\n"
+        "W001 010 005 011 006 012 007 013 008 014 009 015 010 016 011\nT\n")
+    ctrl = Gs232Controller("gs232b", clock=SystemClock(), az_deg=13, el_deg=8)
+    with serve_tcp(ctrl) as server:
+        rc = main(["upload", "--from", str(f), "--port", server.url, "--now",
+                   "--at", "2026-08-23T02:00:04.500Z"])
+        deadline = time.monotonic() + 3
+        while (not ctrl.log or ctrl.log[-1][1] != b"S") and time.monotonic() < deadline:
+            time.sleep(0.01)
+    out = capsys.readouterr().out
+    assert rc == 0, out
+    lines = [line for _, line, _ in ctrl.log]
+    # At 02:00:04.5 point 4 (013 008) is due (T at :02 -> point 2, :03 -> 3, :04 -> 4).
+    assert b"W001 013 008 014 009 015 010 016 011" in lines, lines
+    assert b"T" in lines and lines[-1] == b"S"
+    assert "resyncs: 0" in out

@@ -67,6 +67,10 @@ STALL_TIMING_MARGIN_S = 0.25
 # little later.
 FALLBACK_RATE_DEG_S = 2.0
 FALLBACK_START_DELAY_S = 0.75
+# ... and, for a table that goes away and comes back (a 1-deg el flicker 2, 3, 2), a FAST
+# one: the antenna may be back already, so a stall must be predicted by both models.
+FALLBACK_FAST_RATE_DEG_S = 10.0
+FALLBACK_FAST_START_DELAY_S = 0.2
 
 
 @dataclass
@@ -108,6 +112,7 @@ class TableRunner:
         self.monitor = monitor
         self.report = UploadReport()
         self._misses = 0
+        self._off_deg: float | None = None
         self._unreadable = 0
         self._watch = _StallWatch(spec)
 
@@ -136,7 +141,8 @@ class TableRunner:
             ok = True
             return self.report
         finally:
-            if not (ok and self.report.detached):
+            # A stall has already sent all-stop (and logged it); once is enough.
+            if not (ok and self.report.detached) and not self.report.stopped:
                 self._all_stop(quiet=not ok)
 
     # Steps ---------------------------------------------------------------------------------
@@ -170,6 +176,7 @@ class TableRunner:
                                     "upload_real_s": time.perf_counter() - r0})
         self.report.tables_sent += 1
         self._watch.start(table, self.clock.timestamp())
+        self._off_deg = None
         self.log(f"uploaded {what}: {len(table)} points, {nbytes} bytes in "
                  f"{upload_s:.2f} s (wire time at {self.baud} baud {wire_s:.2f} s)")
 
@@ -305,12 +312,12 @@ class TableRunner:
         if read is None:
             return
         t_before, t_after, az, el = read
-        stalled = self._watch.stalled(t_before, az, el)
+        stalled = self._watch.stalled(t_before, az, el, t_after)
         if stalled is not None:
             again = self._read_position()       # a garbled digit must not stop a pass
             if again is not None:
                 t_before, t_after, az, el = again
-                stalled = self._watch.stalled(t_before, az, el)
+                stalled = self._watch.stalled(t_before, az, el, t_after)
             if stalled is not None and again is not None:
                 axis, msg = stalled
                 self.log(f"stall: {msg}")
@@ -327,11 +334,15 @@ class TableRunner:
         recent = (times >= now - self.follow_window_s - table.period_s) & (times <= now)
         recent[max(np.searchsorted(times, now, side="right") - 1, 0)] = True
         az_pts = np.asarray(table.az_deg)[recent].astype(float)
-        bad = _outside(az, az_pts, self.follow_tol_deg, wrap=True)
+        off_deg = _outside_by(az, az_pts, self.follow_tol_deg, wrap=True)
         if table.kind == "W" and el is not None:
             el_pts = np.asarray(table.el_deg)[recent].astype(float)
-            bad = bad or _outside(el, el_pts, self.follow_tol_deg, wrap=False)
-        self._misses = self._misses + 1 if bad else 0
+            off_deg += _outside_by(el, el_pts, self.follow_tol_deg, wrap=False)
+        # Outside the span but closing in is a slew still under way (a resumed or resynced
+        # table whose point 1 is far from the antenna): not a miss.
+        closing = self._off_deg is not None and off_deg < self._off_deg - STALL_STILL_DEG
+        self._off_deg = off_deg
+        self._misses = self._misses + 1 if off_deg > 0.0 and not closing else 0
         if self._misses >= 2:
             msg = (f"the antenna is not following the table: reads az {az:g}"
                    + ("" if el is None else f" el {el:g}")
@@ -360,10 +371,11 @@ class TableRunner:
                 raise
 
 
-def _outside(value: float, points: np.ndarray, tol: float, wrap: bool) -> bool:
+def _outside_by(value: float, points: np.ndarray, tol: float, wrap: bool) -> float:
+    """How far (deg) ``value`` lies outside the span of ``points`` ± ``tol`` (0 inside)."""
     lo, hi = float(points.min()) - tol, float(points.max()) + tol
     candidates = (value, value + 360.0, value - 360.0) if wrap else (value,)
-    return not any(lo <= v <= hi for v in candidates)
+    return min(max(lo - v, v - hi, 0.0) for v in candidates)
 
 
 
@@ -432,26 +444,39 @@ class _StallWatch:
         cut = t_before - STALL_HISTORY_S
         self.readings = [r for r in self.readings if r[0] >= cut]
 
-    def _axis(self, which: str, position_deg: float, t_s: float) -> AxisMotor:
+    def _axes(self, which: str, position_deg: float, t_s: float) -> list[AxisMotor]:
+        """The slowest and the fastest motor the axis may be (at rest at the reading)."""
         spec = self.spec
         if spec is None:
-            rate, delay = FALLBACK_RATE_DEG_S, FALLBACK_START_DELAY_S
+            models = [(FALLBACK_RATE_DEG_S, FALLBACK_START_DELAY_S),
+                      (FALLBACK_FAST_RATE_DEG_S, FALLBACK_FAST_START_DELAY_S)]
         else:
             rate = spec.az_rate_deg_s if which == "az" else (spec.el_rate_deg_s or 1.0)
+            slow = rate
             if which == "az" and spec.az_speed_rates_deg_s:
-                rate = min(rate, *spec.az_speed_rates_deg_s)   # X1 may be selected
-            delay = spec.start_delay_s
-        return AxisMotor(-1e9, 1e9, rate, delay, 1.0, position_deg, t_s)
+                slow = min(rate, *spec.az_speed_rates_deg_s)   # X1 may be selected
+                rate = max(rate, *spec.az_speed_rates_deg_s)
+            models = [(slow, spec.start_delay_s), (rate, spec.start_delay_s)]
+        return [AxisMotor(-1e9, 1e9, r, d, 1.0, position_deg, t_s) for r, d in models]
 
-    def stalled(self, t_s: float, az: float, el: float | None) -> tuple[str, str] | None:
-        """("az"/"el", what is wrong) if an axis read at ``t_s`` should have moved and has
-        not, else None."""
+    def stalled(self, t_s: float, az: float, el: float | None,
+                t_after_s: float | None = None) -> tuple[str, str] | None:
+        """("az"/"el", what is wrong) if an axis read between ``t_s`` and ``t_after_s`` (the
+        C2 request and its reply) should have moved and has not, else None.
+
+        The controller took the reading somewhere in that span (at a fast SimClock or on a
+        loaded host it can be a second or more), so the model must have the axis at least
+        ``need`` away from the reference at EVERY time in it, on the same side: a 1-deg
+        up-and-back flicker of the table (2, 3, 2) is otherwise mistaken for a jam when the
+        reply comes from after the axis already went back.
+        """
         table = self.table
         if table is None or not self.readings:
             return None
-        times = self._times.copy()
-        times[1:] += self._lag_s
-        times += STALL_TIMING_MARGIN_S
+        t_hi = t_s if t_after_s is None else max(float(t_after_s), t_s)
+        t_eval = np.linspace(t_s, t_hi, 9) if t_hi > t_s else np.array([t_s])
+        base = self._times.copy()
+        base[1:] += self._lag_s
         axes = [("az", 2, az, np.asarray(table.az_deg, dtype=float))]
         if table.kind == "W" and el is not None and table.el_deg is not None:
             axes.append(("el", 3, el, np.asarray(table.el_deg, dtype=float)))
@@ -460,29 +485,53 @@ class _StallWatch:
                 t_ref, ref_deg = ref[1], ref[col]
                 if ref_deg is None or t_ref >= t_s:
                     continue
-                i0 = int(np.searchsorted(times, t_ref, side="right")) - 1
-                i1 = int(np.searchsorted(times, t_s, side="right"))
-                if i0 < 0:          # nothing commanded yet at the reference
-                    i0 = 0
-                    if i1 == 0:
-                        continue
-                    cmd_t = times[:i1]
+                # The controller steps at the host's times or up to the margin later; the
+                # axis is the slow or the fast motor: a stall must show in every case.
+                travels = []
+                for shift in (STALL_TIMING_MARGIN_S, 0.0):
+                    got = self._travel(name, base + shift, points, ref_deg, t_ref, t_hi,
+                                       t_eval)
+                    if got is None:
+                        break
+                    travels.append(got)
                 else:
-                    cmd_t = np.concatenate(([t_ref], times[i0 + 1:i1]))
-                cmd_deg = points[i0:i1] if i1 > i0 else points[i0:i0 + 1]
-                cmd_t = cmd_t[:len(cmd_deg)]
-                if name == "az" and abs(float(cmd_deg[0]) - ref_deg) > 180.0:
-                    continue        # an unwind or a different az frame: leave it to the span
-                exact = abs(float(points[i0]) - ref_deg) < 0.25 and t_ref >= times[i0]
-                need = STALL_MOVE_DEG + (0.0 if exact else 0.5)
-                pred = float(predict_axis(self._axis(name, ref_deg, t_ref), cmd_t, cmd_deg,
-                                          np.array([t_s]))[0][0])
-                travel = pred - ref_deg
-                if abs(travel) < need - 1e-6:
-                    continue
-                progress = (now_deg - ref_deg) * np.sign(travel)
-                if progress < STALL_STILL_DEG:
-                    return name, (f"reads {now_deg:g} deg, {t_s - t_ref:.1f} s after it read "
-                                  f"{ref_deg:g}; the motor model has it at {pred:.1f} by now "
-                                  f"(table point {float(cmd_deg[-1]):g})")
+                    allt = np.concatenate([t for t, _ in travels])
+                    if np.min(allt) * np.max(allt) <= 0.0:
+                        continue     # some timing has the axis back at (or past) the reading
+                    travel, cmd_last = float(travels[0][0][0]), travels[0][1]
+                    progress = (now_deg - ref_deg) * np.sign(travel)
+                    if progress < STALL_STILL_DEG:
+                        return name, (f"reads {now_deg:g} deg, {t_s - t_ref:.1f} s after it "
+                                      f"read {ref_deg:g}; the motor model has it at "
+                                      f"{ref_deg + travel:.1f} by now (table point "
+                                      f"{cmd_last:g})")
         return None
+
+    def _travel(self, name: str, times: np.ndarray, points: np.ndarray, ref_deg: float,
+                t_ref: float, t_hi: float, t_eval: np.ndarray
+                ) -> tuple[np.ndarray, float] | None:
+        """Predicted travel from the reading ``ref_deg`` at ``t_ref`` at each ``t_eval``
+        (slow motor first, then fast), and the last point commanded; None when this
+        schedule predicts less than the move needed to tell a stall (or cannot judge)."""
+        i0 = int(np.searchsorted(times, t_ref, side="right")) - 1
+        i1 = int(np.searchsorted(times, t_hi, side="right"))
+        if i0 < 0:          # nothing commanded yet at the reference
+            i0 = 0
+            if i1 == 0:
+                return None
+            cmd_t = times[:i1]
+        else:
+            cmd_t = np.concatenate(([t_ref], times[i0 + 1:i1]))
+        cmd_deg = points[i0:i1] if i1 > i0 else points[i0:i0 + 1]
+        cmd_t = cmd_t[:len(cmd_deg)]
+        if name == "az" and abs(float(cmd_deg[0]) - ref_deg) > 180.0:
+            return None     # an unwind or a different az frame: leave it to the span check
+        exact = abs(float(points[i0]) - ref_deg) < 0.25 and t_ref >= times[i0]
+        need = STALL_MOVE_DEG + (0.0 if exact else 0.5)
+        out = []
+        for axis in self._axes(name, ref_deg, t_ref):
+            travel = predict_axis(axis, cmd_t, cmd_deg, t_eval)[0] - ref_deg
+            if np.min(np.abs(travel)) < need - 1e-6:
+                return None
+            out.append(travel)
+        return np.concatenate(out), float(cmd_deg[-1])

@@ -78,6 +78,13 @@ def rotator_from_args(args: argparse.Namespace):
         user is None or user is PRESETS.get(name))
     if is_preset and mains:
         return preset(name, int(mains))
+    if args.mains_hz and not is_preset:
+        from tracker.errors import ConfigError
+
+        # a [rotator.NAME] section has its own rates: silently ignoring the flag would plan
+        # at the wrong speed
+        raise ConfigError(f"--mains-hz applies to the presets only; for [rotator.{name}] set "
+                          f"mains_hz = {args.mains_hz} in that section of the config file")
     return config.rotator(name)
 
 
@@ -153,15 +160,21 @@ def format_plan(plan, station_name: str) -> str:
                      f"{c.p99_error_deg:8.2f} {c.travel_deg:7.0f} {c.motor_starts:6d}  "
                      f"{c.note}")
     lines.append("")
+
+    def el_text(el_deg: float, width: int = 0) -> str:  # az-only rotators have no el axis
+        return f"  el {el_deg:{width}.1f}" if spec.has_elevation else ""
+
     pa, pe = plan.preposition
-    lines.append(f"pre-position: start {_utc(plan.preposition_t_s)} UTC to mech az {pa:g}, "
-                 f"el {pe:g}" + ("" if plan.preposition_moves else " (already there)"))
+    lines.append(f"pre-position: start {_utc(plan.preposition_t_s)} UTC to mech az {pa:g} "
+                 f"(bearing {float(spec.bearing_of(pa)):g})"
+                 + (f", el {pe:g}" if spec.has_elevation else "")
+                 + ("" if plan.preposition_moves else " (already there)"))
     for m in plan.preposition_moves:
-        lines.append(f"  {_utc(m.t_s)}  az {m.az_deg:6.1f}  el {m.el_deg:5.1f}")
+        lines.append(f"  {_utc(m.t_s)}  az {m.az_deg:6.1f}{el_text(m.el_deg, 5)}")
     if plan.park_moves:
         lines.append(f"park after LOS: from {_utc(plan.park_moves[0].t_s)} UTC")
         for m in plan.park_moves:
-            lines.append(f"  {_utc(m.t_s)}  az {m.az_deg:6.1f}  el {m.el_deg:5.1f}")
+            lines.append(f"  {_utc(m.t_s)}  az {m.az_deg:6.1f}{el_text(m.el_deg, 5)}")
     lines.append("")
     lines.append(f"predicted pointing error: max {plan.max_error_deg:.2f} deg, mean "
                  f"{plan.mean_error_deg:.2f} deg, p99 {plan.p99_error_deg:.2f} deg; lost "

@@ -181,19 +181,24 @@ def _send(args, tables, clock, simulate: bool, rotator: str) -> int:
               f"{args.speed:g}x, starting just before the upload time. Nothing real moves.",
               flush=True)
         url = server.url
+        # The driver paces commands (K3NG: 50 ms a line) on the simulated clock like the
+        # real unit would; its timeouts stay about 1 s / 0.3 s of real time.
+        timing = dict(clock=clock, timeout_s=1.0 * args.speed,
+                      ack_timeout_s=0.3 * args.speed)
     else:
         url = args.port
+        timing = {}
     az_max = 450.0 if spec.az_span_deg > 360.0 else 360.0
     try:
         driver = open_driver(url, args.protocol, baudrate=args.baud,
-                             has_elevation=spec.has_elevation, az_max_deg=az_max)
+                             has_elevation=spec.has_elevation, az_max_deg=az_max, **timing)
     except BaseException:
         if server is not None:
             server.close()
         raise
     driver.stop_on_exit = False  # the runner decides: all-stop on every path but --detach
     try:
-        runner = TableRunner(driver, clock, baud=args.baud,
+        runner = TableRunner(driver, clock, baud=args.baud, spec=spec,
                              log=lambda m: print(f"{_utc(clock)}  {m}", flush=True))
         report = runner.run(tables, detach=args.detach)
     finally:
