@@ -162,3 +162,16 @@ def test_env_var_and_explicit_path(tmp_path, monkeypatch):
         load_config()
     with pytest.raises(ConfigError, match="does not exist"):
         load_config(tmp_path / "other.toml")
+
+
+def test_tracking_mains_hz_slows_presets_but_not_own_sections(tmp_path):
+    p = tmp_path / "c.toml"
+    p.write_text('[tracking]\nmains_hz = 50\n[rotator.roof]\npreset = "G-5500"\n'
+                 'mains_hz = 60\n')
+    config = load_config(p)
+    assert config.rotator("G-5500").name == "G-5500@50Hz"
+    assert config.rotator("g-5500").az_rate_deg_s == pytest.approx(
+        config.rotator("roof").az_rate_deg_s * 5 / 6)
+    assert config.rotator("G-1000DXA").name == "G-1000DXA"   # DC motors: mains independent
+    assert config.user_rotator("ROOF") is config.rotator("roof")
+    assert config.user_rotator("G-5500") is None

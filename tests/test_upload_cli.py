@@ -119,3 +119,25 @@ def test_from_file_with_now_resumes_at_the_point_due(tmp_path, capsys):
     assert b"W001 013 008 014 009 015 010 016 011" in lines, lines
     assert b"T" in lines and lines[-1] == b"S"
     assert "resyncs: 0" in out
+
+
+def test_config_rotator_is_used_and_named_in_the_plan_file(tmp_path, capsys):
+    # A [rotator.NAME] section works for upload as for plan and track, and a plan file made
+    # for it is read back with the same rotator; an unknown one is refused, not replaced.
+    cfg = tmp_path / "config.toml"
+    cfg.write_text('[rotator.roof]\npreset = "G-5500"\nmains_hz = 50\nel_max_deg = 170\n')
+    f = tmp_path / "roof.steps"
+    assert main(["plan", "ISS", *WHERE, *AT, "--config", str(cfg), "--rotator", "roof",
+                 "--steptable", str(f)]) == 0
+    capsys.readouterr()
+    assert read_plan_file(f).header["rotator"] == "roof"
+    assert main(["upload", "ISS", *WHERE, *AT, "--config", str(cfg), "--rotator", "roof",
+                 "--dry-run"]) == 0
+    assert "# rotator: roof" in capsys.readouterr().out
+    rc = main(["upload", "--from", str(f), "--port", "socket://127.0.0.1:9", "--now",
+               "--at", "2026-08-23T02:00:00Z"])
+    err = capsys.readouterr().err
+    assert rc == 2 and "rotator 'roof'" in err and "--rotator" in err, err
+    rc = main(["upload", "ISS", *WHERE, *AT, "--config", str(cfg), "--rotator", "roof",
+               "--mains-hz", "60", "--dry-run"])
+    assert rc == 2 and "mains_hz = 60 in that section" in capsys.readouterr().err

@@ -105,12 +105,17 @@ class Config:
     def rotator(self, name: str | None = None) -> RotatorSpec:
         """The named rotator, else ``[tracking] rotator``, else the G-5500 preset."""
         name = name or self.tracking.get("rotator") or "G-5500"
-        if name in self.rotators:
-            return self.rotators[name]
-        lowered = {k.lower(): v for k, v in self.rotators.items()}
-        if name.lower() in lowered:
-            return lowered[name.lower()]
+        user = self.user_rotator(name)
+        if user is not None:
+            return user
         return preset(name, int(self.tracking.get("mains_hz", 60)))
+
+    def user_rotator(self, name: str) -> RotatorSpec | None:
+        """The ``[rotator.NAME]`` section called ``name`` (any case), or None for a preset."""
+        for key, spec in self.rotators.items():
+            if key.lower() == name.lower() and PRESETS.get(key) is not spec:
+                return spec
+        return None
 
     def to_toml(self) -> str:
         """The effective config as TOML (what ``tracker config show`` prints)."""

@@ -24,6 +24,7 @@ from tracker.errors import ConfigError
 if TYPE_CHECKING:  # pragma: no cover - typing only
     from tracker.clock import Clock
     from tracker.config import Config
+    from tracker.mount import RotatorSpec
     from tracker.station import Station
     from tracker.targets import Target
 
@@ -34,6 +35,35 @@ def add_config_arg(parser: argparse.ArgumentParser) -> None:
         return
     parser.add_argument("--config", metavar="FILE",
                         help="config file (default: $TRACKER_CONFIG or the user config dir)")
+
+
+def add_rotator_args(parser: argparse.ArgumentParser) -> None:
+    """``--rotator NAME`` and ``--mains-hz``: one spelling for every command."""
+    parser.add_argument("--rotator", metavar="NAME",
+                        help="a preset (G-5500, G-1000DXA, ...) or a [rotator.NAME] config "
+                             "section (default: config [tracking] rotator, else G-5500)")
+    parser.add_argument("--mains-hz", "--mains", type=int, choices=(50, 60), dest="mains_hz",
+                        help="mains frequency of a preset's AC motors (50 Hz turns them 5/6 "
+                             "as fast; default: config [tracking] mains_hz, else 60)")
+
+
+def rotator_from_args(args: argparse.Namespace, name: str | None = None) -> RotatorSpec:
+    """The rotator the command drives: ``name`` or ``--rotator``, else the config's, else G-5500.
+
+    A ``[rotator.NAME]`` section carries its own rates, so ``--mains-hz`` is refused for it
+    rather than silently ignored.
+    """
+    from tracker.mount import preset
+
+    config = config_from_args(args)
+    name = name or getattr(args, "rotator", None) or config.tracking.get("rotator") or "G-5500"
+    mains_hz = getattr(args, "mains_hz", None)
+    if mains_hz is None:
+        return config.rotator(name)
+    if config.user_rotator(name) is not None:
+        raise ConfigError(f"--mains-hz applies to the presets only; for [rotator.{name}] set "
+                          f"mains_hz = {mains_hz} in that section of the config file")
+    return preset(name, mains_hz)
 
 
 def add_station_args(parser: argparse.ArgumentParser) -> None:

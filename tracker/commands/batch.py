@@ -16,10 +16,11 @@ from datetime import timedelta
 from pathlib import Path
 
 from tracker.commands._common import (
+    add_rotator_args,
     add_station_args,
     add_time_args,
     clock_from_args,
-    config_from_args,
+    rotator_from_args,
     station_from_args,
 )
 
@@ -41,8 +42,7 @@ def add_batch_args(p: argparse.ArgumentParser) -> None:
                      help="only passes lit while the station is dark (Sun below -6 deg)")
     p.add_argument("--format", choices=("table", "csv", "json", "ics"), default="table")
     p.add_argument("--out", metavar="FILE", help="write here (atomically) instead of stdout")
-    p.add_argument("--rotator", metavar="NAME",
-                   help="plan each pass for this rotator (preset or [rotator.NAME])")
+    add_rotator_args(p)
     p.add_argument("--dask", nargs="?", const="", default=None, metavar="ADDRESS",
                    help="run on a Dask cluster (a local one when no scheduler ADDRESS)")
     p.add_argument("--workers", type=int, default=1,
@@ -126,7 +126,7 @@ def find(args: argparse.Namespace, elements: list, stations: list):
 
 def rotator_spec(args: argparse.Namespace):
     """``--rotator NAME``: a [rotator.NAME] config section or a preset."""
-    return config_from_args(args).rotator(args.rotator)
+    return rotator_from_args(args)
 
 
 def plans_for(args: argparse.Namespace, table, elements) -> list | None:

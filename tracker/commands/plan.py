@@ -17,11 +17,12 @@ from collections.abc import Callable
 from datetime import datetime, timedelta, timezone
 
 from tracker.commands._common import (
+    add_rotator_args,
     add_station_args,
     add_target_args,
     add_time_args,
     clock_from_args,
-    config_from_args,
+    rotator_from_args,
     station_from_args,
     target_from_args,
 )
@@ -50,10 +51,7 @@ def register(sub) -> None:
                    help="which upcoming pass (1 = next, default; a pass in progress counts)")
     p.add_argument("--hours", type=float, default=48.0, metavar="H",
                    help="how far ahead to look for the pass (default 48)")
-    p.add_argument("--rotator", metavar="NAME",
-                   help="a [rotator.NAME] section or a preset (default: config, else G-5500)")
-    p.add_argument("--mains-hz", type=int, choices=(50, 60), dest="mains_hz",
-                   help="mains frequency for AC-motor presets (slower at 50 Hz)")
+    add_rotator_args(p)
     p.add_argument("--current", nargs=2, type=float, metavar=("AZ", "EL"),
                    help="antenna's current mechanical az/el (default: the park position)")
     p.add_argument("--threshold", type=float, default=5.0, metavar="DEG",
@@ -65,27 +63,6 @@ def register(sub) -> None:
     add_target_args(p)
     add_time_args(p)
     p.set_defaults(func=run)
-
-
-def rotator_from_args(args: argparse.Namespace):
-    from tracker.mount import PRESETS, preset
-
-    config = config_from_args(args)
-    name = args.rotator or config.tracking.get("rotator") or "G-5500"
-    mains = args.mains_hz or config.tracking.get("mains_hz")
-    user = config.rotators.get(name)
-    is_preset = name.lower() in {k.lower() for k in PRESETS} and (
-        user is None or user is PRESETS.get(name))
-    if is_preset and mains:
-        return preset(name, int(mains))
-    if args.mains_hz and not is_preset:
-        from tracker.errors import ConfigError
-
-        # a [rotator.NAME] section has its own rates: silently ignoring the flag would plan
-        # at the wrong speed
-        raise ConfigError(f"--mains-hz applies to the presets only; for [rotator.{name}] set "
-                          f"mains_hz = {args.mains_hz} in that section of the config file")
-    return config.rotator(name)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -9,15 +9,21 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING
 
 from tracker.commands._common import (
+    add_rotator_args,
     add_station_args,
     add_target_args,
     add_time_args,
     clock_from_args,
+    rotator_from_args,
     station_from_args,
     target_from_args,
 )
+
+if TYPE_CHECKING:  # pragma: no cover - typing only
+    from tracker.mount import RotatorSpec
 
 DEMO_SPEED = 20.0
 
@@ -35,9 +41,7 @@ def register(sub) -> None:
                    help="which upcoming pass: 1 = the next one (default)")
     p.add_argument("--days", type=float, default=2.0, metavar="D",
                    help="search window for passes (default 2 days)")
-    p.add_argument("--rotator", default="G-5500", help="rotator preset (default G-5500)")
-    p.add_argument("--mains", type=int, default=60, choices=(50, 60),
-                   help="mains frequency for AC motor rates (default 60)")
+    add_rotator_args(p)
     p.add_argument("--port", metavar="URL",
                    help="serial device or pyserial URL; omitted: simulate on the built-in "
                         "emulator")
@@ -72,7 +76,6 @@ def build_program(args: argparse.Namespace, now_s: float, current=None):
 
     from tracker.commands.passes import warn_element_age
     from tracker.errors import ConfigError
-    from tracker.mount import preset
     from tracker.passes import find_passes
     from tracker.steptable import compile_pass
 
@@ -82,7 +85,7 @@ def build_program(args: argparse.Namespace, now_s: float, current=None):
         raise ConfigError(f"--days must be more than 0 and at most 30; got {args.days:g}")
     if args.pass_no < 1:
         raise ConfigError(f"--pass must be 1 or more (1 = the next pass); got {args.pass_no}")
-    spec = preset(args.rotator, args.mains)
+    spec = rotator_from_args(args)
     station = station_from_args(args, quiet=True)
     target = target_from_args(args.target, args)
     now = datetime.fromtimestamp(now_s, timezone.utc)
@@ -138,7 +141,7 @@ def run(args: argparse.Namespace) -> int:
                                   f"make a new plan, or add --now to resume from the point "
                                   f"due now")
             tables = resume_schedule(tables, now, args.baud)
-        return _send(args, tables, clock, simulate, plan.header.get("rotator", args.rotator))
+        return _send(args, tables, clock, simulate, _plan_file_rotator(args, plan.header))
 
     now_s = clock.timestamp()
     program, header = build_program(args, now_s)
@@ -149,23 +152,35 @@ def run(args: argparse.Namespace) -> int:
     tables = list(program.tables)
     if args.port:
         tables = resume_schedule(tables, clock.timestamp(), args.baud)
-    return _send(args, tables, clock, simulate, program.spec.name)
+    return _send(args, tables, clock, simulate, program.spec)
 
 
-def _send(args, tables, clock, simulate: bool, rotator: str) -> int:
+def _plan_file_rotator(args: argparse.Namespace, header: dict) -> RotatorSpec:
+    """The rotator a plan file was compiled for (``G-5500@50Hz``, a config section ...);
+    ``--rotator`` overrides it."""
+    from tracker.errors import ConfigError
+
+    if args.rotator or not header.get("rotator"):
+        return rotator_from_args(args)
+    name, _, suffix = header["rotator"].partition("@")
+    if suffix == "50Hz" and args.mains_hz is None:
+        args.mains_hz = 50
+    try:
+        return rotator_from_args(args, name)
+    except ConfigError:
+        raise ConfigError(f"{args.from_file} was compiled for rotator {header['rotator']!r}, "
+                          f"which is neither a preset nor a [rotator.{name}] section of the "
+                          f"config file; name the rotator with --rotator") from None
+
+
+def _send(args, tables, clock, simulate: bool, spec: RotatorSpec) -> int:
     from datetime import datetime, timezone
 
     from tracker.clock import SimClock
     from tracker.errors import ConfigError
-    from tracker.mount import preset
     from tracker.protocols import open_driver
     from tracker.upload import TableRunner
 
-    name = rotator.split("@")[0]
-    try:
-        spec = preset(name, args.mains)
-    except ConfigError:
-        spec = preset(args.rotator, args.mains)
     server = None
     if simulate:
         from tracker.emulator import Gs232Controller, serve_pty
