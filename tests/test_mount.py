@@ -1,10 +1,12 @@
 """Rotator specs, presets and the one motor model (AxisMotor / predict_axis)."""
 
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+from tracker.config import parse_config
 from tracker.errors import ConfigError
 from tracker.mount import (
     PRESETS,
@@ -13,7 +15,6 @@ from tracker.mount import (
     RotatorSpec,
     predict_axis,
     preset,
-    rotator_from_config,
     simulate_commands,
 )
 
@@ -80,6 +81,12 @@ def test_unknown_preset_and_mains():
         preset("G-9999")
     with pytest.raises(ConfigError, match="mains_hz"):
         preset("G-5500", 55)
+
+
+def rotator_from_config(name: str, table: dict) -> RotatorSpec:
+    """A ``[rotator.NAME]`` section through the config file parser."""
+    table = {k: list(v) if isinstance(v, tuple) else v for k, v in table.items()}
+    return parse_config({"rotator": {name: table}}, Path("c.toml")).rotators[name]
 
 
 @pytest.mark.parametrize("fields, key", [

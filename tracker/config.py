@@ -252,10 +252,16 @@ def _parse_rotator(path: Path, name: str, table: dict, mains_hz: int) -> Rotator
     else:
         base = None
     changes: dict[str, Any] = {}
+    az_only = table.pop("az_only", False)
+    if not isinstance(az_only, bool):
+        raise ConfigError(f"{path}: [{section}] az_only = {_toml_value(az_only)} is invalid; "
+                          f"allowed: true or false")
+    if az_only:
+        changes.update(el_max_deg=None, el_rate_deg_s=None)
     for key, value in table.items():
         if key not in _ROTATOR_FIELDS:
             raise ConfigError(f"{path}: [{section}] unknown key {key!r}; allowed keys: "
-                              f"preset, mains_hz, {', '.join(_ROTATOR_FIELDS)}")
+                              f"preset, mains_hz, az_only, {', '.join(_ROTATOR_FIELDS)}")
         if key in ("el_max_deg", "el_rate_deg_s") and (value is False or value == "none"):
             value = None  # azimuth-only rotator
         elif key == "az_speed_rates_deg_s":

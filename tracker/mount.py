@@ -213,37 +213,6 @@ def preset(name: str, mains_hz: int = 60) -> RotatorSpec:
     return spec
 
 
-_SPEC_KEYS = tuple(f for f in RotatorSpec.__dataclass_fields__ if f not in ("name", "extra"))
-
-
-def rotator_from_config(name: str, table: dict) -> RotatorSpec:
-    """A rotator from a ``[rotator.NAME]`` table: ``preset`` (+ ``mains_hz``) and overrides.
-
-    ``el_max_deg = "none"`` (or ``az_only = true``) makes an azimuth-only rotator. Unknown
-    keys and bad values raise :class:`ConfigError` naming the key.
-    """
-    table = dict(table)
-    base_name = table.pop("preset", None)
-    mains_hz = table.pop("mains_hz", 60)
-    if table.pop("az_only", False) is True:
-        table["el_max_deg"] = None
-        table["el_rate_deg_s"] = None
-    for key, value in list(table.items()):
-        if key not in _SPEC_KEYS:
-            raise ConfigError(f"[rotator.{name}] unknown key {key!r}; allowed keys: preset, "
-                              f"mains_hz, az_only, {', '.join(_SPEC_KEYS)}")
-        if key in ("el_max_deg", "el_rate_deg_s") and value in ("none", False):
-            table[key] = None
-        elif key == "az_speed_rates_deg_s" and isinstance(value, list):
-            table[key] = tuple(value)
-    try:
-        if base_name is not None:
-            return preset(str(base_name), mains_hz).with_(name=name, **table)
-        return RotatorSpec(name=name, **table)
-    except ConfigError as e:
-        raise ConfigError(f"[rotator.{name}] {e}") from None
-
-
 # Motor model ----------------------------------------------------------------------------------
 
 
