@@ -3,6 +3,7 @@ against real hardware when TRACKER_TEST_PORT is set)."""
 
 from __future__ import annotations
 
+import itertools
 import os
 import time
 from datetime import datetime
@@ -10,7 +11,7 @@ from datetime import datetime
 import pytest
 from _gs232_helpers import T0, wait_until
 
-from tracker.clock import SimClock
+from tracker.clock import SimClock, SystemClock
 from tracker.emulator import Gs232Controller, serve_pty, serve_tcp
 from tracker.errors import LimitError, PortLostError
 from tracker.mount import preset
@@ -230,5 +231,124 @@ def test_autobaud_handshake(kind):
                 pytest.raises(RotatorTimeout, match="Connect OK"):
             d.autobaud(attempts=3, interval_s=0.1)
         assert time.monotonic() - t0 < 2
+    finally:
+        r.close()
+
+
+def test_p36_p45_z_and_help_page_3(kind):
+    r = Rig(kind, "gs232b")
+    try:
+        with r.driver() as d:
+            d.set_mode_450(False)
+            assert r.tail_is(b"P36") and not r.ctrl.mode_450
+            # a real GS-232B answers W400 in 360 mode with a ?> nobody reads: the driver
+            # refuses it before sending instead of losing the move
+            with pytest.raises(LimitError, match=r"0\.\.360"):
+                d.goto(400, 0)
+            assert "mode 360 Degree\r\nN Center" in d.help(3)
+            d.toggle_centre()
+            assert r.tail_is(b"Z") and r.ctrl.south_centre
+            assert "S Center" in d.help(3)
+            d.set_mode_450(True)
+            assert r.tail_is(b"P45") and r.ctrl.mode_450
+            assert d.capabilities.az_max_deg == 450.0
+            d.goto(400, 0)
+            assert r.seen(b"W400 000")
+    finally:
+        r.close()
+
+
+def test_b_only_commands_refused_on_gs232a(kind):
+    from tracker.errors import ConfigError
+
+    r = Rig(kind, "gs232a")
+    try:
+        with r.driver() as d:
+            before = len(r.ctrl.log)
+            with pytest.raises(ConfigError, match="GS-232B command"):
+                d.set_mode_450(False)
+            with pytest.raises(ConfigError, match="GS-232B command"):
+                d.toggle_centre()
+            assert len(r.ctrl.log) == before
+            assert d.help(3) == "?>\r\n"          # the A unit has no third help page
+    finally:
+        r.close()
+
+
+class _RecordingClock(SystemClock):
+    """Real time, but remembers every sleep the driver asks for (its pacing)."""
+
+    def __init__(self):
+        super().__init__()
+        self.sleeps: list[float] = []
+
+    def sleep(self, seconds: float) -> None:
+        self.sleeps.append(seconds)
+        super().sleep(seconds)
+
+
+@pytest.mark.parametrize(("profile", "rtscts"), [("gs232b", True), ("gs232a", False),
+                                                 ("k3ng", False)])
+def test_rtscts_for_gs232b_paced_writes_without_handshake(kind, profile, rtscts):
+    r = Rig(kind, profile)
+    try:
+        clock = _RecordingClock()
+        with r.driver(clock=clock) as d:
+            assert d.port.rtscts is rtscts
+            writes: list[float] = []
+            real_write = d.port.write
+
+            def write(data):
+                writes.append(clock.monotonic())
+                return real_write(data)
+            d.port.write = write
+            d.set_speed(2)
+            d.stop()
+            d.goto(10, 10)
+            d.position()
+            assert len(writes) == 4
+            gaps = [b - a for a, b in itertools.pairwise(writes)]
+            if rtscts:        # flow control paces the line: the driver never waits itself
+                assert d.pace_cmd_s == 0 and clock.sleeps == []
+            else:             # measured on the driver's own clock, a lower bound only
+                assert d.pace_cmd_s > 0
+                assert all(g >= d.pace_cmd_s for g in gaps), gaps
+    finally:
+        r.close()
+
+
+@pytest.mark.parametrize(("kw", "message"), [({"timeout_s": float("nan")}, "timeout_s"),
+                                             ({"timeout_s": 0}, "timeout_s"),
+                                             ({"ack_timeout_s": float("inf")}, "ack_timeout"),
+                                             ({"retries": -1}, "retries")])
+def test_invalid_timing_is_refused_and_the_port_released(kind, kw, message):
+    from tracker.errors import ConfigError
+
+    r = Rig(kind, "gs232b")
+    try:
+        with pytest.raises(ConfigError, match=message):
+            open_driver(r.server.url, "gs232b", **kw)
+        # the port opened for it was closed again: the next client gets a clean session
+        with r.driver() as d:
+            assert d.position() == (0.0, 0.0)
+        if kind == "tcp":
+            assert wait_until(lambda: r.server.connections == 0, 2)
+    finally:
+        r.close()
+
+
+def test_full_size_tables_cross_the_real_port(kind):
+    # 3800 angles / 1900 pairs are ~15.2 kB on one line: the pty and socket paths must carry
+    # it whole (the emulator accepts lines of at least 16 kB)
+    r = Rig(kind, "gs232b")
+    try:
+        with r.driver(timeout_s=2.0) as d:
+            d.upload_table(5, [i % 451 for i in range(3800)])
+            assert d.table_status() == (1, 3800)
+            d.upload_table(5, [(i % 451, i % 181) for i in range(1900)])
+            assert d.table_status() == (1, 1900)
+            with pytest.raises(LimitError, match="3801 table points"):
+                d.upload_table(5, list(range(3801)))
+        assert max(len(line) for line in r.lines()) == len("M005") + 4 * 3800
     finally:
         r.close()

@@ -44,6 +44,9 @@ def test_long_form_limits_and_16k_lines():
     assert s.feed(b"M005 090\r") == b"?>\r\n"                     # fewer than 2 angles
     assert s.feed(b"M000 090 100\r") == b"?>\r\n"                 # interval 000
     assert s.feed(b"M005 090 451\r") == b"?>\r\n"                 # angle out of range
+    padded = b"M001  " + b"  ".join(b"%03d" % (i % 451) for i in range(3800)) + b"\r"
+    assert len(padded) > 16 * 1024                                # a line over 16 kB
+    assert s.feed(padded) == b"" and s.feed(b"N\r") == b"+0001+3800\r\n"
 
 
 def test_stepping_follows_the_clock_and_stays_on_last_point():

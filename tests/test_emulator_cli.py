@@ -74,6 +74,17 @@ def test_emulate_k3ng_over_tcp(capsys):
      "unknown protocol"),
     (["emulate", "--rotator", "G-9999", "--duration", "0"], "unknown rotator"),
     (["emulate", "--protocol", "gs999", "--duration", "0"], "unknown GS-232 profile"),
+    (["emulate", "--tcp", "99999", "--duration", "0"], "--tcp 99999 is invalid"),
+    (["emulate", "--tcp", "-5", "--duration", "0"], "--tcp -5 is invalid"),
+    (["emulate", "--speed", "inf", "--duration", "0"], "--speed inf is invalid"),
+    (["emulate", "--az", "451", "--duration", "0"], "outside the G-5500 travel 0..450"),
+    (["emulate", "--el", "-1", "--duration", "0"], "outside the G-5500 travel 0..180"),
+    (["emulate", "--rotator", "G-1000DXA", "--el", "10", "--duration", "0"],
+     "no elevation axis"),
+    (["rotator", "--port", "socket://127.0.0.1:1", "--timeout", "nan", "position"],
+     "--timeout nan is invalid"),
+    (["rotator", "--port", "socket://127.0.0.1:1", "--baud", "0", "position"],
+     "--baud 0 is invalid"),
 ])
 def test_cli_errors_are_one_line_exit_2(argv, message, capsys):
     assert main(argv) == 2

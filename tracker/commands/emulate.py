@@ -35,10 +35,16 @@ def register(sub) -> None:
     p.add_argument("--autobaud", action="store_true",
                    help="wait for CRs and answer 'Connect OK' first (GS-232B power-up)")
     p.add_argument("--fault", action="append", default=[], metavar="SPEC",
-                   help="inject a fault (repeatable): drop=0.01, garble=0.01, duplicate=0.01 "
-                        "(add :in or :out for one direction), delay=0.2, silent=30@120, "
-                        "deaf=30@120, powercycle@300, jam=az@60, jam=el:30@60, drift=0.5%%, "
-                        "wrongside, disconnect=5@200; times in emulator seconds")
+                   help="inject a fault (repeatable), NAME[=VALUE][@START_S]: byte rates "
+                        "drop=0.01, garble=0.01, duplicate=0.01 (add :in or :out for one "
+                        "direction; @100+30 = from 100 s for 30 s), delay=0.2 (s per reply), "
+                        "silent=30@120 (no replies for 30 s), deaf=30@120 (input ignored), "
+                        "powercycle@300 (powercycle=2@300: off 2 s; tables lost; with "
+                        "--autobaud, autobaud again), jam=az@60 (jam=el:30@60: for 30 s), "
+                        "drift=0.5%% or drift=-200ppm (step clock), wrongside (0-359 "
+                        "read-back in 450 mode), "
+                        "disconnect=5@200 (close the pty or TCP port, reopen after 5 s); "
+                        "times in emulator seconds from start (--speed scales them)")
     p.add_argument("--fault-seed", type=int, default=0,
                    help="seed for the random faults (same seed, same faults; default 0)")
     p.add_argument("--link", default=None, metavar="PATH",
@@ -50,6 +56,7 @@ def register(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import math
     import time
 
     from tracker.clock import SimClock, SystemClock
@@ -58,8 +65,11 @@ def run(args: argparse.Namespace) -> int:
     from tracker.errors import ConfigError
     from tracker.mount import preset
 
-    if not args.speed > 0:
-        raise ConfigError(f"--speed {args.speed} is invalid; use a number > 0")
+    if not (math.isfinite(args.speed) and args.speed > 0):
+        raise ConfigError(f"--speed {args.speed} is invalid; use a finite number > 0")
+    if args.tcp is not None and not 0 <= args.tcp <= 65535:
+        raise ConfigError(f"--tcp {args.tcp} is invalid; use a TCP port 1..65535 (0 = any "
+                          f"free port)")
     plan = FaultPlan.parse(args.fault, args.fault_seed)
     spec = preset(args.rotator, args.mains)
     clock = SimClock(SystemClock().now(), speed=args.speed)
@@ -74,6 +84,7 @@ def run(args: argparse.Namespace) -> int:
         ctrl = make_other_controller(args.protocol, clock,
                                      None if args.rotator == "G-5500" else spec, args.az)
     else:
+        _check_start_position(spec, args.az, args.el)
         ctrl = Gs232Controller(args.protocol, spec, clock, opts, az_deg=args.az,
                                el_deg=args.el)
     injector = install(ctrl, plan) if plan.specs else None
@@ -112,3 +123,20 @@ def run(args: argparse.Namespace) -> int:
         if injector is not None:
             print(injector.summary(), flush=True)
     return 0
+
+
+def _check_start_position(spec, az_deg: float | None, el_deg: float | None) -> None:
+    """--az/--el must lie inside the rotator's travel: a simulated antenna beyond its end
+    stops would read back positions no real unit can report."""
+    from tracker.errors import ConfigError
+
+    (az_min, az_max), el_lim = spec.axis_limits()
+    if az_deg is not None and not az_min <= az_deg <= az_max:
+        raise ConfigError(f"--az {az_deg:g} is outside the {spec.name} travel "
+                          f"{az_min:g}..{az_max:g} deg (mechanical)")
+    if el_deg is not None:
+        if el_lim is None:
+            raise ConfigError(f"--el given but the {spec.name} has no elevation axis")
+        if not el_lim[0] <= el_deg <= el_lim[1]:
+            raise ConfigError(f"--el {el_deg:g} is outside the {spec.name} travel "
+                              f"{el_lim[0]:g}..{el_lim[1]:g} deg")

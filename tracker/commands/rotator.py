@@ -35,8 +35,17 @@ def register(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import math
+
+    from tracker.errors import ConfigError
     from tracker.protocols import open_driver
 
+    # A NaN/infinite timeout would make every deadline check false: refuse it here, once,
+    # for every protocol.
+    if not (math.isfinite(args.timeout) and args.timeout > 0):
+        raise ConfigError(f"--timeout {args.timeout} is invalid; use a number of seconds > 0")
+    if args.baud is not None and args.baud <= 0:
+        raise ConfigError(f"--baud {args.baud} is invalid; use a positive rate such as 9600")
     kw = {"timeout_s": args.timeout, "autobaud": args.autobaud,
           "has_elevation": not args.az_only}
     if args.baud:
@@ -46,8 +55,6 @@ def run(args: argparse.Namespace) -> int:
         drv.stop_on_exit = False
         if args.action == "position":
             if not drv.capabilities.has_position_query:
-                from tracker.errors import ConfigError
-
                 raise ConfigError(f"protocol {args.protocol} has no position query; the "
                                   f"tracker runs it open loop on the motor model's estimate")
             az, el = drv.position()

@@ -270,12 +270,18 @@ class PtyServer(_Server):
 
     def hangup(self) -> None:
         """Fault: the device disappears (USB unplug); clients get an I/O error."""
-        def do() -> None:
-            self._drop_conn(self._conn)
-            fds, self._fds = self._fds, []
-            for fd in fds:
-                _close_fd(fd)
-        self._call_in_loop(do)
+        self._call_in_loop(self._vanish)
+
+    def _vanish(self) -> None:
+        self._drop_conn(self._conn)
+        fds, self._fds = self._fds, []
+        for fd in fds:
+            _close_fd(fd)
+        # The link goes too, like /dev/ttyUSB0 on unplug: left dangling it would point at a
+        # /dev/pts/N number the kernel hands to the next pty opened by any process, and a
+        # client retrying the link would write into that stranger's session.
+        if self.link and os.path.islink(self.link):
+            os.unlink(self.link)
 
     def _close_own(self) -> None:
         for fd in self._fds:
@@ -286,12 +292,7 @@ class PtyServer(_Server):
     def fault_disconnect(self) -> None:
         """Fault: the device vanishes (as :meth:`hangup`); :meth:`fault_reconnect` brings a
         new pty back at ``link``."""
-        def do() -> None:
-            self._drop_conn(self._conn)
-            fds, self._fds = self._fds, []
-            for fd in fds:
-                _close_fd(fd)
-        self._in_loop(do)
+        self._in_loop(self._vanish)
 
     def fault_reconnect(self) -> None:
         def do() -> None:

@@ -7,6 +7,8 @@ are in ``shared/reference/PROTOCOLS.md``; the profile table is in DESIGN.md.
 
 from __future__ import annotations
 
+import math
+import numbers
 import re
 import threading
 from collections.abc import Sequence
@@ -242,6 +244,15 @@ def format_table_status(profile: Gs232Profile, current: int, total: int) -> byte
 
 # Driver ----------------------------------------------------------------------------------------
 
+def _check_seconds(key: str, value: object, allow_zero: bool = True) -> None:
+    # A NaN or infinite duration makes every deadline comparison false: the driver would hang.
+    ok = (isinstance(value, numbers.Real) and math.isfinite(value)
+          and (value >= 0 if allow_zero else value > 0))
+    if not ok:
+        raise ConfigError(f"{key} = {value!r} is invalid; use a finite number of seconds "
+                          f"{'>= 0' if allow_zero else '> 0'}")
+
+
 _DIRECTIONS: dict[str, bytes] = {"cw": b"R", "ccw": b"L", "up": b"U", "down": b"D",
                                  "right": b"R", "left": b"L"}
 
@@ -261,11 +272,19 @@ class Gs232Driver(RotatorDriver):
                  el_max_deg: float = 180.0, pace_cmd_s: float | None = None,
                  pace_char_s: float = 0.0, ack_timeout_s: float = 0.3,
                  clock: Clock | None = None):
+        _check_seconds("timeout_s", timeout_s, allow_zero=False)
+        _check_seconds("ack_timeout_s", ack_timeout_s, allow_zero=False)
+        _check_seconds("pace_char_s", pace_char_s)
+        if pace_cmd_s is not None:
+            _check_seconds("pace_cmd_s", pace_cmd_s)
+        if not (isinstance(retries, numbers.Integral) and retries >= 0):
+            raise ConfigError(f"retries = {retries!r} is invalid; use a whole number >= 0")
         self.port = port
         self.profile = get_profile(profile)
         self.timeout_s = float(timeout_s)
         self.retries = int(retries)
         self.az_max_deg = float(az_max_deg)
+        self._az_max_configured_deg = self.az_max_deg
         self.el_max_deg = float(el_max_deg)
         self.pace_cmd_s = self.profile.pace_cmd_s if pace_cmd_s is None else float(pace_cmd_s)
         self.pace_char_s = float(pace_char_s)
@@ -289,7 +308,11 @@ class Gs232Driver(RotatorDriver):
         prof = get_profile(profile)
         port = open_port(url, baudrate=baudrate or prof.baudrate, timeout_s=0.05,
                          rtscts=prof.rtscts if rtscts is None else rtscts)
-        drv = cls(port, prof, **kw)
+        try:
+            drv = cls(port, prof, **kw)
+        except BaseException:
+            port.close()
+            raise
         if autobaud:
             try:
                 drv.autobaud()
@@ -442,8 +465,14 @@ class Gs232Driver(RotatorDriver):
                               f"does not have it")
 
     def set_mode_450(self, enabled: bool = True) -> None:
+        """P45 / P36. In 360 mode the controller refuses azimuths above 360 with ``?>``, which
+        a real GS-232B sends for a set command nobody reads: the driver narrows its own limit
+        so such a goto raises :class:`LimitError` instead of being lost silently."""
         self._need_b("P45/P36")
         self._command(b"P45" if enabled else b"P36")
+        self.az_max_deg = (self._az_max_configured_deg if enabled
+                           else min(self._az_max_configured_deg, 360.0))
+        self.capabilities = replace(self.capabilities, az_max_deg=self.az_max_deg)
 
     def toggle_centre(self) -> None:
         self._need_b("Z")
