@@ -9,6 +9,10 @@ per policy: mode counts, max and p99 pointing error over all visible seconds, lo
 (error > 5 deg while the target is up), passes with any loss, travel, and planning time per
 pass. Times are a ratio against the baseline measured in the same run.
 
+Then (``--streaming also``, the default) the live loop's streaming policy flies the same
+passes against a Gpredict-style loop (benchmarks/streaming.py): max / p99 error, lost-track
+seconds, motor starts, commands; ``--streaming only`` prints just that part.
+
 Add a policy by adding an entry to POLICIES: ``name -> fn(track, spec, station) -> MountPlan``.
 """
 
@@ -130,6 +134,10 @@ def main(argv=None) -> int:
     ap.add_argument("--rotator", default="G-5500")
     ap.add_argument("--mains-hz", type=int, default=50, choices=(50, 60))
     ap.add_argument("--days", type=float, default=None)
+    ap.add_argument("--streaming", choices=("also", "only", "off"), default="also",
+                    help="the live loop's streaming policy vs a Gpredict-style loop on the "
+                         "same suite (benchmarks/streaming.py): after the planner tables "
+                         "(also), alone (only), or not at all (off)")
     args = ap.parse_args(argv)
     spec = preset(args.rotator, args.mains_hz)
     days = args.days or (1.0 if args.quick else 7.0)
@@ -141,14 +149,31 @@ def main(argv=None) -> int:
           f"{spec.el_max_deg:g}")
     print(f"suite: {real} real passes (amateur + weather, {days:g} d, 3 stations) + "
           f"{len(suite) - real} forced overhead; built in {time.perf_counter() - t0:.1f} s")
-    results = {name: run_policy(fn, suite, spec) for name, fn in POLICIES.items()}
-    print_table(results, len(suite))
-    overhead = [sp for sp in suite if sp.meta["kind"] == "overhead"]
-    print("\nforced overhead passes only:")
-    print_table({name: run_policy(fn, overhead, spec) for name, fn in POLICIES.items()},
-                len(overhead))
-    motor_model_speed(suite, spec)
+    if args.streaming != "only":
+        results = {name: run_policy(fn, suite, spec) for name, fn in POLICIES.items()}
+        print_table(results, len(suite))
+        overhead = [sp for sp in suite if sp.meta["kind"] == "overhead"]
+        print("\nforced overhead passes only:")
+        print_table({name: run_policy(fn, overhead, spec) for name, fn in POLICIES.items()},
+                    len(overhead))
+        motor_model_speed(suite, spec)
+    if args.streaming != "off":
+        streaming_policy(suite, spec)
     return 0
+
+
+def streaming_policy(suite: list[SuitePass], spec, deadbands=(3.0, 5.0)) -> None:
+    """The live loop (tracker.stream, deadband + aim point, 0.5 s read-back) flying the
+    same passes on the same simulated rotator as a Gpredict-style loop (5 deg threshold,
+    1 s cycle, lead within the threshold, flip only at el max 180, no overlap)."""
+    from streaming import compare, print_results
+
+    t0 = time.perf_counter()
+    print(f"\nstreaming policy vs Gpredict-style loop, same suite and rotator "
+          f"({len(suite)} passes):")
+    res, names, followable = compare(suite, spec, list(deadbands))
+    print_results(res, names, followable)
+    print(f"streaming comparison took {time.perf_counter() - t0:.0f} s")
 
 
 if __name__ == "__main__":

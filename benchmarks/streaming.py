@@ -131,6 +131,70 @@ def summarise(rows: list[dict], followable: np.ndarray, bound: np.ndarray) -> di
             "commands": sum(r["commands"] for r in rows)}
 
 
+def compare(suite, spec, deadbands: list[float]) -> tuple[dict, list[str], np.ndarray]:
+    """Fly every pass of ``suite`` with the stream policy at each deadband and with the
+    Gpredict-style loop; returns (summary per policy, stream policy names, followable)."""
+    names = [f"stream D={d:g}" for d in deadbands]
+    rows: dict[str, list] = {n: [] for n in [*names, "gpredict-style"]}
+    cost = dict.fromkeys(rows, 0.0)
+    followable = []
+    plan_max = []
+    for sp in suite:
+        tr, st = sp.track, sp.station
+        t_start = None
+        for name, d in zip(names, deadbands, strict=True):
+            t1 = time.perf_counter()
+            cmds, plan, _t = fly_stream(tr, spec, st, d)
+            t_start = min(plan.preposition_t_s, float(tr.t_s[0])) - 0.5
+            rows[name].append(measure(tr, spec, st, cmds, t_start))
+            cost[name] += time.perf_counter() - t1
+        plan_max.append(plan.max_error_deg)
+        t2 = time.perf_counter()
+        gcmds, _gplan = fly_gpredict(tr, spec, st, t_start=t_start)
+        rows["gpredict-style"].append(measure(tr, spec, st, gcmds, t_start))
+        cost["gpredict-style"] += time.perf_counter() - t2
+        followable.append(plan.lost_track_s == 0)
+    followable = np.array(followable)
+    plan_max = np.array(plan_max)
+    bounds = dict(zip(names, deadbands, strict=True))
+    res = {k: summarise(v, followable, plan_max + bounds.get(k, 5.0)) for k, v in rows.items()}
+    for k in res:
+        res[k]["cost"] = cost[k]
+    return res, names, followable
+
+
+def print_results(res: dict, names: list[str], followable: np.ndarray) -> None:
+    """The side-by-side table and the issue's three targets, per stream deadband."""
+    n = len(followable)
+    labels = [
+        ("passes", lambda r: f"{n}"),
+        ("max error deg", lambda r: f"{r['max']:.2f}"),
+        ("p99 error deg", lambda r: f"{r['p99']:.2f}"),
+        ("mean error deg", lambda r: f"{r['mean']:.2f}"),
+        ("lost s (>5 deg, all)", lambda r: f"{r['lost_s']:.1f}"),
+        ("lost s, followable", lambda r: f"{r['lost_followable_s']:.1f}"),
+        ("passes with loss", lambda r: f"{r['passes_lost']}"),
+        ("passes max<=3 deg %", lambda r: f"{100 * r['le3']:.1f}"),
+        ("max<=plan+deadband %", lambda r: f"{100 * r['in_bound']:.1f}"),
+        ("motor starts", lambda r: f"{r['starts']}"),
+        ("starts per pass", lambda r: f"{r['starts'] / n:.1f}"),
+        ("commands sent", lambda r: f"{r['commands']}"),
+        ("sim ms per pass", lambda r: f"{1000 * r['cost'] / n:.1f}"),
+    ]
+    print(f"\n{'policy':<24}" + "".join(f"{k:>17}" for k in res))
+    for label, fmt in labels:
+        print(f"{label:<24}" + "".join(f"{fmt(r):>17}" for r in res.values()))
+    print(f"followable passes (planner predicts no loss): {int(followable.sum())} of {n}")
+    g = res["gpredict-style"]
+    for name in names:
+        s = res[name]
+        print(f"{name}: no lost s on followable passes: "
+              f"{'yes' if s['lost_followable_s'] == 0 else 'NO'}; max <= 3 deg on >= 99 % of "
+              f"passes: {'yes' if s['le3'] >= 0.99 else 'NO'} ({100 * s['le3']:.1f} %); "
+              f"motor starts vs gpredict-style: {s['starts'] / g['starts']:.2f}x; "
+              f"sim cost vs gpredict-style: {s['cost'] / max(g['cost'], 1e-9):.0f}x")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--days", type=float, default=1.0)
@@ -153,60 +217,8 @@ def main(argv=None) -> int:
     print(f"suite: {real} real passes ({args.days:g} d, {args.max_sats or 'all'} sats/group, "
           f"3 stations) + {len(suite) - real} forced overhead; built in "
           f"{time.perf_counter() - t0:.1f} s")
-    names = [f"stream D={d:g}" for d in args.deadband]
-    rows: dict[str, list] = {n: [] for n in [*names, "gpredict-style"]}
-    cost = dict.fromkeys(rows, 0.0)
-    followable = []
-    plan_max = []
-    for sp in suite:
-        tr, st = sp.track, sp.station
-        t_start = None
-        for name, d in zip(names, args.deadband, strict=True):
-            t1 = time.perf_counter()
-            cmds, plan, _t = fly_stream(tr, spec, st, d)
-            t_start = min(plan.preposition_t_s, float(tr.t_s[0])) - 0.5
-            rows[name].append(measure(tr, spec, st, cmds, t_start))
-            cost[name] += time.perf_counter() - t1
-        plan_max.append(plan.max_error_deg)
-        t2 = time.perf_counter()
-        gcmds, _gplan = fly_gpredict(tr, spec, st, t_start=t_start)
-        rows["gpredict-style"].append(measure(tr, spec, st, gcmds, t_start))
-        cost["gpredict-style"] += time.perf_counter() - t2
-        followable.append(plan.lost_track_s == 0)
-    followable = np.array(followable)
-    plan_max = np.array(plan_max)
-    bounds = dict(zip(names, args.deadband, strict=True))
-    res = {k: summarise(v, followable, plan_max + bounds.get(k, 5.0)) for k, v in rows.items()}
-    n = len(suite)
-    labels = [
-        ("passes", lambda r: f"{n}"),
-        ("max error deg", lambda r: f"{r['max']:.2f}"),
-        ("p99 error deg", lambda r: f"{r['p99']:.2f}"),
-        ("mean error deg", lambda r: f"{r['mean']:.2f}"),
-        ("lost s (>5 deg, all)", lambda r: f"{r['lost_s']:.1f}"),
-        ("lost s, followable", lambda r: f"{r['lost_followable_s']:.1f}"),
-        ("passes with loss", lambda r: f"{r['passes_lost']}"),
-        ("passes max<=3 deg %", lambda r: f"{100 * r['le3']:.1f}"),
-        ("max<=plan+deadband %", lambda r: f"{100 * r['in_bound']:.1f}"),
-        ("motor starts", lambda r: f"{r['starts']}"),
-        ("starts per pass", lambda r: f"{r['starts'] / n:.1f}"),
-        ("commands sent", lambda r: f"{r['commands']}"),
-        ("sim ms per pass", lambda r: f"{1000 * r['cost'] / n:.1f}"),
-    ]
-    for k in res:
-        res[k]["cost"] = cost[k]
-    print(f"\n{'policy':<24}" + "".join(f"{k:>17}" for k in res))
-    for label, fmt in labels:
-        print(f"{label:<24}" + "".join(f"{fmt(r):>17}" for r in res.values()))
-    print(f"followable passes (planner predicts no loss): {int(followable.sum())} of {n}")
-    g = res["gpredict-style"]
-    for name in names:
-        s = res[name]
-        print(f"{name}: no lost s on followable passes: "
-              f"{'yes' if s['lost_followable_s'] == 0 else 'NO'}; max <= 3 deg on >= 99 % of "
-              f"passes: {'yes' if s['le3'] >= 0.99 else 'NO'} ({100 * s['le3']:.1f} %); "
-              f"motor starts vs gpredict-style: {s['starts'] / g['starts']:.2f}x; "
-              f"sim cost vs gpredict-style: {s['cost'] / max(g['cost'], 1e-9):.0f}x")
+    res, names, followable = compare(suite, spec, args.deadband)
+    print_results(res, names, followable)
     return 0
 
 

@@ -21,7 +21,7 @@ from tracker.mount import preset
 from tracker.planner import plan_pass
 from tracker.protocols import open_driver
 from tracker.skytrack import angular_separation_deg
-from tracker.station import Station
+from tracker.station import HorizonMask, Station
 from tracker.stream import Link, StreamSettings, TrackCore, run_pass
 
 SPEC = preset("G-5500", 50)
@@ -32,9 +32,9 @@ DEADBAND = 3.0
 class Bench:
     """Emulator + loop on one SimClock; ``faults`` maps seconds after AOS to callbacks."""
 
-    def __init__(self, transport="tcp", faults=None, duration_s=150.0):
+    def __init__(self, transport="tcp", faults=None, duration_s=150.0, station=None):
         self.track = arc_pass(duration_s=duration_s, pad_s=20.0)
-        self.station = Station()
+        self.station = station or Station()
         self.plan = plan_pass(self.track, SPEC, self.station, current=(95.0, 0.0))
         start = min(self.plan.preposition_t_s, T0 - 25.0) - 2.0
         self.clock = SimClock(datetime.fromtimestamp(start, timezone.utc), SPEED)
@@ -163,3 +163,45 @@ def test_controller_off_no_blind_moves_then_resumes():
     sent_while_off = [line.strip()[:1] for t, line, _r in b.ctl.log
                       if b.off_t < t < b.on_t and not line.strip().startswith(b"C")]
     assert set(sent_while_off) <= {b"S"}
+
+
+def test_connection_dropped_while_parking_resumes_the_move_under_way():
+    """The park under a horizon mask is a sequence (up, across, down). A reconnect in the
+    middle re-sends the move under way; going back to the first move would turn the antenna
+    back across the sky to where the pass ended."""
+    mask = HorizonMask((0.0, 90.0, 180.0, 270.0), (4.0, 8.0, 6.0, 3.0))
+
+    def drop(b):
+        b.drop_t = b.ctl.clock.monotonic()
+        b.server.drop_connections()
+    b = Bench("tcp", station=Station(mask=mask))
+    first_az = b.plan.park_moves[0].az_deg
+    assert len(b.plan.park_moves) >= 2 and abs(first_az - b.plan.park_moves[1].az_deg) > 90
+    # the across move takes ~50 s from the LOS azimuth to park: drop the link half way
+    b.faults = {b.core.los_s - T0 + 20.0: drop}
+    res = b.run()
+    assert res.completed and "reconnected" in b.states()
+    after = [ln.strip() for t, ln, _r in b.ctl.log if t > b.drop_t and ln.startswith(b"W")]
+    assert after, "nothing was commanded after the reconnect"
+    # every move after the drop heads for the park azimuth, none back to the LOS azimuth
+    assert all(abs(int(ln[1:].split()[0]) - b.plan.park_moves[-1].az_deg) <= 1
+               for ln in after), after
+    az, _el = b.ctl.antenna()
+    assert abs(az - b.plan.park_moves[-1].az_deg) <= 1.0
+
+
+def test_any_exception_mid_pass_sends_all_stop_last():
+    """A bug anywhere in the loop (here: the status sink raises) still leaves the antenna
+    stopped: S is the last line the controller received, while it was turning."""
+    def boom(b):
+        if not b.ctl.moving():   # wait for the next tracking move
+            b.faults[b.clock.timestamp() - T0 + 0.01] = boom
+            return
+        b.hit_t = b.clock.timestamp()
+        raise RuntimeError("UI crashed")
+    b = Bench("pty", faults={10.0: boom})
+    with pytest.raises(RuntimeError, match="UI crashed"):
+        b.run()
+    assert b.hit_t < b.core.los_s
+    assert b.last_line() == b"S"
+    assert not b.ctl.moving()

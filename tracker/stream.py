@@ -144,6 +144,7 @@ class _AxisWatch:
         self.expect: AxisMotor | None = None
         self.seg_t_s = 0.0
         self.carried_deg = 0.0
+        self.still_since_s: float | None = None   # first read-back showing no motion
 
     def _segment_deg(self, t_s: float) -> float:
         if self.expect is None:
@@ -159,6 +160,7 @@ class _AxisWatch:
             self.carried_deg += self._segment_deg(t_s)   # no motion yet: keep counting
         else:
             self.ref_t_s, self.ref_pos_deg, self.carried_deg = t_s, readback_deg, 0.0
+            self.still_since_s = None
         self.expect = AxisMotor(axis.min_deg, axis.max_deg, axis.rate_deg_s, axis.start_delay_s,
                                 axis.resolution_deg, readback_deg, t_s)
         self.expect.command(axis.target_deg, t_s)
@@ -176,11 +178,19 @@ class _AxisWatch:
                                       self.expect.moving(t_s))
             self.ref_t_s, self.ref_pos_deg = t_s, readback_deg
             self.seg_t_s, self.carried_deg = t_s, 0.0
+            self.still_since_s = None
             return None
+        if self.still_since_s is None:
+            self.still_since_s = t_s
         expected = self.carried_deg + self._segment_deg(t_s)
         # Timing jitter (a late read-back, a belief a cycle off) must not look like a stall:
-        # judge only after the start delay plus a second.
-        if expected >= stall_travel_deg and t_s - self.ref_t_s >= self.expect.start_delay_s + 1.0:
+        # judge only after the start delay plus a second, and only on read-backs spanning
+        # that long. A W has no acknowledgement: if the controller acted on it late (a busy
+        # host, a time-compressed simulation), the first read-backs after it show no motion
+        # yet although the belief's clock says the motor ran long ago.
+        settle_s = self.expect.start_delay_s + 1.0
+        if (expected >= stall_travel_deg and t_s - self.ref_t_s >= settle_s
+                and t_s - self.still_since_s >= settle_s):
             return t_s - self.ref_t_s
         return None
 
@@ -249,6 +259,10 @@ class TrackCore:
         self.note = ""
         self._watch = {"az": _AxisWatch(), "el": _AxisWatch()}
         self._phase_commanded: Phase | None = None
+        # (phase, move index) of a pre-position/park sequence cut short by a reconnect or an
+        # all-stop: it resumes at the move under way, not back at the first one (which would
+        # turn the antenna back across the sky).
+        self._resume: tuple[Phase, int] | None = None
         self._hold_until_s = -math.inf
         self._hold_level_deg = self.settings.deadband_deg
         self._park_sent_s: float | None = None
@@ -458,7 +472,8 @@ class TrackCore:
     def _next_move(self, t_s: float, moves, reason: str) -> Command | None:
         """The next of a move sequence: each waits for the previous one to arrive."""
         if self._phase_commanded is not self.phase:
-            self._move_i = 0
+            r = self._resume
+            self._move_i = r[1] if r is not None and r[0] is self.phase else 0
         if self._move_i >= len(moves):
             return None
         if self._move_i > 0 and self.motor.moving(t_s):
@@ -487,8 +502,9 @@ class TrackCore:
         phase = {"preposition": Phase.PREPOSITION, "track": Phase.TRACK,
                  "park": Phase.PARK}.get(cmd.reason, self.phase)
         if cmd.reason in ("preposition", "park"):
-            self._move_i = self._move_i + 1 if self._phase_commanded is phase else 1
+            self._move_i += 1     # _next_move set it to the index of this move
         self._phase_commanded = phase
+        self._resume = None
         if cmd.reason == "park":
             self._park_sent_s = t_s
         if cmd.aim is not None:
@@ -500,15 +516,23 @@ class TrackCore:
         """After a reconnect: forget the belief; the next read-back re-seeds it and the
         current phase's move is sent again from the real position."""
         self.motor = None
-        self._phase_commanded = None
+        self._interrupt()
         for w in self._watch.values():
             w.reset()
+
+    def _interrupt(self) -> None:
+        """The commanded motion was cut (reconnect, all-stop): the current phase's move is
+        sent again. Called repeatedly while the port is gone: only the first call records."""
+        if self._phase_commanded is not None:
+            seq = self._phase_commanded in (Phase.PREPOSITION, Phase.PARK)
+            self._resume = (self._phase_commanded, max(self._move_i - 1, 0)) if seq else None
+        self._phase_commanded = None
 
     def stopped(self, t_s: float) -> None:
         """The rotator was told to stop (all-stop)."""
         if self.motor is not None:
             self.motor.stop(t_s)
-        self._phase_commanded = None
+        self._interrupt()
 
     # Reporting ---------------------------------------------------------------------------
 

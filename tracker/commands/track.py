@@ -1,9 +1,11 @@
 """``tracker track TARGET``: follow passes live on a rotator, or on the built-in emulator.
 
 Without ``--port`` (and no ``[tracking] port`` in the config) this is a demo: the built-in
-GS-232B emulator with a G-5500 runs in-process on a simulated clock that starts shortly before
-the target's next pass and runs ``--speed`` times faster, so a whole pass shows in about a
-minute. It says so plainly. With ``--port`` everything runs in real time on the real rotator.
+emulator of ``--protocol`` (GS-232B with a G-5500 by default; the Rotor-EZ, DCU-1, SAK-232 and
+AZ/AZ emulators with their own azimuth-only rotator unless ``--rotator`` names one) runs
+in-process on a simulated clock that starts shortly before the target's next pass and runs
+``--speed`` times faster, so a whole pass shows in about a minute. It says so plainly. With
+``--port`` everything runs in real time on the real rotator.
 """
 
 from __future__ import annotations
@@ -32,6 +34,10 @@ PASS_SEARCH_DAYS = 3.0
 PAD_S = 60.0
 # Controllers that cannot report their position: the loop runs them on an estimate.
 OPEN_LOOP_PROTOCOLS = ("dcu1", "sak232")
+AZ_ONLY_PROTOCOLS = ("rotorez", "dcu1", "sak232", "gs232b-azaz", "gs232b-azaz2")
+# --protocol -> the emulator the demo (no --port) serves it with, when not a GS-232 profile
+DEMO_EMULATORS = {"rotorez": "rotorez", "dcu1": "dcu1", "sak232": "sak232",
+                  "gs232b-azaz": "gs232b-azaz", "gs232b-azaz2": "gs232b-azaz"}
 
 
 def register(sub) -> None:
@@ -40,12 +46,16 @@ def register(sub) -> None:
         description="Follow the next pass(es) of TARGET with the rotator: pre-position, "
                     "deadband moves aimed ahead of the target, read-back every cycle, "
                     "reconnect on port loss, park after the pass. Without --port the "
-                    "built-in GS-232B emulator (G-5500) runs a simulated pass.")
+                    "built-in emulator of --protocol (default GS-232B with a G-5500) runs a "
+                    "simulated pass.")
     p.add_argument("target", help='satellite name or NORAD id (e.g. "ISS (ZARYA)"), Sun, Moon')
     p.add_argument("--port", help="serial port or pyserial URL of the controller "
                                   "(/dev/ttyUSB0, COM3, socket://host:port); default: the "
                                   "[tracking] port of the config, else the built-in emulator")
-    p.add_argument("--protocol", help="controller protocol (default gs232b)")
+    p.add_argument("--protocol",
+                   help="controller protocol: gs232b (default), gs232b-manual, gs232a, gs23, "
+                        "k3ng, rotorez, dcu1, sak232, gs232b-azaz (antenna 1), gs232b-azaz2 "
+                        "(antenna 2), rotctld (--port host:port)")
     p.add_argument("--baud", type=int, help="baud rate (default: the protocol's)")
     p.add_argument("--rotator", help="rotator preset or [rotator.NAME] (default G-5500)")
     p.add_argument("--passes", type=int, default=1, metavar="N",
@@ -134,13 +144,23 @@ def run(args: argparse.Namespace) -> int:
     if args.speed is not None and not (0 < args.speed <= 1000):
         raise ConfigError(f"--speed {args.speed} is invalid; allowed: > 0 to 1000")
     config = config_from_args(args)
-    station = station_from_args(args)
-    spec = config.rotator(args.rotator)
-    target = target_from_args(args.target, args)
     tr = config.tracking
     port = args.port or tr.get("port")
     protocol = args.protocol or tr.get("protocol") or "gs232b"
     demo = not port
+    if demo and protocol.lower() == "rotctld":
+        raise ConfigError("--protocol rotctld needs --port HOST:PORT of a running rotctld "
+                          "(e.g. rotctld -m 1 for Hamlib's dummy rotator)")
+    emulator = DEMO_EMULATORS.get(protocol.lower()) if demo else None
+    station = station_from_args(args)
+    spec = config.rotator(args.rotator)
+    target = target_from_args(args.target, args)
+    if emulator and not (args.rotator or tr.get("rotator")):
+        spec = _demo_spec(emulator)
+    if protocol.lower() in AZ_ONLY_PROTOCOLS and spec.has_elevation:
+        raise ConfigError(f"protocol {protocol} drives an azimuth-only rotator, but rotator "
+                          f"{spec.name} has elevation; pass --rotator with an azimuth-only "
+                          f"one (e.g. G-400, or a [rotator.NAME] without el_max_deg)")
     settings = _settings(args, config, spec)
 
     start, note = _start_time(args, target, demo)
@@ -167,8 +187,15 @@ def run(args: argparse.Namespace) -> int:
     server = None
     if demo:
         from tracker.emulator import Gs232Controller, serve_tcp
+        from tracker.protocols.gs232 import PROFILES
 
-        controller = Gs232Controller("gs232b", spec, clock=clock)
+        if emulator:
+            from tracker.emulator.rotorez_controller import make_other_controller
+
+            controller = make_other_controller(emulator, clock, spec)
+        else:
+            emulator = protocol.lower() if protocol.lower() in PROFILES else "gs232b"
+            controller = Gs232Controller(emulator, spec, clock=clock)
         server = serve_tcp(controller)
         url = server.url
     else:
@@ -187,12 +214,21 @@ def run(args: argparse.Namespace) -> int:
             # drivers keep wall-clock read timeouts.
             kw["clock"] = clock
             kw["spec"] = spec
-        return open_driver(url, protocol, **kw)
+        drv = open_driver(url, protocol, **kw)
+        if not drv.capabilities.has_position_query and not open_loop_said:
+            open_loop_said.append(True)
+            out.event("info", text=f"{protocol} has no position query: tracking open loop "
+                                   f"on the {spec.name} motor model's estimate, which assumes "
+                                   f"the antenna starts at its park position (calibrate: "
+                                   f"park it against its stop first); 'antenna' below is "
+                                   f"that estimate, not a reading")
+        return drv
 
+    open_loop_said: list[bool] = []
     sinks = []
     banner = ""
     if demo:
-        banner = (f"SIMULATION: built-in GS-232B emulator with a {spec.name} at "
+        banner = (f"SIMULATION: built-in {emulator} emulator with a {spec.name} at "
                   f"{clock.speed:g}x speed; no real rotator moves. Use --port to drive one.")
     tty = sys.stdout.isatty() and not args.plain
     title = f"tracker track {target.name}"
@@ -276,6 +312,16 @@ def run(args: argparse.Namespace) -> int:
               f"{res.max_error_deg:.1f} deg, {res.reconnects} reconnects"
               + (" (simulated)" if simulated else ""))
     return 0
+
+
+def _demo_spec(emulator: str):
+    """The rotator the demo emulator of a non-GS-232 protocol drives by default."""
+    from tracker.emulator.azaz_controller import AZ_360
+    from tracker.emulator.rotorez_controller import HAM_IV
+    from tracker.emulator.sak232_controller import ZELPRO_RAU
+
+    return {"rotorez": HAM_IV, "dcu1": HAM_IV, "sak232": ZELPRO_RAU,
+            "gs232b-azaz": AZ_360}[emulator]
 
 
 def _mech_guess(spec, wire_az: float, wire_el):
