@@ -150,8 +150,11 @@ def main() -> int:
               f"{st['sgp4_coarse'] / 1e6:.2f} M, fine {st['sgp4_fine'] / 1e6:.2f} M, refine "
               f"{st['sgp4_refine'] / 1e6:.2f} M); a plain 60 s grid would need "
               f"{len(sets) * DAYS * 1440 / 1e6:.0f} M")
-        print(f"    screening kept {st['candidate_intervals'] / st['intervals']:.1%} of the "
-              f"coarse intervals")
+        print(f"    screening kept {st['candidate_coarse_intervals'] / st['coarse_intervals']:.1%}"
+              f" of the coarse intervals and {st['candidate_intervals'] / st['intervals']:.1%} "
+              f"of the window's fine steps; refinement: "
+              f"{st['sgp4_refine'] / (st['brackets_tca'] + st['brackets_cross']):.2f} SGP4 "
+              f"evaluations per event")
         print(f"    achieved {evals(full1) / t_full1 / 1e6:.2f} M evaluations/s end to end "
               f"= {evals(full1) / t_full1 / raw:.0%} of the raw SatrecArray rate (wall); per "
               f"CPU second {evals(full1) / c_full1 / 1e6:.2f} M = "

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from sgp4.api import Satrec
+from sgp4.api import Satrec, jday
 
 from tracker.batch import find_passes_batch, load_stations, pass_track
 from tracker.errors import ConfigError
@@ -55,6 +55,41 @@ def test_screening_skips_most_of_the_window(amateur):
     p = table.passes
     assert len(p) > 500 and np.all(p["aos_s"] <= p["tca_s"]) and np.all(p["tca_s"] <= p["los_s"])
     assert np.all((p["max_el_deg"] >= 0) & (p["max_el_deg"] <= 90))
+
+
+def sgp4_elevation_deg(satrec, station: Station, t_s) -> np.ndarray:
+    """SGP4's own elevation at POSIX times, in the finder's frames (GMST on UT1)."""
+    from tracker.batchlib import geometry as geo
+
+    t_s = np.atleast_1d(np.asarray(t_s, dtype=float))
+    jd0, fr0 = jday(1970, 1, 1, 0, 0, 0.0)
+    fr = fr0 + t_s / 86400.0
+    err, r, v = satrec.sgp4_array(np.full(len(t_s), jd0), fr)
+    assert np.all(err == 0)
+    theta = geo.gmst_rad(jd0, fr + geo.dut1_s(START) / 86400.0)
+    r_ecef, v_ecef = geo.teme_to_ecef(r, v, theta)
+    frames = geo.StationFrames.from_stations([station])
+    return geo.look_angles(r_ecef, v_ecef, frames, 0)[0]
+
+
+def test_events_are_finished_on_sgp4_with_about_one_evaluation_each(amateur):
+    """AOS/TCA/LOS come from the interpolant corrected by SGP4 at the root: by SGP4's own
+    elevation AOS/LOS sit on the horizon and TCA is a maximum, at about one SGP4 evaluation
+    per event."""
+    table = run(amateur)
+    st = table.stats
+    events = st["brackets_tca"] + st["brackets_cross"]
+    assert events > 1000 and st["sgp4_refine"] <= 1.2 * events
+    satrecs, _names = amateur
+    p = table.passes[~table.passes["aos_clipped"] & ~table.passes["los_clipped"]]
+    for row in p[::10]:
+        sr = satrecs[row["sat"]]
+        el = sgp4_elevation_deg(sr, DELFT, [row["aos_s"], row["los_s"]])
+        assert np.all(np.abs(el - DELFT.min_el_deg) < 1e-4), (row, el)
+        around = sgp4_elevation_deg(sr, DELFT, row["tca_s"] + np.array([-1, -0.1, 0, 0.1, 1]))
+        # The corrected cubic is good to centimetres: 1e-5 deg even at 2000 km range.
+        assert around[2] == pytest.approx(row["max_el_deg"], abs=1e-5)
+        assert np.all(around <= row["max_el_deg"] + 1e-5), (row, around)
 
 
 def test_memory_chunks_and_worker_processes_give_identical_results(amateur):

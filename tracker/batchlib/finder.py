@@ -2,21 +2,25 @@
 
 How one job runs (every step is numpy over all satellites of a chunk at once):
 
-1. **Screen** on a coarse grid (``coarse_s``, up to 20 min for LEO, 1 h for slow orbits): SGP4 at
-   each coarse time for the whole chunk (one ``SatrecArray`` call). Between two coarse samples a
-   Keplerian orbit stays on the great circle through them, so the satellite's direction sweeps
-   that arc. A satellite can only rise above ``min_el`` within the interval if the arc comes
-   within the *horizon cone* (geocentric angle for that elevation at the orbit's apogee) of the
-   station, widened by the station's own motion in half an interval and a margin for
-   perturbations. Intervals that fail the test are skipped: no further SGP4 work there.
-2. **Sample** the candidate intervals on a fine grid (``step_s``), sharing the TEME -> ITRS
-   rotation of each grid time across every satellite and station; elevation *and* its rate come
-   from the SGP4 position and velocity, so maxima are found by the rate's sign change.
+1. **Screen** on a coarse grid (up to ``ARC_LIMIT_RAD`` of orbit, <= 2 h): SGP4 at each coarse
+   time for the whole chunk (one ``SatrecArray`` call). Between two coarse samples the
+   satellite stays (within perturbations) in the orbit plane given by the orbit normal r x v,
+   sweeping the arc between them. A satellite can only rise above ``min_el`` within the
+   interval if the arc comes within the *horizon cone* (geocentric angle for that elevation
+   at the orbit's apogee) of the station, widened by the station's own motion and a margin
+   for perturbations. Inside a candidate interval the same test runs per fine step, with the
+   sub-arc bounded by the slowest/fastest angular rate (no SGP4). Steps that fail are skipped.
+2. **Sample** the candidate fine steps at both ends (``step_s`` for low orbits, longer in
+   proportion for slower ones), sharing the TEME -> ITRS rotation of each grid time across
+   every satellite and station; elevation *and* its rate come from the SGP4 position and
+   velocity, so maxima are found by the rate's sign change.
 3. **Bracket** AOS/LOS (sign changes of elevation - horizon), maxima (rate + -> -), and
-   near-miss maxima: a maximum whose cubic Hermite estimate from the two ends is close below the
-   threshold is refined too, so short grazing passes inside one fine step are not lost.
-4. **Refine** all brackets at once with the Illinois (modified regula falsi) method, one SGP4
-   call per satellite per iteration, to ``tol_s``.
+   near-miss maxima: a maximum whose bound from the two ends is close below the threshold is
+   refined too, so short grazing passes inside one fine step are not lost.
+4. **Refine** all brackets at once on the cubic Hermite interpolant of the TEME position
+   (from the samples' positions and velocities; no SGP4), then finish each root with one
+   SGP4 evaluation that corrects the interpolant locally (a second one only for the rare
+   root that moved by more than a second): about one SGP4 call per event, to ``tol_s``.
 
 SGP4 errors (decayed elements) are collected per satellite and reported, never raised.
 Memory is bounded by chunking over satellites (sized from ``memory_mb``) and over time (blocks
@@ -44,10 +48,17 @@ PASS_DTYPE = np.dtype([
     ("sunlit", np.bool_), ("visible", np.bool_),
 ])
 
-ARC_LIMIT_RAD = 2.6  # the coarse arc must stay short of pi (150 deg) for the great-circle test
+# A coarse arc may sweep up to ~290 deg: its plane comes from the orbit normal (r x v), not
+# from its two ends, so arcs beyond 180 deg are unambiguous.
+ARC_LIMIT_RAD = 5.0
 PERTURBATION_MARGIN_RAD = math.radians(0.5)
 ELLIPSOID_MARGIN_DEG = 0.5  # geodetic vs geocentric vertical (< 0.2 deg) plus slack
 TWILIGHT_DEG = -6.0
+MAX_COARSE_S = 7200.0
+MAX_FINE_S = 3600.0
+CORRECT_ROUNDS = 3
+CORRECT_SPAN_S = 1.0
+LEO_RATE_RAD_S = 1.1e-3  # a ~95-minute orbit: step_s is the fine step at this rate
 
 
 @dataclass(frozen=True)
@@ -98,9 +109,18 @@ class _Job:
     tol_s: float
     stats: dict
     errors: dict  # sat -> (tau_s, code)
+    _theta0: float | None = None
+    _theta_rate: float = 0.0
 
     def theta(self, tau):
-        return geo.gmst_rad(self.jd0, self.fr0 + (np.asarray(tau) + self.dut1_s) / geo.DAY_S)
+        # GMST 1982 is linear in time to 1e-12 rad over weeks (its T^2 term is 0.09 s per
+        # century squared), so one evaluation at the block start serves every time.
+        if self._theta0 is None:
+            from skyfield.sgp4lib import theta_GMST1982
+
+            theta0, rate = theta_GMST1982(self.jd0, self.fr0 + self.dut1_s / geo.DAY_S)
+            self._theta0, self._theta_rate = float(theta0), float(rate) / geo.DAY_S
+        return self._theta0 + self._theta_rate * np.asarray(tau, dtype=float)
 
     def fr(self, tau):
         return self.fr0 + np.asarray(tau, dtype=float) / geo.DAY_S
@@ -158,17 +178,6 @@ def _sgp4_pairs(job: _Job, sat: np.ndarray, tau: np.ndarray, kind: str = "sgp4_r
     return err, r, v
 
 
-def _evaluate(job: _Job, sat, st: int, tau):
-    """Look angles, elevation rate and TEME position at (satellite, time) pairs for station st."""
-    err, r, v = _sgp4_pairs(job, sat, tau)
-    r_ecef, v_ecef = geo.teme_to_ecef(r, v, job.theta(tau))
-    el, az, rate = geo.look_angles(r_ecef, v_ecef, job.frames, st)
-    ok = (err == 0) & np.isfinite(el)
-    el = np.where(ok, el, -90.0)
-    rate = np.where(ok, rate, 0.0)
-    return el, az, rate, r
-
-
 def _hermite(f0, d0, f1, d1, h, n=17):
     """Cubic Hermite samples on each interval: (len, n) values and the unit abscissae."""
     s = np.linspace(0.0, 1.0, n)
@@ -188,6 +197,45 @@ def _hermite_slope(f0, d0, f1, d1, h, n=17):
     return 3 * c3[:, None] * s**2 + 2 * c2[:, None] * s + c1[:, None], s
 
 
+def _interpolant(job: _Job, st: int, t0, h: float, r0, v0, r1, v1, fix=None):
+    """Look angles on the cubic Hermite interpolant of the TEME position between samples.
+
+    Each bracket k lies in one fine step [t0[k], t0[k] + h] whose ends have SGP4 position
+    and velocity; the cubic through them is accurate to ~1 km for LEO at 480 s (error
+    ~ (omega h)^4 r / 384) and as good for slower orbits, whose steps scale with the period.
+    ``fix`` = (t_ref, dr, dv) adds to bracket k's cubic the SGP4 - cubic difference at
+    t_ref[k] (position dr + dv (t - t_ref), velocity dv; see :func:`_correct`). The Earth
+    rotation is applied exactly per time (GMST), so only the orbit is interpolated.
+    Returns ``evaluate(k, tau) -> (el, az, rate, r_teme, v_teme)``: no SGP4 calls.
+    """
+    # Power-basis coefficients of the cubic in s = (tau - t0) / h, per bracket.
+    d = r1 - r0
+    c2 = 3 * d - h * (2 * v0 + v1)
+    c3 = h * (v0 + v1) - 2 * d
+    c0, c1 = r0, h * v0
+    if fix is not None:
+        t_ref, dr, dv = fix
+        c0 = c0 + dr + dv * (t0 - t_ref)[:, None]
+        c1 = c1 + h * dv
+    coef = np.stack([c0, c1, c2, c3], axis=1)  # (n, 4, 3)
+
+    def evaluate(k, tau):
+        s = ((tau - t0[k]) / h)[:, None]
+        a0, a1, a2, a3 = np.moveaxis(coef[k], 1, 0)
+        r = ((a3 * s + a2) * s + a1) * s + a0
+        v = ((3 * a3 * s + 2 * a2) * s + a1) / h
+        r_ecef, v_ecef = geo.teme_to_ecef(r, v, job.theta(tau))
+        el, az, rate = geo.look_angles(r_ecef, v_ecef, job.frames, st)
+        return el, az, rate, r, v
+    return evaluate
+
+
+def _tca_g(el, rate):
+    """The function whose root is a maximum: rate times zenith distance. Near the zenith the
+    elevation is a cone tip and its rate jumps, but this product stays linear in time."""
+    return rate * (90.0 - el)
+
+
 def _first_root_guess(p, s):
     """Linear root of the first sign change in each row of samples (fraction 0..1)."""
     neg = p < 0
@@ -199,48 +247,74 @@ def _first_root_guess(p, s):
     return s[k] + np.clip(frac, 0.0, 1.0) * (s[k + 1] - s[k])
 
 
-def _solve(job: _Job, sat, st: int, lo, hi, g_lo, g_hi, guess, want_rate: bool):
+def _correct(job: _Job, st: int, sat, tau, lo, hi, g_lo, cubic, tca: bool):
+    """Finish the interpolant's roots ``tau`` with SGP4 itself, usually one evaluation each.
+
+    SGP4 at each root gives the cubic's error there (position and velocity); corrected by
+    it to first order, the cubic matches SGP4 at that point and, the error varying smoothly
+    over the step, stays within centimetres for the next second or so. Solving the corrected
+    cubic in the same bracket then lands on SGP4's own root; only where that moved the root
+    by more than ``CORRECT_SPAN_S`` (grazing passes, whose flat elevation magnifies the
+    cubic's error) is the correction repeated there. ``cubic`` = (t0, h, r0, v0, r1, v1)
+    per event. Returns (tau, el, az, r_teme).
+    """
+    n = len(tau)
+    tau = tau.copy()
+    out_el, out_az, out_r = np.zeros(n), np.zeros(n), np.zeros((n, 3))
+    active = np.arange(n)
+    for _ in range(CORRECT_ROUNDS):
+        if active.size == 0:
+            break
+        part = tuple(c if np.ndim(c) == 0 else c[active] for c in cubic)
+        x = tau[active]
+        err, r_s, v_s = _sgp4_pairs(job, sat[active], x)
+        k = np.arange(active.size)
+        _, _, _, r_h, v_h = _interpolant(job, st, *part)(k, x)
+        ok = ((err == 0) & np.isfinite(r_s).all(-1) & np.isfinite(v_s).all(-1))[:, None]
+        fixed = _interpolant(job, st, *part, fix=(x, np.where(ok, r_s - r_h, 0.0),
+                                                  np.where(ok, v_s - v_h, 0.0)))
+        x_new, el, az, r = _solve(job, st, fixed, lo[active], hi[active], g_lo[active], x,
+                                  tca, tol_s=min(job.tol_s, 1e-3), count=False)
+        tau[active] = x_new
+        out_el[active], out_az[active], out_r[active] = el, az, r
+        active = active[np.abs(x_new - x) > CORRECT_SPAN_S]
+    return tau, out_el, out_az, out_r
+
+
+def _solve(job: _Job, st: int, evaluate, lo, hi, g_lo, guess, want_rate: bool,
+           tol_s: float = 0.3, count: bool = True):
     """Root of g in each bracket [lo, hi] (g changes sign there), all brackets at once.
 
-    g is f = el - horizon (AOS/LOS; Newton steps with the elevation rate as slope) or the
-    elevation rate (TCA; secant steps). Steps that leave the bracket fall back to bisection,
-    so every bracket converges. Returns (tau, el, az, r_teme) at the last evaluated point.
+    g is f = el - horizon (AOS/LOS; Newton steps with the elevation rate as slope) or
+    :func:`_tca_g` (maxima; secant steps) of ``evaluate(k, tau)`` (an interpolant). Steps
+    that leave the bracket fall back to bisection, so every bracket converges to ``tol_s``.
+    Returns (tau, el, az, r_teme) at the last evaluated point.
     """
-    n = len(sat)
-    key = "brackets_tca" if want_rate else "brackets_cross"
-    job.stats[key] = job.stats.get(key, 0) + n
-    # Sorted by satellite, every iteration's SGP4 calls group without another sort.
-    order = np.argsort(sat, kind="stable")
-    sat, lo, hi, guess = sat[order], lo[order], hi[order], guess[order]
-    g_lo, g_hi = g_lo[order], g_hi[order]
-    # Near-zenith maxima are sharp (elevation is a cone tip there), so TCA too goes to tol_s.
-    tol = job.tol_s
+    n = len(lo)
+    if count:
+        key = "brackets_tca" if want_rate else "brackets_cross"
+        job.stats[key] = job.stats.get(key, 0) + n
+    tol = tol_s
     tau = np.clip(guess, lo, hi)
     out_el, out_az, out_r = np.zeros(n), np.zeros(n), np.zeros((n, 3))
     lo, hi, g_lo = lo.copy(), hi.copy(), g_lo.copy()
     x_prev, g_prev = lo.copy(), g_lo.copy()
     active = np.arange(n)
-    for it in range(40):
+    for it in range(60):
         if active.size == 0:
             break
         x = tau[active]
-        key = "solve_tca" if want_rate else "solve_cross"
-        job.stats[key] = job.stats.get(key, 0) + active.size
         if want_rate and it == 0:
-            # The rate's local slope from a second point 2 s on (same SGP4 call): the first
-            # step is then a Newton step, not a secant across the whole bracket.
-            m = active.size
+            # The rate's local slope from a second point 2 s on: the first step is then a
+            # Newton step, not a secant across the whole bracket.
             x2 = np.minimum(x + 2.0, hi[active])
             x2 = np.where(x2 - x < 0.5, x - 2.0, x2)
-            el, az, rate, r = _evaluate(job, np.concatenate([sat[active], sat[active]]), st,
-                                        np.concatenate([x, x2]))
-            x_prev[active], g_prev[active] = x2, rate[m:]
-            el, az, rate, r = el[:m], az[:m], rate[:m], r[:m]
-        else:
-            el, az, rate, r = _evaluate(job, sat[active], st, x)
+            e2 = evaluate(active, x2)
+            x_prev[active], g_prev[active] = x2, _tca_g(e2[0], e2[2])
+        el, az, rate, r, _ = evaluate(active, x)
         out_el[active], out_az[active], out_r[active] = el, az, r
         if want_rate:
-            g = rate
+            g = _tca_g(el, rate)
             xp, gp = x_prev[active], g_prev[active]
             slope = np.where(x != xp, (g - gp) / np.where(x != xp, x - xp, 1.0), 0.0)
         else:
@@ -260,60 +334,129 @@ def _solve(job: _Job, sat, st: int, lo, hi, g_lo, g_hi, guess, want_rate: bool):
         done = (np.abs(x_new - x) < tol) | (b_ - a_ < tol) | (g == 0)
         tau[active] = np.where(done, x, x_new)
         active = active[~done]
-    back = np.empty_like(order)
-    back[order] = np.arange(n)
-    return tau[back], out_el[back], out_az[back], out_r[back]
+    return tau, out_el, out_az, out_r
 
 
-def _coarse_candidates(job: _Job, r, valid, tau_c, coarse_s, r_apo, screenable):
-    """Per station, (S, K) booleans: coarse intervals where a pass is geometrically possible."""
-    frames = job.frames
-    rn = np.linalg.norm(r, axis=-1)
-    a_hat = r / np.where(rn > 0, rn, 1.0)[..., None]
-    A, B = a_hat[:, :-1], a_hat[:, 1:]
-    h = np.cross(A, B)
-    sin_ab = np.linalg.norm(h, axis=-1)
-    cos_ab = np.einsum("skc,skc->sk", A, B)
-    h_hat = h / np.maximum(sin_ab, 1e-12)[..., None]
+def _arc_geometry(r, v, valid):
+    """The orbit arcs between consecutive coarse samples: start direction A, in-plane normal
+    q, pole h (unit vectors, (S, K, 3)) and the swept angle phi in [0, 2 pi) (S, K).
+
+    The plane's pole is the mean of the two ends' orbit normals (r x v), so the plane is
+    well defined for any arc length and follows the slow nodal drift to first order.
+    """
+    def unit(x):
+        n = np.linalg.norm(x, axis=-1, keepdims=True)
+        return x / np.where(n > 0, n, 1.0)
+
+    w = unit(np.cross(r, v))
+    h_hat = unit(w[:, :-1] + w[:, 1:])
+    a_hat, b_hat = unit(r[:, :-1]), unit(r[:, 1:])
+    # A and B projected into the plane (they lie within perturbations of it).
+    A = unit(a_hat - np.einsum("skc,skc->sk", a_hat, h_hat)[..., None] * h_hat)
     q = np.cross(h_hat, A)
-    phi_ab = np.arctan2(sin_ab, cos_ab)
-    interval_ok = valid[:, :-1] & valid[:, 1:]
-    theta_mid = job.theta(0.5 * (tau_c[:-1] + tau_c[1:]))
-    c, s = np.cos(theta_mid), np.sin(theta_mid)
+    phi = np.mod(np.arctan2(np.einsum("skc,skc->sk", b_hat, q),
+                            np.einsum("skc,skc->sk", b_hat, A)), 2 * math.pi)
+    return dict(A=A, B=b_hat, q=q, h=h_hat, phi=phi, ok=valid[:, :-1] & valid[:, 1:])
+
+
+def _station_teme(job: _Job, st: int, tau) -> np.ndarray:
+    """Station ``st``'s geocentric unit vector in TEME at times ``tau`` (..., 3)."""
+    theta = job.theta(tau)
+    c, s = np.cos(theta), np.sin(theta)
+    u = job.frames.unit[st]
+    return np.stack([c * u[0] - s * u[1], s * u[0] + c * u[1], np.full_like(c, u[2])], -1)
+
+
+def _cone_limits(job: _Job, st: int, r_apo, dt_s: float):
+    """cos/sin of the screening cone half-angle (per satellite): the horizon cone at apogee,
+    widened by the station's motion in ``dt_s / 2`` and the perturbation margin."""
+    frames = job.frames
+    lim = (geo.horizon_angle_rad(r_apo, frames.radius_km[st],
+                                 frames.min_el_deg[st] - ELLIPSOID_MARGIN_DEG)
+           + geo.EARTH_ROTATION_RAD_S * dt_s / 2.0 * frames.cos_lat[st]
+           + PERTURBATION_MARGIN_RAD)
+    return np.cos(np.minimum(lim, math.pi)), np.sin(np.minimum(lim, math.pi / 2))
+
+
+def _coarse_candidates(job: _Job, arc, tau_c, coarse_s, r_apo, screenable):
+    """Per station, (S, K) booleans: coarse intervals where a pass is geometrically possible."""
+    A, B, q, h_hat, phi_ab = arc["A"], arc["B"], arc["q"], arc["h"], arc["phi"]
     out = []
-    for k in range(len(frames)):
-        u = frames.unit[k]
-        p = np.stack([c * u[0] - s * u[1], s * u[0] + c * u[1], np.full_like(c, u[2])], -1)
-        lim = (geo.horizon_angle_rad(r_apo, frames.radius_km[k],
-                                     frames.min_el_deg[k] - ELLIPSOID_MARGIN_DEG)
-               + geo.EARTH_ROTATION_RAD_S * coarse_s / 2.0 * frames.cos_lat[k]
-               + PERTURBATION_MARGIN_RAD)
-        cos_lim = np.cos(np.minimum(lim, math.pi))[:, None]
-        sin_lim = np.sin(np.minimum(lim, math.pi / 2))[:, None]
+    for k in range(len(job.frames)):
+        p = _station_teme(job, k, 0.5 * (tau_c[:-1] + tau_c[1:]))
+        cos_lim, sin_lim = (x[:, None] for x in _cone_limits(job, k, r_apo, coarse_s))
         pa = np.einsum("skc,kc->sk", A, p)
         pb = np.einsum("skc,kc->sk", B, p)
         ph = np.einsum("skc,kc->sk", h_hat, p)
         pq = np.einsum("skc,kc->sk", q, p)
-        alpha = np.arctan2(pq, pa)
-        in_arc = (alpha >= 0.0) & (alpha <= phi_ab)
+        in_arc = np.mod(np.arctan2(pq, pa), 2 * math.pi) <= phi_ab
         cand = (pa >= cos_lim) | (pb >= cos_lim) | (in_arc & (np.abs(ph) <= sin_lim))
         cand |= ~screenable[:, None]
-        out.append(cand & interval_ok)
+        out.append(cand & arc["ok"])
     return out
 
 
-def _fine_mask(cand, n: int):
-    rep = np.repeat(cand, n, axis=1)
-    mask = np.zeros((cand.shape[0], rep.shape[1] + 1), bool)
-    mask[:, :-1] |= rep
-    mask[:, 1:] |= rep
+def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc,
+                     screenable):
+    """(S, K * n) booleans: fine steps of the candidate coarse intervals where a pass is still
+    possible.
+
+    Inside a coarse interval the direction moves monotonically along the arc; its angle from
+    A after time t is bracketed by the slowest and fastest angular rate, taken as the arc's
+    mean rate times the Kepler perigee/apogee rate ratio for the eccentricity (plus 1 % for
+    SGP4's short-period terms and drag). Each fine step then sweeps a sub-arc of known
+    bounds, tested against the horizon cone like the coarse interval. No SGP4 calls.
+    """
+    S, K = cand.shape
+    out = np.zeros((S, K * n), bool)
+    if n == 1:
+        out[:] = cand
+        return out
+    ss, kk = np.nonzero(cand)
+    if ss.size == 0:
+        return out
+    fine_s = coarse_s / n
+    e_eff = np.minimum(ecc[ss] + 0.002, 0.9)
+    ratio = ((1.0 + e_eff) / (1.0 - e_eff)) ** 2 * 1.01
+    phi = arc["phi"][ss, kk]
+    w_mean = phi / coarse_s
+    w_lo, w_hi = (w_mean / ratio)[:, None], (w_mean * ratio)[:, None]
+    t_a = np.arange(n) * fine_s
+    t_b = t_a + fine_s
+    ph_ = phi[:, None]
+    a1 = np.clip(np.maximum(w_lo * t_a, ph_ - w_hi * (coarse_s - t_a)), 0.0, ph_)
+    a2 = np.clip(np.minimum(w_hi * t_b, ph_ - w_lo * (coarse_s - t_b)), 0.0, ph_)
+    a2 = np.maximum(a1, a2)
+    tau_mid = (kk * coarse_s)[:, None] + t_a + 0.5 * fine_s
+    p = _station_teme(job, st, tau_mid)  # (m, n, 3)
+    A, q, h_hat = arc["A"][ss, kk], arc["q"][ss, kk], arc["h"][ss, kk]
+    pa = np.einsum("mc,mjc->mj", A, p)
+    pq = np.einsum("mc,mjc->mj", q, p)
+    ph = np.einsum("mc,mjc->mj", h_hat, p)
+    cos_lim, sin_lim = (x[ss][:, None] for x in _cone_limits(job, st, r_apo, fine_s))
+    beta = np.mod(np.arctan2(pq, pa), 2 * math.pi)
+    in_arc = (beta >= a1) & (beta <= a2)
+    sub = ((np.cos(a1) * pa + np.sin(a1) * pq >= cos_lim)
+           | (np.cos(a2) * pa + np.sin(a2) * pq >= cos_lim)
+           | (in_arc & (np.abs(ph) <= sin_lim)))
+    sub |= ~screenable[ss][:, None]
+    out.reshape(S, K, n)[ss, kk] = sub
+    return out
+
+
+def _fine_mask(sub):
+    """Fine samples needed: both ends of every candidate fine step."""
+    mask = np.zeros((sub.shape[0], sub.shape[1] + 1), bool)
+    mask[:, :-1] |= sub
+    mask[:, 1:] |= sub
     return mask
 
 
-def _run_chunk(job: _Job, sat_ids: np.ndarray, n: int, r_apo, screenable):
+def _run_chunk(job: _Job, sat_ids: np.ndarray, n: int, fine_step_s: float, r_apo, ecc,
+               screenable):
     """Screen, sample and bracket one chunk of satellites sharing the coarse factor ``n``."""
     stats = job.stats
-    K = max(1, math.ceil(job.window_s / (n * job.step_s)))
+    K = max(1, math.ceil(job.window_s / (n * fine_step_s)))
     coarse_s = job.window_s / K
     fine_s = coarse_s / n
     nf = K * n
@@ -325,12 +468,20 @@ def _run_chunk(job: _Job, sat_ids: np.ndarray, n: int, r_apo, screenable):
     if not valid.all():
         ss, kk = np.nonzero(~valid)
         job.note_errors(sat_ids[ss], tau_c[kk], np.where(e[ss, kk] == 0, 6, e[ss, kk]))
-    cands = _coarse_candidates(job, r, valid, tau_c, coarse_s, r_apo, screenable)
+    arc = _arc_geometry(r, v, valid)
+    cands = _coarse_candidates(job, arc, tau_c, coarse_s, r_apo, screenable)
     cand_any = np.logical_or.reduce(cands) if len(cands) > 1 else cands[0]
-    stats["intervals"] = stats.get("intervals", 0) + cand_any.size
-    stats["candidate_intervals"] = stats.get("candidate_intervals", 0) + int(cand_any.sum())
+    subs = [_fine_candidates(job, st, cand, arc, n, coarse_s, r_apo, ecc, screenable)
+            for st, cand in enumerate(cands)]
+    sub_any = np.logical_or.reduce(subs) if len(subs) > 1 else subs[0]
+    # "intervals": fine steps of the whole window; "candidate_intervals": those the two
+    # screening levels kept (the only ones SGP4 samples).
+    for key, val in (("coarse_intervals", cand_any.size),
+                     ("candidate_coarse_intervals", int(cand_any.sum())),
+                     ("intervals", sub_any.size), ("candidate_intervals", int(sub_any.sum()))):
+        stats[key] = stats.get(key, 0) + val
 
-    F = _fine_mask(cand_any, n)
+    F = _fine_mask(sub_any)
     flat = np.flatnonzero(F)
     s_loc = flat // (nf + 1)
     j = flat % (nf + 1)
@@ -349,8 +500,8 @@ def _run_chunk(job: _Job, sat_ids: np.ndarray, n: int, r_apo, screenable):
 
     brackets = []
     pos = np.cumsum(F.ravel()) - 1 if len(cands) > 1 else None
-    for st, cand in enumerate(cands):
-        sel = np.arange(len(flat)) if pos is None else pos[np.flatnonzero(_fine_mask(cand, n))]
+    for st, sub in enumerate(subs):
+        sel = np.arange(len(flat)) if pos is None else pos[np.flatnonzero(_fine_mask(sub))]
         if sel.size == 0:
             continue
         el, az, rate = geo.look_angles(tuple(c[sel] for c in r_ecef),
@@ -368,7 +519,7 @@ def _run_chunk(job: _Job, sat_ids: np.ndarray, n: int, r_apo, screenable):
         brackets.append(dict(
             st=st, sat=sat_ids[ss], tau=tau, f=f, rate=rate, el=el, az=az, contig=contig,
             up=up, cut_start=up & ~prev_c, cut_end=up & ~next_c, fine_s=fine_s, r=P[sel],
-            r_apo=r_apo[ss]))
+            v=V[sel], r_apo=r_apo[ss]))
     return brackets
 
 
@@ -419,8 +570,14 @@ def _refine_station_chunk(job: _Job, b: dict):
     max_i = max_i[bound >= job.frames.min_el_deg[st] - ELLIPSOID_MARGIN_DEG]
     dp, s = _hermite_slope(el[max_i], rate[max_i], el[max_i + 1], rate[max_i + 1], h)
     guess = tau[max_i] + h * _first_root_guess(dp, s)
-    m_tau, m_el, m_az, m_r = _solve(job, sat[max_i], st, tau[max_i], tau[max_i + 1],
-                                    rate[max_i], rate[max_i + 1], guess, want_rate=True)
+    rv = (b["r"], b["v"])
+    cubic = (tau[max_i], h, *(x[max_i] for x in rv), *(x[max_i + 1] for x in rv))
+    m_tau, _, _, _ = _solve(job, st, _interpolant(job, st, *cubic), tau[max_i],
+                            tau[max_i + 1], _tca_g(el[max_i], rate[max_i]), guess,
+                            want_rate=True)
+    m_tau, m_el, m_az, m_r = _correct(job, st, sat[max_i], m_tau, tau[max_i],
+                                      tau[max_i + 1], _tca_g(el[max_i], rate[max_i]), cubic,
+                                      tca=True)
     m_f = m_el - job.threshold(st, m_az)
     hidden = (m_f >= 0) & (f[max_i] < 0) & (f[max_i + 1] < 0)
 
@@ -439,7 +596,12 @@ def _refine_station_chunk(job: _Job, b: dict):
     width = c_hi - c_lo
     p, s = _hermite(c_glo, d_lo, c_ghi, d_hi, width)
     guess = c_lo + width * _first_root_guess(p, s)
-    c_tau, c_el, c_az, c_r = _solve(job, c_sat, st, c_lo, c_hi, c_glo, c_ghi, guess, False)
+    c_iv = np.concatenate([aos_i, los_i, hi_idx, hi_idx])
+    cubic = (tau[c_iv], h, *(x[c_iv] for x in rv), *(x[c_iv + 1] for x in rv))
+    c_tau, _, _, _ = _solve(job, st, _interpolant(job, st, *cubic), c_lo, c_hi, c_glo, guess,
+                            False)
+    c_tau, c_el, c_az, c_r = _correct(job, st, c_sat, c_tau, c_lo, c_hi, c_glo, cubic,
+                                      tca=False)
 
     # Window-edge (or decay) cuts become clipped AOS/LOS at the sample itself.
     cs, ce = np.flatnonzero(b["cut_start"]), np.flatnonzero(b["cut_end"])
@@ -537,20 +699,30 @@ def find_passes_block(satrecs, names, stations, start, end, min_el_deg=None, *,
     rate = np.empty(n_sat)
     for i, sr in enumerate(job.satrecs):
         r_apo[i], rate[i] = geo.orbit_bounds(sr)
+    ecc = np.array([min(max(sr.ecco, 0.0), 0.999) for sr in job.satrecs])
     r_apo += 100.0  # SGP4 vs Kepler radius, drag and J2 short-period terms
-    # Coarse factor: as many fine steps per coarse interval as keep the arc short, <= 1 hour.
-    n_fact = np.clip(np.floor(np.minimum(ARC_LIMIT_RAD / rate, 3600.0) / step_s), 1, None)
-    n_fact = np.minimum(n_fact, max(1, int(3600.0 // step_s))).astype(int)
-    screenable = rate * step_s * n_fact <= ARC_LIMIT_RAD
+    # Fine step: step_s for low orbits, an integer multiple of it for slower ones (so
+    # satellites group into few chunks), in proportion to the period and at most
+    # MAX_FINE_S: what matters for the interpolation between samples is the arc swept per
+    # step (GEO: two hours, a 30 degree arc, like a low orbit in 480 s).
+    slow = np.floor(np.maximum(LEO_RATE_RAD_S / rate, 1.0))
+    fine_s = np.minimum(step_s * slow, max(step_s, step_s * (MAX_FINE_S // step_s)))
+    # Coarse factor: as many fine steps per coarse interval as keep the arc within
+    # ARC_LIMIT_RAD, at most MAX_COARSE_S.
+    n_fact = np.clip(np.floor(np.minimum(ARC_LIMIT_RAD / rate, MAX_COARSE_S) / fine_s), 1,
+                     None).astype(int)
+    screenable = rate * fine_s * n_fact <= ARC_LIMIT_RAD
     rows = []
-    for n in np.unique(n_fact).tolist():
-        ids = np.flatnonzero(n_fact == n)
-        k = max(1, math.ceil(window_s / (n * step_s)))
+    groups = sorted(set(zip(fine_s.tolist(), n_fact.tolist(), strict=True)))
+    for f_s, n in groups:
+        ids = np.flatnonzero((fine_s == f_s) & (n_fact == n))
+        k = max(1, math.ceil(window_s / (n * f_s)))
         size = _chunk_size(k + 1, k * n + 1, len(stations), memory_mb)
         for c0 in range(0, len(ids), size):
             chunk = ids[c0:c0 + size]
             stats["chunks"] = stats.get("chunks", 0) + 1
-            for b in _run_chunk(job, chunk, n, r_apo[chunk], screenable[chunk]):
+            for b in _run_chunk(job, chunk, n, f_s, r_apo[chunk], ecc[chunk],
+                                screenable[chunk]):
                 rows.append(_refine_station_chunk(job, b))
     passes = np.concatenate(rows) if rows else np.zeros(0, PASS_DTYPE)
     passes = passes[(passes["los_s"] > passes["aos_s"]) | passes["aos_clipped"]]
