@@ -1,6 +1,7 @@
 """Fuzz every parser and emulator with many random and near-valid inputs.
 
     python benchmarks/fuzz.py                       # 100k inputs per target
+    python benchmarks/fuzz.py --engine hypothesis   # the same, drawn by hypothesis
     python benchmarks/fuzz.py --count 10000 --only emulator --time-limit-s 60
     python benchmarks/fuzz.py --reply-integrity 20000   # noisy line vs the GS-232 parser
 
@@ -8,6 +9,10 @@ Prints, per target: inputs run, exceptions outside the documented typed errors (
 type, with the first offending input), and inputs per second. Exit status 1 if any target
 raised an undocumented exception. The targets are the ones the CI hypothesis tests use
 (``tests/_fuzz_targets.py``); the CI runs a few hundred, this runs the full count.
+``--engine random`` (default) draws near-valid mutations, random bytes and token soup from
+a seeded ``random.Random`` (fastest); ``--engine hypothesis`` draws from the CI tests'
+hypothesis strategy (generation only: every input is run, failures are collected, not
+shrunk).
 """
 
 from __future__ import annotations
@@ -29,6 +34,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--count", type=int, default=100_000, help="inputs per target")
     ap.add_argument("--seed", type=int, default=2026, help="RNG seed (reproducible runs)")
     ap.add_argument("--only", default="", help="run targets whose name contains this")
+    ap.add_argument("--engine", choices=("random", "hypothesis"), default="random",
+                    help="input generator (default random; hypothesis: the CI strategy)")
     ap.add_argument("--time-limit-s", type=float, default=None,
                     help="stop a target after this many seconds (its count is then lower; "
                          "the table says so)")
@@ -40,29 +47,13 @@ def main(argv: list[str] | None = None) -> int:
         return reply_integrity(args.reply_integrity, args.seed)
 
     targets = [t for t in F.targets() if args.only in t.name]
-    print(f"fuzz: {len(targets)} targets, {args.count} inputs each, seed {args.seed}")
+    print(f"fuzz: {len(targets)} targets, {args.count} inputs each, seed {args.seed}, "
+          f"engine {args.engine}")
     print(f"{'target':30s} {'inputs':>8s} {'bad':>5s} {'inputs/s':>9s}  notes")
     total_bad = 0
     t_all = time.perf_counter()
     for t in targets:
-        rng = random.Random(f"{args.seed}:{t.name}")
-        bad: Counter[str] = Counter()
-        first: dict[str, bytes] = {}
-        n = 0
-        t0 = time.perf_counter()
-        deadline = None if args.time_limit_s is None else t0 + args.time_limit_s
-        while n < args.count:
-            data = F.random_input(rng, t)
-            err = F.check(t, data)
-            n += 1
-            if err is not None:
-                key = f"{type(err).__name__}: {str(err)[:70]}"
-                bad[type(err).__name__] += 1
-                first.setdefault(type(err).__name__, data[:80])
-                first.setdefault(key, b"")
-            if deadline is not None and n % 200 == 0 and time.perf_counter() > deadline:
-                break
-        dt = time.perf_counter() - t0
+        n, bad, first, dt = _run_target(t, args)
         notes = "" if n == args.count else f"time limit: {n}/{args.count}"
         tolerated = F.KNOWN_ESCAPES.get(t.name)
         if tolerated:
@@ -75,6 +66,53 @@ def main(argv: list[str] | None = None) -> int:
             print(f"    {count} x {kind}; first input {first[kind]!r}")
     print(f"total: {total_bad} undocumented exceptions; {time.perf_counter() - t_all:.1f} s")
     return 1 if total_bad else 0
+
+
+def _run_target(t, args) -> tuple[int, Counter[str], dict[str, bytes], float]:
+    """Run one target: inputs run, undocumented exceptions by type, first input of each."""
+    bad: Counter[str] = Counter()
+    first: dict[str, bytes] = {}
+    n = 0
+    t0 = time.perf_counter()
+    deadline = None if args.time_limit_s is None else t0 + args.time_limit_s
+
+    def one(data: bytes) -> None:
+        nonlocal n
+        err = F.check(t, data)
+        n += 1
+        if err is not None:
+            bad[type(err).__name__] += 1
+            first.setdefault(type(err).__name__, data[:80])
+        if deadline is not None and n % 200 == 0 and time.perf_counter() > deadline:
+            raise _TimeUp
+
+    try:
+        if args.engine == "hypothesis":
+            _hypothesis_run(t, args.count, args.seed, one)
+        else:
+            rng = random.Random(f"{args.seed}:{t.name}")
+            while n < args.count:
+                one(F.random_input(rng, t))
+    except _TimeUp:
+        pass
+    return n, bad, first, time.perf_counter() - t0
+
+
+class _TimeUp(BaseException):
+    """Ends a target at --time-limit-s (a BaseException so hypothesis does not catch it)."""
+
+
+def _hypothesis_run(target, count: int, seed: int, one) -> None:
+    from hypothesis import HealthCheck, Phase, given, settings
+    from hypothesis import seed as hseed
+
+    @settings(max_examples=count, deadline=None, database=None, phases=[Phase.generate],
+              suppress_health_check=list(HealthCheck))
+    @hseed(seed)
+    @given(data=F.hypothesis_inputs(target))
+    def run(data: bytes) -> None:
+        one(data)
+    run()
 
 
 def reply_integrity(n: int, seed: int) -> int:

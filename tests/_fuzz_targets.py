@@ -230,6 +230,52 @@ def _mask(data: bytes) -> None:
     assert m.az_deg
 
 
+def _plan_file(data: bytes) -> None:
+    """A step-table plan file (``tracker plan --steptable``), as ``tracker upload`` reads it."""
+    from tracker.steptable import read_plan_file
+
+    p = _TMP / "pass.steps"
+    p.write_bytes(data)
+    plan = read_plan_file(p)
+    assert plan.tables and all(t.lines() for t in plan.tables)
+
+
+def _priorities(data: bytes) -> None:
+    """``tracker schedule --priorities FILE`` and ``--priority NAME=N`` items."""
+    from tracker.schedule import parse_priorities
+
+    p = _TMP / "priorities.txt"
+    p.write_bytes(data)
+    out = parse_priorities([], p)
+    out.update(parse_priorities(_text(data).splitlines()[:2]))
+    assert all(isinstance(v, int) and v >= 0 for v in out.values())
+
+
+def _stations(data: bytes) -> None:
+    """``tracker batch --stations FILE``: CSV or TOML, the format chosen by the content."""
+    from tracker.batch import load_stations
+
+    for suffix in (".csv", ".toml"):
+        p = _TMP / f"stations{suffix}"
+        p.write_bytes(data)
+        try:
+            stations = load_stations(p)
+        except ConfigError:
+            continue
+        assert all(-90 <= s.lat_deg <= 90 for s in stations)
+
+
+def _plan_seed() -> bytes:
+    from tracker.mount import preset
+    from tracker.steptable import MountPath, compile_program, format_plan_file
+    from tracker.synthpass import synthetic_pass
+
+    spec = preset("G-5500")
+    track = synthetic_pass(40.0, 100.0, 300.0, pad_s=10.0)
+    prog = compile_program(MountPath.from_track(track, spec), spec, "gs232b", interval_s=10)
+    return format_plan_file(prog).encode()
+
+
 def _fault_spec(data: bytes) -> None:
     from tracker.emulator.faults import parse_fault
 
@@ -342,6 +388,17 @@ def targets() -> list[Target]:
         Target("schedule.parse", _schedule, [sched], (ConfigError,), TOKENS),
         Target("station.HorizonMask.load", _mask, [b"0 5\n90 10\n180, 3 # x\n270 0\n"],
                (ConfigError,), TOKENS),
+        # LimitError: a table angle outside what the controller accepts (e.g. el 936)
+        Target("steptable.read_plan_file", _plan_file, [_plan_seed()],
+               (ConfigError, LimitError),
+               [*TOKENS, b"# table 1/1 ", b"upload_utc=", b"t_utc=", b"W010 ", b"M010 ",
+                b"\nT\n", b"2026-08-22T11:57:25.000Z"]),
+        Target("schedule.parse_priorities", _priorities,
+               [b"ISS=5\nAO-91=2\nAO-7, 1 # fm\n\"SO-50\"=0\n"], (ConfigError,), TOKENS),
+        Target("batch.load_stations", _stations,
+               [b"name,lat,lon,alt\nJO22,52.0,4.4,10\nFN42,42.4,-71.1,50\n",
+                b'[[station]]\nname = "JO22"\nlat = 52.0\nlon = 4.4\nalt = 10\n'],
+               (), TOKENS),
         Target("faults.parse_fault", _fault_spec, [b"drop=0.01", b"silent=30@120",
                                                    b"jam=el:30@60", b"drift=-0.5%"],
                (ConfigError,), TOKENS),
@@ -390,3 +447,18 @@ def check(target: Target, data: bytes) -> BaseException | None:
     except Exception as e:
         return e
     return None
+
+
+def hypothesis_inputs(target: Target):
+    """The hypothesis strategy the CI tests and ``benchmarks/fuzz.py --engine hypothesis``
+    draw from: near-valid mutations of a seed (hypothesis picks the edit script), raw bytes,
+    and a soup of protocol tokens."""
+    from hypothesis import strategies as st
+
+    pick = st.tuples(st.integers(0, 10**6), st.integers(0, 10**6))
+    near = pick.map(lambda sr: mutate(random.Random(sr[1]),
+                                      target.seeds[sr[0] % len(target.seeds)],
+                                      target.tokens))
+    soup = st.lists(st.sampled_from(target.tokens or TOKENS), max_size=24).map(b"".join)
+    return st.one_of(near, st.binary(max_size=200), soup) if target.seeds else \
+        st.one_of(st.binary(max_size=200), soup)

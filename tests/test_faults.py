@@ -57,6 +57,22 @@ def test_cli_rejects_a_bad_fault_with_exit_2(capsys):
     assert err.startswith("tracker: error: fault 'jam=up@3'") and "Traceback" not in err
 
 
+def test_emulate_help_documents_every_fault_and_the_syntax(capsys):
+    from tracker.emulator.faults import ALL_KINDS
+
+    with pytest.raises(SystemExit):
+        main(["emulate", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "NAME[=VALUE][@START_S]" in text and "@100+30" in text
+    for kind in ALL_KINDS:
+        assert kind in text, kind
+    for example in ("drop=0.01", "silent=30@120", "powercycle=2@300", "jam=el:30@60",
+                    "drift=0.5%", "drift=-200ppm", "disconnect=5@200", ":in or :out"):
+        assert example in text, example
+        if "=" in example:
+            parse_fault(example)     # every example in the help parses
+
+
 # Controller level (exact, ManualClock) ---------------------------------------------------
 
 
@@ -171,6 +187,30 @@ def test_wrongside_reports_0_359_in_450_mode():
     s = ctrl.open_session()
     assert s.feed(b"C2\r") == b"AZ=400  EL=010\r\n"
     install(ctrl, ["wrongside"])
+    assert s.feed(b"C2\r") == b"AZ=040  EL=010\r\n"
+
+
+def test_drift_and_wrongside_with_a_start_time_begin_then():
+    """``drift=10%@30`` / ``wrongside@40`` were once parsed and then applied from t=0."""
+    _ctrl, s, clock, _ = make(["drift=10%@30"])
+    s.feed(b"M010 " + b" ".join(b"%03d" % a for a in range(100, 200, 5)) + b"\r")
+    s.feed(b"T\r")
+    clock.advance(29.0)           # T: point 2; steps at 10 and 20 (drifted: 11, 22)
+    assert s.feed(b"N\r") == b"+0004+0020\r\n"
+    clock.advance(1.0)            # the step due at 30 is still on the nominal clock
+    assert s.feed(b"N\r") == b"+0005+0020\r\n"
+    clock.advance(10.5)           # nominal: a step at 40; 10 % slow from 30: at 41
+    assert s.feed(b"N\r") == b"+0005+0020\r\n"
+    clock.advance(1.0)
+    assert s.feed(b"N\r") == b"+0006+0020\r\n"
+
+    clock = ManualClock(datetime.fromisoformat(T0))
+    ctrl = Gs232Controller("gs232b", preset("G-5500"), clock, az_deg=400, el_deg=10)
+    s = ctrl.open_session()
+    install(ctrl, ["wrongside@40"])
+    clock.advance(39.0)
+    assert s.feed(b"C2\r") == b"AZ=400  EL=010\r\n"
+    clock.advance(1.5)
     assert s.feed(b"C2\r") == b"AZ=040  EL=010\r\n"
 
 
@@ -433,3 +473,33 @@ def test_cli_emulate_with_faults_end_to_end(capsys):
         out, _ = proc.communicate(timeout=20)
     assert proc.returncode == 0
     assert "faults: " in out and "silent_events 1" in out and "disconnect_events 1" in out
+
+
+@pytest.mark.slow
+def test_cli_emulate_tcp_with_faults_end_to_end(capsys):
+    """``tracker emulate --protocol gs232b --tcp 0 --fault ...``: the port closes for the
+    disconnect window (a one-line error, exit 2), then listens again on the same port; a jam
+    keeps the antenna where it is although a move was commanded."""
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "tracker", "emulate", "--protocol", "gs232b", "--tcp", "0",
+         "--duration", "8", "--fault", "jam=az@0", "--fault", "disconnect=1.5@3"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        url = proc.stdout.readline().strip()
+        assert url.startswith("socket://127.0.0.1:"), url
+        pos = ["rotator", "--port", url, "--timeout", "0.3", "position"]
+        assert main(["rotator", "--port", url, "--timeout", "0.3", "goto", "200", "10"]) == 0
+        assert wait_until(lambda: main(pos) == 2, 5)           # port closed at t=3 s
+        err = capsys.readouterr().err
+        assert err.startswith("tracker: error: ") and "Traceback" not in err
+        assert wait_until(lambda: main(pos) == 0, 5)           # listening again, same port
+        az, el = (float(v) for v in capsys.readouterr().out.split()[-2:])
+        assert az == 0 and el > 0, (az, el)     # azimuth jammed; elevation obeyed the goto
+    finally:
+        out, _ = proc.communicate(timeout=20)
+    assert proc.returncode == 0
+    assert "jam_events 1" in out and "disconnect_events 1" in out
+

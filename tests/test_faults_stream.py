@@ -262,3 +262,40 @@ def test_wrongside_read_back_does_not_fool_the_loop(tmp_path):
     assert b.errors_after(T0).max() <= b.plan.max_error_deg + DEADBAND + 1.0
     b.assert_commands_safe()
     _figures("wrongside", b, res)
+
+
+def test_tcp_disconnect_resumes_within_3_s_at_a_slower_clock(tmp_path, monkeypatch):
+    """The 3 s bound on TCP too. At 50x pyserial's 0.3 s real sleep in socket close() alone
+    is 15 simulated seconds, so this runs the same fault at 5x (that sleep is then 1.5 s,
+    still more than it costs at 1x) with the default reconnect settings."""
+    import test_faults_stream as me
+
+    monkeypatch.setattr(me, "SPEED", 5.0)
+    monkeypatch.setattr(me, "DRIVER_TIMEOUT_S", 0.2)     # 1 s simulated, as at 50x order
+    b = FaultBench("tcp", ["disconnect=5@A+20"], tmp_path, duration_s=60.0)
+    res = b.run()
+    assert res.completed and res.reconnects >= 1, b.states()
+    resume_s, rec_t = _resume_s(b, T0 + 25.0)
+    late = b.errors_after(rec_t + 10.0)
+    assert len(late) > 5 and late.max() <= b.plan.max_error_deg + DEADBAND + 1.0
+    b.assert_commands_safe()
+    _figures("disconnect 5 s (tcp, 5x, default settings)", b, res,
+             f"resumed {resume_s:.2f} s after the port returned")
+    assert resume_s <= 3.0, resume_s
+
+
+def test_deaf_controller_commands_lost_then_tracking_resumes(transport, tmp_path):
+    """Deaf: the controller ignores all input (commands are lost, not queued). The loop
+    sees no replies, keeps asking, and tracks again within 3 s of the window's end."""
+    b = FaultBench(transport, ["deaf=15@A+40"], tmp_path, reconnect_max_s=2.0)
+    res = b.run()
+    assert res.completed and b.inj.stats["deaf_events"] == 1
+    assert b.inj.stats["bytes_ignored"] > 0
+    resume_s, rec_t = _resume_s(b, T0 + 55.0)
+    late = b.errors_after(rec_t + 10.0)
+    assert late.max() <= b.plan.max_error_deg + DEADBAND + 1.0
+    b.assert_commands_safe()
+    _figures(f"deaf 15 s ({transport})", b, res,
+             f"resumed {resume_s:.2f} s after the window")
+    if transport == "pty":     # TCP: see the 0.3 s close() sleep above
+        assert resume_s <= 3.0, resume_s

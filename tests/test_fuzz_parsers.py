@@ -5,12 +5,9 @@ answers C2 afterwards. CI runs a few examples per target (all fuzz tests < 30 s)
 
 from __future__ import annotations
 
-import random
-
 import pytest
-from _fuzz_targets import TOKENS, check, mutate, targets
+from _fuzz_targets import check, hypothesis_inputs, targets
 from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
 
 from tle.errors import TleError
 
@@ -18,17 +15,9 @@ TARGETS = {t.name: t for t in targets()}
 FAST = settings(max_examples=150, deadline=None, derandomize=True,
                 suppress_health_check=[HealthCheck.too_slow])
 
-# Near-valid inputs: a seed with random edits (hypothesis picks the edit script and shrinks
-# it); raw bytes; and a soup of protocol tokens.
-_mutated = st.builds(lambda seed, r: (seed, r), st.integers(0, 10**6), st.integers(0, 10**6))
-_soup = st.lists(st.sampled_from(TOKENS), max_size=24).map(b"".join)
-
 
 def _inputs(name: str):
-    t = TARGETS[name]
-    near = _mutated.map(lambda sr: mutate(random.Random(sr[1]),
-                                          t.seeds[sr[0] % len(t.seeds)], t.tokens))
-    return st.one_of(near, st.binary(max_size=200), _soup)
+    return hypothesis_inputs(TARGETS[name])
 
 
 def _run(name: str, data: bytes) -> None:
@@ -51,7 +40,8 @@ def test_every_seed_is_accepted_where_it_is_valid():
     """The seeds are real, valid inputs: the file parsers must take them without error, so
     the mutations start from the inside of each parser rather than its first check."""
     for name in ("tle.parse_text", "omm.json", "omm.csv", "omm.xml", "config.load_config",
-                 "schedule.parse", "station.HorizonMask.load", "faults.parse_fault"):
+                 "schedule.parse", "station.HorizonMask.load", "faults.parse_fault",
+                 "steptable.read_plan_file", "schedule.parse_priorities"):
         t = TARGETS[name]
         for seed in t.seeds:
             t.run(seed)     # raises on a bad seed
@@ -94,3 +84,20 @@ def test_tle_with_a_blank_in_the_epoch_is_a_tle_error():
         return
     except Exception as e:
         raise AssertionError(f"{type(e).__name__}: {e}") from e
+
+
+@pytest.mark.parametrize("loader", ["plan", "priorities", "stations"])
+def test_a_binary_file_is_a_config_error_not_a_unicode_error(tmp_path, loader):
+    """Found by fuzzing: these readers caught OSError only, so a non-UTF-8 file (a plan or
+    stations file saved in another encoding, a binary by mistake) was a traceback."""
+    from tracker.batch import load_stations
+    from tracker.errors import ConfigError
+    from tracker.schedule import parse_priorities
+    from tracker.steptable import read_plan_file
+
+    p = tmp_path / "file.txt"
+    p.write_bytes(b"ISS=5\n\xff\xfe\xe9=3\n")
+    fn = {"plan": read_plan_file, "priorities": lambda f: parse_priorities([], f),
+          "stations": load_stations}[loader]
+    with pytest.raises(ConfigError, match="not a text file"):
+        fn(p)

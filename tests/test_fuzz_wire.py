@@ -144,3 +144,34 @@ def test_driver_turns_garbage_replies_into_typed_errors(kind, protocol):
         peer.close()
     assert sum(outcomes.values()) == N_REPLIES
     assert set(outcomes) - {"reading"}, outcomes     # garbage was noticed at least once
+
+
+@pytest.mark.parametrize("caps", [b"Min Azimuth:\t\t1.2.3\n", b"Max Elevation:\t.\n",
+                                  b"Max Azimuth: -\n", b"Min Elevation: 1e999\n",
+                                  b"Max Azimuth:\t\t450.00 junk\n"])
+def test_rotctld_garbled_dump_caps_is_ignored_not_a_crash(caps):
+    """Found by fuzzing: ``\\dump_caps`` limits matched ``-?[\\d.]+`` and went to float(), so
+    a garbled line such as ``1.2.3`` raised ValueError out of open_driver. Now a line that
+    is not exactly a number is ignored and the configured limits stay in force."""
+    peer = RawPeer("tcp", lambda req: caps + b"RPRT 0\n")
+    try:
+        d = open_driver(peer.url, "rotctld", timeout_s=0.5)
+        d.stop_on_exit = False
+        assert d.az_limits == (-180.0, 450.0) and d.el_limits == (0.0, 180.0)
+        d.close()
+    finally:
+        peer.close()
+
+
+def test_rotctld_real_dump_caps_format_still_read():
+    """The format Hamlib 4 really prints (tabs, two decimals) still narrows the limits."""
+    caps = (b"Min Azimuth:\t\t-180.00\nMax Azimuth:\t\t450.00\nMin Elevation:\t\t0.00\n"
+            b"Max Elevation:\t\t90.00\nRPRT 0\n")
+    peer = RawPeer("tcp", lambda req: caps)
+    try:
+        d = open_driver(peer.url, "rotctld", timeout_s=0.5)
+        d.stop_on_exit = False
+        assert d.el_limits == (0.0, 90.0)
+        d.close()
+    finally:
+        peer.close()

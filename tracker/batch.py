@@ -119,6 +119,9 @@ def load_stations(path: str | Path) -> list[Station]:
         text = path.read_text()
     except OSError as e:
         raise ConfigError(f"cannot read stations file {path}: {e.strerror}") from None
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path}: not a text file; a stations file is CSV or TOML"
+                          ) from None
     is_toml = path.suffix.lower() == ".toml" or "[[station]]" in text
     stations = _load_toml(path, text) if is_toml else _load_csv(path, text)
     if not stations:

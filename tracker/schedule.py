@@ -58,6 +58,9 @@ def parse_priorities(items: list[str], path: str | Path | None = None) -> dict[s
             text = path.read_text()
         except OSError as e:
             raise ConfigError(f"cannot read priorities file {path}: {e.strerror}") from None
+        except UnicodeDecodeError:
+            raise ConfigError(f"{path}: not a text file; a priorities file has NAME=N "
+                              f"lines") from None
         for no, line in enumerate(text.splitlines(), 1):
             line = line.split("#", 1)[0].strip()
             if line:

@@ -757,6 +757,9 @@ def read_plan_file(path: str | Path) -> PlanFile:
         text = path.read_text()
     except OSError as e:
         raise ConfigError(f"cannot read plan file {path}: {e.strerror}") from e
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path}: not a text file; write a plan file with "
+                          f"`tracker plan ... --steptable FILE`") from None
     header: dict = {}
     profile = None
     tables: list[StepTable] = []

@@ -15,9 +15,9 @@ A fault is written as ``NAME[=VALUE][@START_S]`` (the ``tracker emulate --fault`
                        tables lost, motors stopped, autobaud again
 ``jam=az@60``          the azimuth motor stalls at t=60 s (``jam=el:30@60``: for 30 s)
 ``drift=0.5%``         the controller's step clock runs 0.5 % slow (negative: fast);
-                       also ``ppm``
+                       also ``ppm``; ``drift=0.5%@600``: from t=600 s on
 ``wrongside``          read-back in 0-359 although the rotator is in 450 mode: the wrong
-                       side of the overlap
+                       side of the overlap (``wrongside@600``: from t=600 s on)
 ``disconnect=5@200``   close the pty or every TCP connection at t=200 s and reopen after 5 s
 =====================  ====================================================================
 
@@ -199,14 +199,19 @@ class FaultInjector:
                 end = s.start_s + s.value if s.value is not None else None
                 if end is not None:
                     events.append(_Event(end, "end", s))
+            elif s.kind in ("drift", "wrongside") and s.start_s > 0:
+                events.append(_Event(s.start_s, "start", s))   # from then on, for good
         self._events = sorted(events, key=lambda e: e.t_s)
         self._active: Counter[str] = Counter()
         self._pending_server_actions: list[str] = []
         faults = controller.faults
         faults.injector = self
-        faults.wrongside = bool(plan.of("wrongside"))
-        drift = sum(s.value or 0.0 for s in plan.of("drift"))
-        faults.step_clock_scale = 1.0 + drift
+        self._drift_now = 0.0
+        faults.wrongside = any(s.start_s <= 0 for s in plan.of("wrongside"))
+        for s in plan.of("drift"):
+            if s.start_s <= 0:
+                self._drift_now += s.value or 0.0
+        faults.step_clock_scale = 1.0 + self._drift_now
 
     # Time ----------------------------------------------------------------------------------
 
@@ -253,6 +258,11 @@ class FaultInjector:
         elif s.kind == "disconnect":
             self._pending_server_actions.append(
                 "fault_disconnect" if ev.name == "start" else "fault_reconnect")
+        elif s.kind == "drift":
+            self._drift_now += s.value or 0.0
+            ctrl.faults.step_clock_scale = 1.0 + self._drift_now
+        elif s.kind == "wrongside":
+            ctrl.faults.wrongside = True
 
     def active(self, kind: str) -> bool:
         return self._active[kind] > 0

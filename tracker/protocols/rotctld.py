@@ -49,7 +49,7 @@ RPRT_ERRORS: dict[int, type[Exception]] = {
 }
 MOVE_CODES = {"up": 2, "down": 4, "ccw": 8, "left": 8, "cw": 16, "right": 16}
 _RPRT_RE = re.compile(rb"RPRT (-?\d+)")
-_CAPS_RE = re.compile(rb"^(Min|Max) (Azimuth|Elevation):\s*(-?[\d.]+)", re.M)
+_CAPS_RE = re.compile(rb"^(Min|Max) (Azimuth|Elevation):\s*(-?\d+(?:\.\d*)?)[ \t]*\r?$", re.M)
 
 
 def rotctld_url(address: str) -> str:
