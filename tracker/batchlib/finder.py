@@ -18,9 +18,11 @@ How one job runs (every step is numpy over all satellites of a chunk at once):
    near-miss maxima: a maximum whose bound from the two ends is close below the threshold is
    refined too, so short grazing passes inside one fine step are not lost.
 4. **Refine** all brackets at once on the cubic Hermite interpolant of the TEME position
-   (from the samples' positions and velocities; no SGP4), then finish each root with one
-   SGP4 evaluation that corrects the interpolant locally (a second one only for the rare
-   root that moved by more than a second): about one SGP4 call per event, to ``tol_s``.
+   (from the samples' positions and velocities; no SGP4), working on sin(elevation) and its
+   analytic time derivatives (no arcsin/arctan2 in the iterations without a horizon mask),
+   then finish each root with one SGP4 evaluation and a Newton step on its local Taylor
+   series (a second SGP4 call only for the rare root that moved by more than a second):
+   about one SGP4 call per event, to ``tol_s``.
 
 SGP4 errors (decayed elements) are collected per satellite and reported, never raised.
 Memory is bounded by chunking over satellites (sized from ``memory_mb``) and over time (blocks
@@ -58,6 +60,7 @@ MAX_COARSE_S = 7200.0
 MAX_FINE_S = 3600.0
 CORRECT_ROUNDS = 3
 CORRECT_SPAN_S = 1.0
+SOLVE_TOL_S = 10.0
 LEO_RATE_RAD_S = 1.1e-3  # a ~95-minute orbit: step_s is the fine step at this rate
 
 
@@ -161,16 +164,17 @@ def _sgp4_pairs(job: _Job, sat: np.ndarray, tau: np.ndarray, kind: str = "sgp4_r
     jd = np.full(m, job.jd0)
     fr = job.fr(tau if presorted else tau[order])
     cuts = np.flatnonzero(np.diff(s_sorted)) + 1
-    starts = np.concatenate([[0], cuts]).tolist()
+    starts = np.concatenate([[0], cuts]).astype(np.int64)
     ends = np.concatenate([cuts, [m]]).tolist()
-    e_s = np.empty(m, np.int32)
+    e_s = np.empty(m, np.uint8)
     r_s = np.empty((m, 3))
     v_s = np.empty((m, 3))
     satrecs = job.satrecs
-    for a, b in zip(starts, ends, strict=True):
-        e_s[a:b], r_s[a:b], v_s[a:b] = satrecs[s_sorted[a]].sgp4_array(jd[a:b], fr[a:b])
+    for i, a, b in zip(s_sorted[starts].tolist(), starts.tolist(), ends, strict=True):
+        # Satrec.sgp4_array without its per-call allocations: SGP4 writes into the slices.
+        satrecs[i]._sgp4(jd[a:b], fr[a:b], e_s[a:b], r_s[a:b], v_s[a:b])
     if presorted:
-        err, r, v = e_s, r_s, v_s
+        err, r, v = e_s.astype(np.int32), r_s, v_s
     else:
         err[order], r[order], v[order] = e_s, r_s, v_s
     job.stats[kind] = job.stats.get(kind, 0) + m
@@ -197,45 +201,6 @@ def _hermite_slope(f0, d0, f1, d1, h, n=17):
     return 3 * c3[:, None] * s**2 + 2 * c2[:, None] * s + c1[:, None], s
 
 
-def _interpolant(job: _Job, st: int, t0, h: float, r0, v0, r1, v1, fix=None):
-    """Look angles on the cubic Hermite interpolant of the TEME position between samples.
-
-    Each bracket k lies in one fine step [t0[k], t0[k] + h] whose ends have SGP4 position
-    and velocity; the cubic through them is accurate to ~1 km for LEO at 480 s (error
-    ~ (omega h)^4 r / 384) and as good for slower orbits, whose steps scale with the period.
-    ``fix`` = (t_ref, dr, dv) adds to bracket k's cubic the SGP4 - cubic difference at
-    t_ref[k] (position dr + dv (t - t_ref), velocity dv; see :func:`_correct`). The Earth
-    rotation is applied exactly per time (GMST), so only the orbit is interpolated.
-    Returns ``evaluate(k, tau) -> (el, az, rate, r_teme, v_teme)``: no SGP4 calls.
-    """
-    # Power-basis coefficients of the cubic in s = (tau - t0) / h, per bracket.
-    d = r1 - r0
-    c2 = 3 * d - h * (2 * v0 + v1)
-    c3 = h * (v0 + v1) - 2 * d
-    c0, c1 = r0, h * v0
-    if fix is not None:
-        t_ref, dr, dv = fix
-        c0 = c0 + dr + dv * (t0 - t_ref)[:, None]
-        c1 = c1 + h * dv
-    coef = np.stack([c0, c1, c2, c3], axis=1)  # (n, 4, 3)
-
-    def evaluate(k, tau):
-        s = ((tau - t0[k]) / h)[:, None]
-        a0, a1, a2, a3 = np.moveaxis(coef[k], 1, 0)
-        r = ((a3 * s + a2) * s + a1) * s + a0
-        v = ((3 * a3 * s + 2 * a2) * s + a1) / h
-        r_ecef, v_ecef = geo.teme_to_ecef(r, v, job.theta(tau))
-        el, az, rate = geo.look_angles(r_ecef, v_ecef, job.frames, st)
-        return el, az, rate, r, v
-    return evaluate
-
-
-def _tca_g(el, rate):
-    """The function whose root is a maximum: rate times zenith distance. Near the zenith the
-    elevation is a cone tip and its rate jumps, but this product stays linear in time."""
-    return rate * (90.0 - el)
-
-
 def _first_root_guess(p, s):
     """Linear root of the first sign change in each row of samples (fraction 0..1)."""
     neg = p < 0
@@ -247,94 +212,229 @@ def _first_root_guess(p, s):
     return s[k] + np.clip(frac, 0.0, 1.0) * (s[k + 1] - s[k])
 
 
-def _correct(job: _Job, st: int, sat, tau, lo, hi, g_lo, cubic, tca: bool):
-    """Finish the interpolant's roots ``tau`` with SGP4 itself, usually one evaluation each.
+def _cubic(t0, h: float, r0, v0, r1, v1):
+    """The cubic Hermite interpolant of the TEME orbit between samples, per bracket.
 
-    SGP4 at each root gives the cubic's error there (position and velocity); corrected by
-    it to first order, the cubic matches SGP4 at that point and, the error varying smoothly
-    over the step, stays within centimetres for the next second or so. Solving the corrected
-    cubic in the same bracket then lands on SGP4's own root; only where that moved the root
-    by more than ``CORRECT_SPAN_S`` (grazing passes, whose flat elevation magnifies the
-    cubic's error) is the correction repeated there. ``cubic`` = (t0, h, r0, v0, r1, v1)
-    per event. Returns (tau, el, az, r_teme).
+    Each bracket k lies in one fine step [t0[k], t0[k] + h] whose ends have SGP4 position
+    and velocity; the cubic through them is accurate to ~1 km for LEO at 480 s (error
+    ~ (omega h)^4 r / 384) and as good for slower orbits, whose steps scale with the period.
+    Returns ``evaluate(k, tau) -> (r, v, a)`` in TEME (no SGP4 calls).
     """
-    n = len(tau)
-    tau = tau.copy()
-    out_el, out_az, out_r = np.zeros(n), np.zeros(n), np.zeros((n, 3))
+    d = r1 - r0
+    c1 = h * v0
+    c2 = 3 * d - h * (2 * v0 + v1)
+    c3 = h * (v0 + v1) - 2 * d
+
+    def evaluate(k, tau):
+        s = ((tau - t0[k]) / h)[:, None]
+        a0, a1, a2, a3 = r0[k], c1[k], c2[k], c3[k]
+        r = ((a3 * s + a2) * s + a1) * s + a0
+        v = ((3 * a3 * s + 2 * a2) * s + a1) / h
+        a = (6 * a3 * s + 2 * a2) / (h * h)
+        return r, v, a
+    return evaluate
+
+
+def _finite(x):
+    """Rows of (..., 3) vectors with all components finite (NaN and inf propagate)."""
+    return np.isfinite(x[..., 0] + x[..., 1] + x[..., 2])
+
+
+def _gravity(r):
+    """Two-body acceleration (km/s^2) at TEME positions (n, 3)."""
+    n2 = np.einsum("ij,ij->i", r, r)
+    return r * (-geo.MU_KM3_S2 / (n2 * np.sqrt(n2)))[:, None]
+
+
+@dataclass
+class _Topo:
+    """sin(elevation) and its first two time derivatives (per second) at TEME states."""
+
+    s: np.ndarray
+    s1: np.ndarray
+    s2: np.ndarray | None
+    d: tuple  # station -> satellite vector, TEME components
+    c: np.ndarray  # cos/sin of the GMST angle (for azimuths)
+    sn: np.ndarray
+
+    def el_deg(self):
+        return np.degrees(np.arcsin(np.clip(self.s, -1.0, 1.0)))
+
+    def az_deg(self, job: _Job, st: int):
+        c, sn = self.c, self.sn
+        e, n = job.frames.east[st], job.frames.north[st]
+        dx, dy, dz = self.d
+        # The station's east/north axes rotated into TEME.
+        de = dx * (c * e[0] - sn * e[1]) + dy * (sn * e[0] + c * e[1])
+        dn = (dx * (c * n[0] - sn * n[1]) + dy * (sn * n[0] + c * n[1]) + dz * n[2])
+        return np.degrees(np.arctan2(de, dn)) % 360.0
+
+
+def _topo(job: _Job, st: int, tau, r, v, a=None) -> _Topo:
+    """sin(el), d/dt and (given the acceleration ``a``) d2/dt2 of station ``st`` at TEME
+    states; the station turns with the Earth in TEME. sin(el) is smooth everywhere (even
+    through the zenith), so its derivative's root is the culmination and needs no arcsin."""
+    theta = job.theta(tau)
+    c, sn = np.cos(theta), np.sin(theta)
+    w = geo.EARTH_ROTATION_RAD_S
+    o, u = job.frames.ecef_km[st], job.frames.up[st]
+    ox, oy = c * o[0] - sn * o[1], sn * o[0] + c * o[1]
+    ux, uy, uz = c * u[0] - sn * u[1], sn * u[0] + c * u[1], u[2]
+    dx, dy, dz = r[:, 0] - ox, r[:, 1] - oy, r[:, 2] - o[2]
+    vx, vy, vz = v[:, 0] + w * oy, v[:, 1] - w * ox, v[:, 2]  # relative velocity
+    inv = 1.0 / np.sqrt(dx * dx + dy * dy + dz * dz)
+    s = (dx * ux + dy * uy + dz * uz) * inv
+    ru1 = vx * ux + vy * uy + vz * uz + w * (dy * ux - dx * uy)
+    dist1 = (dx * vx + dy * vy + dz * vz) * inv
+    s1 = (ru1 - s * dist1) * inv
+    s2 = None
+    if a is not None:
+        w2 = w * w
+        ax, ay, az = a[:, 0] + w2 * ox, a[:, 1] + w2 * oy, a[:, 2]
+        ru2 = (ax * ux + ay * uy + az * uz + 2 * w * (vy * ux - vx * uy)
+               - w2 * (dx * ux + dy * uy))
+        dist2 = (vx * vx + vy * vy + vz * vz + dx * ax + dy * ay + dz * az
+                 - dist1 * dist1) * inv
+        s2 = (ru2 - 2 * s1 * dist1 - s * dist2) * inv
+    return _Topo(s, s1, s2, (dx, dy, dz), c, sn)
+
+
+def _newton_step(job: _Job, st: int, t: _Topo, tca: bool):
+    """(g, Newton step to g's root) at points ``t``, where g is d sin(el)/dt for a
+    culmination and, for AOS/LOS, sin(el) - sin(horizon) (second-order step: sin(el) is
+    curved on the scale of a grazing pass) or, with a horizon mask, el - mask(az) in deg."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if tca:
+            return t.s1, t.s1 / t.s2
+        mask = job.stations[st].mask
+        if mask is None:
+            g = t.s - math.sin(math.radians(job.frames.min_el_deg[st]))
+            step = g / t.s1
+            return g, step + 0.5 * t.s2 * step * step / t.s1
+        el = t.el_deg()
+        rate = np.degrees(t.s1 / np.sqrt(np.maximum(1.0 - t.s * t.s, 1e-12)))
+        g = el - job.threshold(st, t.az_deg(job, st))
+        return g, g / rate
+
+
+def _bracketed(x, step, g, lo, hi, lo_neg):
+    """The bracket narrowed by the sign of g at x, and the Newton point x - step in it
+    (bisection when the step leaves it)."""
+    same_as_lo = (g < 0) == lo_neg
+    lo = np.where(same_as_lo, x, lo)
+    hi = np.where(same_as_lo, hi, x)
+    x_new = x - step
+    bad = ~np.isfinite(x_new) | (x_new <= lo) | (x_new >= hi)
+    return np.where(bad, 0.5 * (lo + hi), x_new), lo, hi
+
+
+def _solve(evaluate, lo, hi, lo_neg, guess, tol_s: float, max_it: int = 60):
+    """Root of g in each bracket [lo, hi] (g changes sign there; ``lo_neg``: g(lo) < 0), all
+    brackets at once: Newton steps (``evaluate(k, tau) -> (g, step)``), bisection when a
+    step leaves the bracket. Stops when a step is below ``tol_s``; returns the point after
+    that last step (not evaluated; quadratically closer than the step)."""
+    tau = np.clip(guess, lo, hi)
+    lo, hi = lo.copy(), hi.copy()
+    active = np.arange(len(lo))
+    for _ in range(max_it):
+        if active.size == 0:
+            break
+        x = tau[active]
+        g, step = evaluate(active, x)
+        x_new, lo[active], hi[active] = _bracketed(x, step, g, lo[active], hi[active],
+                                                   lo_neg[active])
+        tau[active] = x_new
+        done = (np.abs(x_new - x) < tol_s) | (hi[active] - lo[active] < tol_s) | (g == 0)
+        active = active[~done]
+    return tau
+
+
+def _refine(job: _Job, st: int, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
+    """AOS/LOS (``tca`` False) or culminations in brackets [lo, hi]: (tau, el, az, r_teme).
+
+    1. Newton steps on the cubic interpolant ``cubic`` (no SGP4; second order for AOS/LOS)
+       until one is below ``SOLVE_TOL_S``; the point after it is then usually within a
+       fraction of a second of the cubic's root (one or two evaluations per event).
+    2. SGP4 there, usually the only evaluation: within ``CORRECT_SPAN_S`` SGP4's state is
+       its Taylor series with two-body acceleration (millimetres), so the Newton step from
+       SGP4's exact values lands on SGP4's own root, and the Taylor state gives the look
+       angles there and the residual (further steps while it exceeds ``tol_s``).
+    3. A root that moved by more than ``CORRECT_SPAN_S`` (grazing passes, whose flat
+       elevation magnifies the cubic's error) is solved again on the cubic corrected by
+       SGP4's state error at that point and gets another SGP4 evaluation there.
+    """
+    n = len(lo)
+    if n == 0:
+        z = np.zeros(0)
+        return z, z, z, np.zeros((0, 3))
+    key = "brackets_tca" if tca else "brackets_cross"
+    job.stats[key] = job.stats.get(key, 0) + n
+    x_ref = np.zeros(n)
+    dr, dv = np.zeros((n, 3)), np.zeros((n, 3))  # SGP4 - cubic at x_ref
+
+    def model(k, tau):
+        r, v, a = cubic(k, tau)
+        r = r + dr[k] + dv[k] * (tau - x_ref[k])[:, None]
+        return _topo(job, st, tau, r, v + dv[k], a), r
+
+    def on_cubic(k, tau):
+        return _newton_step(job, st, model(k, tau)[0], tca)
+
+    x = _solve(on_cubic, lo, hi, lo_neg, guess, tol_s=SOLVE_TOL_S)
+    lo, hi = lo.copy(), hi.copy()
+    tau = x.copy()
+    el, az, r_out = np.zeros(n), np.zeros(n), np.zeros((n, 3))
     active = np.arange(n)
     for _ in range(CORRECT_ROUNDS):
         if active.size == 0:
             break
-        part = tuple(c if np.ndim(c) == 0 else c[active] for c in cubic)
-        x = tau[active]
-        err, r_s, v_s = _sgp4_pairs(job, sat[active], x)
-        k = np.arange(active.size)
-        _, _, _, r_h, v_h = _interpolant(job, st, *part)(k, x)
-        ok = ((err == 0) & np.isfinite(r_s).all(-1) & np.isfinite(v_s).all(-1))[:, None]
-        fixed = _interpolant(job, st, *part, fix=(x, np.where(ok, r_s - r_h, 0.0),
-                                                  np.where(ok, v_s - v_h, 0.0)))
-        x_new, el, az, r = _solve(job, st, fixed, lo[active], hi[active], g_lo[active], x,
-                                  tca, tol_s=min(job.tol_s, 1e-3), count=False)
-        tau[active] = x_new
-        out_el[active], out_az[active], out_r[active] = el, az, r
-        active = active[np.abs(x_new - x) > CORRECT_SPAN_S]
-    return tau, out_el, out_az, out_r
-
-
-def _solve(job: _Job, st: int, evaluate, lo, hi, g_lo, guess, want_rate: bool,
-           tol_s: float = 0.3, count: bool = True):
-    """Root of g in each bracket [lo, hi] (g changes sign there), all brackets at once.
-
-    g is f = el - horizon (AOS/LOS; Newton steps with the elevation rate as slope) or
-    :func:`_tca_g` (maxima; secant steps) of ``evaluate(k, tau)`` (an interpolant). Steps
-    that leave the bracket fall back to bisection, so every bracket converges to ``tol_s``.
-    Returns (tau, el, az, r_teme) at the last evaluated point.
-    """
-    n = len(lo)
-    if count:
-        key = "brackets_tca" if want_rate else "brackets_cross"
-        job.stats[key] = job.stats.get(key, 0) + n
-    tol = tol_s
-    tau = np.clip(guess, lo, hi)
-    out_el, out_az, out_r = np.zeros(n), np.zeros(n), np.zeros((n, 3))
-    lo, hi, g_lo = lo.copy(), hi.copy(), g_lo.copy()
-    x_prev, g_prev = lo.copy(), g_lo.copy()
-    active = np.arange(n)
-    for it in range(60):
-        if active.size == 0:
-            break
-        x = tau[active]
-        if want_rate and it == 0:
-            # The rate's local slope from a second point 2 s on: the first step is then a
-            # Newton step, not a secant across the whole bracket.
-            x2 = np.minimum(x + 2.0, hi[active])
-            x2 = np.where(x2 - x < 0.5, x - 2.0, x2)
-            e2 = evaluate(active, x2)
-            x_prev[active], g_prev[active] = x2, _tca_g(e2[0], e2[2])
-        el, az, rate, r, _ = evaluate(active, x)
-        out_el[active], out_az[active], out_r[active] = el, az, r
-        if want_rate:
-            g = _tca_g(el, rate)
-            xp, gp = x_prev[active], g_prev[active]
-            slope = np.where(x != xp, (g - gp) / np.where(x != xp, x - xp, 1.0), 0.0)
-        else:
-            g = el - job.threshold(st, az)
-            slope = rate
-        a_, b_, ga = lo[active], hi[active], g_lo[active]
-        same_as_lo = np.sign(g) == np.sign(ga)
-        a_ = np.where(same_as_lo, x, a_)
-        ga = np.where(same_as_lo, g, ga)
-        b_ = np.where(same_as_lo, b_, x)
-        step = np.where(slope != 0, g / np.where(slope != 0, slope, 1.0), np.inf)
-        x_new = x - step
-        bad = ~np.isfinite(x_new) | (x_new <= a_) | (x_new >= b_)
-        x_new = np.where(bad, 0.5 * (a_ + b_), x_new)
-        lo[active], hi[active], g_lo[active] = a_, b_, ga
-        x_prev[active], g_prev[active] = x, g
-        done = (np.abs(x_new - x) < tol) | (b_ - a_ < tol) | (g == 0)
-        tau[active] = np.where(done, x, x_new)
-        active = active[~done]
-    return tau, out_el, out_az, out_r
+        xa = x[active]
+        err, r_s, v_s = _sgp4_pairs(job, sat[active], xa)
+        ok = (err == 0) & _finite(r_s) & _finite(v_s)
+        if not ok.all():  # decayed: keep the cubic's state
+            k = np.flatnonzero(~ok)
+            r_s[k], v_s[k], _ = cubic(active[k], xa[k])
+        # Within CORRECT_SPAN_S of xa, SGP4's state is its Taylor series with two-body
+        # acceleration (J2 and lunisolar terms change it by < 1e-3: millimetres).
+        a_s = _gravity(r_s)
+        g, step = _newton_step(job, st, _topo(job, st, xa, r_s, v_s, a_s), tca)
+        x1, lo[active], hi[active] = _bracketed(xa, step, g, lo[active], hi[active],
+                                                lo_neg[active])
+        near = np.flatnonzero(np.abs(x1 - xa) <= CORRECT_SPAN_S)
+        far = np.flatnonzero(np.abs(x1 - xa) > CORRECT_SPAN_S)
+        for _it in range(4):
+            if near.size == 0:
+                break
+            k = active[near]
+            dt = (x1[near] - xa[near])[:, None]
+            a_n = a_s[near]
+            r1 = r_s[near] + (v_s[near] + 0.5 * a_n * dt) * dt
+            t1 = _topo(job, st, x1[near], r1, v_s[near] + a_n * dt, a_n)
+            tau[k], r_out[k] = x1[near], r1
+            el[k], az[k] = t1.el_deg(), t1.az_deg(job, st)
+            g1, step1 = _newton_step(job, st, t1, tca)
+            x2, lo[k], hi[k] = _bracketed(x1[near], step1, g1, lo[k], hi[k], lo_neg[k])
+            more = ~(np.abs(step1) <= job.tol_s) & (g1 != 0) & (hi[k] - lo[k] >= job.tol_s)
+            x1[near] = x2
+            leave = more & (np.abs(x2 - xa[near]) > CORRECT_SPAN_S)
+            far = np.concatenate([far, near[leave]])
+            near = near[more & ~leave]
+        far = far[ok[far]]
+        if far.size:
+            # Far off (grazing passes): solve again on the cubic corrected by SGP4's state
+            # error at xa (to first order; then good to metres over the step), like step 1.
+            k = active[far]
+            r_c, v_c, _ = cubic(k, xa[far])
+            x_ref[k], dr[k], dv[k] = xa[far], r_s[far] - r_c, v_s[far] - v_c
+            x1[far] = _solve(lambda j, t, k=k: on_cubic(k[j], t), lo[k], hi[k], lo_neg[k],
+                             x1[far], tol_s=0.1)
+        x[active] = x1
+        active = active[far]
+    if active.size:  # still moving after CORRECT_ROUNDS: take the last corrected point
+        t1, r1 = model(active, x[active])
+        tau[active], r_out[active] = x[active], r1
+        el[active], az[active] = t1.el_deg(), t1.az_deg(job, st)
+    return tau, el, az, r_out
 
 
 def _arc_geometry(r, v, valid):
@@ -345,12 +445,13 @@ def _arc_geometry(r, v, valid):
     well defined for any arc length and follows the slow nodal drift to first order.
     """
     def unit(x):
-        n = np.linalg.norm(x, axis=-1, keepdims=True)
+        n = np.sqrt(np.einsum("...c,...c->...", x, x))[..., None]
         return x / np.where(n > 0, n, 1.0)
 
     w = unit(np.cross(r, v))
     h_hat = unit(w[:, :-1] + w[:, 1:])
-    a_hat, b_hat = unit(r[:, :-1]), unit(r[:, 1:])
+    r_hat = unit(r)
+    a_hat, b_hat = r_hat[:, :-1], r_hat[:, 1:]
     # A and B projected into the plane (they lie within perturbations of it).
     A = unit(a_hat - np.einsum("skc,skc->sk", a_hat, h_hat)[..., None] * h_hat)
     q = np.cross(h_hat, A)
@@ -427,18 +528,27 @@ def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc
     a1 = np.clip(np.maximum(w_lo * t_a, ph_ - w_hi * (coarse_s - t_a)), 0.0, ph_)
     a2 = np.clip(np.minimum(w_hi * t_b, ph_ - w_lo * (coarse_s - t_b)), 0.0, ph_)
     a2 = np.maximum(a1, a2)
-    tau_mid = (kk * coarse_s)[:, None] + t_a + 0.5 * fine_s
-    p = _station_teme(job, st, tau_mid)  # (m, n, 3)
-    A, q, h_hat = arc["A"][ss, kk], arc["q"][ss, kk], arc["h"][ss, kk]
-    pa = np.einsum("mc,mjc->mj", A, p)
-    pq = np.einsum("mc,mjc->mj", q, p)
-    ph = np.einsum("mc,mjc->mj", h_hat, p)
-    cos_lim, sin_lim = (x[ss][:, None] for x in _cone_limits(job, st, r_apo, fine_s))
-    beta = np.mod(np.arctan2(pq, pa), 2 * math.pi)
-    in_arc = (beta >= a1) & (beta <= a2)
-    sub = ((np.cos(a1) * pa + np.sin(a1) * pq >= cos_lim)
-           | (np.cos(a2) * pa + np.sin(a2) * pq >= cos_lim)
-           | (in_arc & (np.abs(ph) <= sin_lim)))
+    # The station (geocentric unit vector) in TEME at the middle of every fine step of the
+    # window, gathered per candidate: rho (cos psi, sin psi), z with psi = GMST + longitude.
+    u = job.frames.unit[st]
+    psi = job.theta((np.arange(K * n) + 0.5) * fine_s) + math.atan2(u[1], u[0])
+    rho, z = math.hypot(u[0], u[1]), u[2]
+    idx = (kk * n)[:, None] + np.arange(n)
+    cp, sp = (np.cos(psi) * rho)[idx], (np.sin(psi) * rho)[idx]
+    A, q = arc["A"][ss, kk], arc["q"][ss, kk]
+    pa = A[:, 0, None] * cp + A[:, 1, None] * sp + A[:, 2, None] * z
+    pq = q[:, 0, None] * cp + q[:, 1, None] * sp + q[:, 2, None] * z
+    cos_lim = _cone_limits(job, st, r_apo, fine_s)[0][ss][:, None]
+    # The sub-arc [a1, a2] comes within the cone iff its nearest point to the station's
+    # in-plane direction beta is within it: R cos(distance to [a1, a2]) >= cos(limit),
+    # R = |projection of the station on the plane| (R >= cos(limit) inside the arc).
+    # With e1 = a1 - beta, e2 = beta - a2 (beta in [0, 2 pi)): inside the sub-arc both are
+    # <= 0; below it the distance is min(e1, e2 + 2 pi), above it min(e2, e1 + 2 pi).
+    beta = np.arctan2(pq, pa)
+    beta += np.where(beta < 0, 2 * math.pi, 0.0)
+    e1, e2 = a1 - beta, beta - a2
+    dist = np.minimum(np.maximum(e1, e2), np.minimum(e1, e2) + 2 * math.pi)
+    sub = np.hypot(pa, pq) * np.cos(np.maximum(dist, 0.0)) >= cos_lim
     sub |= ~screenable[ss][:, None]
     out.reshape(S, K, n)[ss, kk] = sub
     return out
@@ -464,7 +574,7 @@ def _run_chunk(job: _Job, sat_ids: np.ndarray, n: int, fine_step_s: float, r_apo
     arr = SatrecArray([job.satrecs[i] for i in sat_ids.tolist()])
     e, r, v = arr.sgp4(np.full(K + 1, job.jd0), job.fr(tau_c))
     stats["sgp4_coarse"] = stats.get("sgp4_coarse", 0) + e.size
-    valid = (e == 0) & np.isfinite(r).all(-1)
+    valid = (e == 0) & _finite(r)
     if not valid.all():
         ss, kk = np.nonzero(~valid)
         job.note_errors(sat_ids[ss], tau_c[kk], np.where(e[ss, kk] == 0, 6, e[ss, kk]))
@@ -494,7 +604,7 @@ def _run_chunk(job: _Job, sat_ids: np.ndarray, n: int, fine_step_s: float, r_apo
     ok[on_c] = valid[s_loc[on_c], j[on_c] // n]
     off = ~on_c
     e_f, P[off], V[off] = _sgp4_pairs(job, sat_ids[s_loc[off]], j[off] * fine_s, "sgp4_fine")
-    ok[off] = (e_f == 0) & np.isfinite(P[off]).all(-1)
+    ok[off] = (e_f == 0) & _finite(P[off])
     theta_f = job.theta(np.arange(nf + 1) * fine_s)
     r_ecef, v_ecef = geo.teme_to_ecef(P, V, theta_f[j])
 
@@ -571,13 +681,9 @@ def _refine_station_chunk(job: _Job, b: dict):
     dp, s = _hermite_slope(el[max_i], rate[max_i], el[max_i + 1], rate[max_i + 1], h)
     guess = tau[max_i] + h * _first_root_guess(dp, s)
     rv = (b["r"], b["v"])
-    cubic = (tau[max_i], h, *(x[max_i] for x in rv), *(x[max_i + 1] for x in rv))
-    m_tau, _, _, _ = _solve(job, st, _interpolant(job, st, *cubic), tau[max_i],
-                            tau[max_i + 1], _tca_g(el[max_i], rate[max_i]), guess,
-                            want_rate=True)
-    m_tau, m_el, m_az, m_r = _correct(job, st, sat[max_i], m_tau, tau[max_i],
-                                      tau[max_i + 1], _tca_g(el[max_i], rate[max_i]), cubic,
-                                      tca=True)
+    cubic = _cubic(tau[max_i], h, *(x[max_i] for x in rv), *(x[max_i + 1] for x in rv))
+    m_tau, m_el, m_az, m_r = _refine(job, st, sat[max_i], tau[max_i], tau[max_i + 1],
+                                     np.zeros(len(max_i), bool), guess, cubic, tca=True)
     m_f = m_el - job.threshold(st, m_az)
     hidden = (m_f >= 0) & (f[max_i] < 0) & (f[max_i + 1] < 0)
 
@@ -597,11 +703,9 @@ def _refine_station_chunk(job: _Job, b: dict):
     p, s = _hermite(c_glo, d_lo, c_ghi, d_hi, width)
     guess = c_lo + width * _first_root_guess(p, s)
     c_iv = np.concatenate([aos_i, los_i, hi_idx, hi_idx])
-    cubic = (tau[c_iv], h, *(x[c_iv] for x in rv), *(x[c_iv + 1] for x in rv))
-    c_tau, _, _, _ = _solve(job, st, _interpolant(job, st, *cubic), c_lo, c_hi, c_glo, guess,
-                            False)
-    c_tau, c_el, c_az, c_r = _correct(job, st, c_sat, c_tau, c_lo, c_hi, c_glo, cubic,
-                                      tca=False)
+    cubic = _cubic(tau[c_iv], h, *(x[c_iv] for x in rv), *(x[c_iv + 1] for x in rv))
+    c_tau, c_el, c_az, c_r = _refine(job, st, c_sat, c_lo, c_hi, c_glo < 0, guess, cubic,
+                                     tca=False)
 
     # Window-edge (or decay) cuts become clipped AOS/LOS at the sample itself.
     cs, ce = np.flatnonzero(b["cut_start"]), np.flatnonzero(b["cut_end"])
@@ -659,13 +763,13 @@ def _assemble(job: _Job, st: int, ev: dict, mx: dict) -> np.ndarray:
         rows["tca_az_deg"][pi[sel]] = mx["az"][sel]
         tca_r[pi[sel]] = mx["r"][sel]
     # Sunlit: the satellite sees the Sun at AOS, TCA or LOS; visible: at one of those
-    # instants the station is also in nautical twilight or darker.
-    for key, rr in (("aos_s", ev["r"][a_idx]), ("tca_s", tca_r), ("los_s", ev["r"][l_idx])):
-        jd = job.jd0 + job.fr(rows[key])
-        lit = geo.is_sunlit(rr, jd)
-        dark = geo.sun_elevation_deg(jd, job.theta(rows[key]), job.frames, st) < TWILIGHT_DEG
-        rows["sunlit"] |= lit
-        rows["visible"] |= lit & dark
+    # instants the station is also in nautical twilight or darker. One call for all three.
+    tau = np.concatenate([rows["aos_s"], rows["tca_s"], rows["los_s"]])
+    lit, sun_el_sin = geo.sun_flags(np.concatenate([ev["r"][a_idx], tca_r, ev["r"][l_idx]]),
+                                    tau, job.jd0, job.fr0, job.theta(tau), job.frames, st)
+    vis = lit & (sun_el_sin < math.sin(math.radians(TWILIGHT_DEG)))
+    rows["sunlit"] = lit.reshape(3, n).any(0)
+    rows["visible"] = vis.reshape(3, n).any(0)
     return rows
 
 
@@ -740,6 +844,14 @@ def find_passes_block(satrecs, names, stations, start, end, min_el_deg=None, *,
 def merge_tables(tables: list[PassTable], names, stations, start, end) -> PassTable:
     """Concatenate tables of consecutive time blocks / satellite chunks; re-join passes cut at
     a block edge and keep the first error per satellite."""
+    if len(tables) == 1 and tables[0].start == start and tables[0].end == end:
+        t = tables[0]  # one error per satellite and no block edge: only the order to check
+        passes = t.passes
+        order = np.lexsort((passes["station"], passes["sat"], passes["aos_s"]))
+        if np.any(order[1:] < order[:-1]):
+            passes = passes[order]
+        return PassTable(passes, list(names), list(stations), start, end,
+                         sorted(t.errors, key=lambda e: e.sat), dict(t.stats))
     passes = np.concatenate([t.passes for t in tables]) if tables else np.zeros(0, PASS_DTYPE)
     passes = passes[np.lexsort((passes["aos_s"], passes["station"], passes["sat"]))]
     edges = {t.end.timestamp() for t in tables} - {end.timestamp()}

@@ -146,6 +146,44 @@ def is_sunlit(r_teme_km, jd_utc) -> np.ndarray:
     return np.linalg.norm(closest, axis=-1) > WGS84_A_KM
 
 
+def sun_flags(r_teme_km, tau_s, jd0: float, fr0: float, theta_rad, frames: StationFrames,
+              station: int, grid_s: float = 3600.0):
+    """(sunlit, sine of the Sun's elevation at ``station``) at times ``tau_s`` (seconds after
+    the Julian date ``jd0 + fr0``) for satellites at TEME positions ``r_teme_km`` (n, 3).
+
+    The Sun's direction and distance are computed on a ``grid_s`` grid and interpolated
+    linearly (the Sun moves 0.04 deg an hour: the chord error is ~1e-7 rad). Sunlit means
+    the Sun-ward ray misses a spherical Earth, as in :func:`is_sunlit`.
+    """
+    tau_s = np.asarray(tau_s, dtype=float)
+    if tau_s.size == 0:
+        return np.zeros(0, bool), np.zeros(0)
+    t0, t1 = math.floor(tau_s.min() / grid_s), math.ceil(tau_s.max() / grid_s) + 1
+    t_grid = np.arange(t0, t1 + 1) * grid_s
+    jd_grid = jd0 + (fr0 + t_grid / DAY_S)
+    node = np.column_stack([sun_teme_unit(jd_grid), sun_distance_km(jd_grid)])
+    # Linear interpolation: per grid interval its start value and slope, one gather.
+    table = np.concatenate([node[:-1], np.diff(node, axis=0) / grid_s], axis=1)
+    i = np.clip(np.floor(tau_s / grid_s).astype(np.int64) - t0, 0, len(table) - 1)
+    row = table[i]
+    dt = tau_s - t_grid[i]
+    sx, sy, sz, dist = (row[:, k] + row[:, k + 4] * dt for k in range(4))
+    rx, ry, rz = r_teme_km[:, 0], r_teme_km[:, 1], r_teme_km[:, 2]
+    # Ray from the satellite towards the Sun: d = S - r; its closest approach to the
+    # Earth's centre lies ahead of the satellite when r . d < 0, at distance^2
+    # |r|^2 - (r . d_hat)^2.
+    dx, dy, dz = sx * dist - rx, sy * dist - ry, sz * dist - rz
+    rd = rx * dx + ry * dy + rz * dz
+    r2 = rx * rx + ry * ry + rz * rz
+    ahead = rd < 0
+    lit = ~ahead | (r2 - rd * rd / (dx * dx + dy * dy + dz * dz) > WGS84_A_KM**2)
+    lit &= r2 > WGS84_A_KM**2
+    c, s = np.cos(theta_rad), np.sin(theta_rad)
+    u = frames.up[station]
+    sin_el = (c * sx + s * sy) * u[0] + (c * sy - s * sx) * u[1] + sz * u[2]
+    return lit, sin_el
+
+
 def sun_elevation_deg(jd_utc, theta_rad, frames: StationFrames, station_idx) -> np.ndarray:
     """Sun elevation at stations (geometric, degrees), for twilight tests."""
     sun = sun_teme_unit(jd_utc)
