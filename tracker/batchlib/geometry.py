@@ -134,18 +134,6 @@ def sun_distance_km(jd_utc) -> np.ndarray:
     return (1.00014 - 0.01671 * np.cos(g) - 0.00014 * np.cos(2 * g)) * 149597870.7
 
 
-def is_sunlit(r_teme_km, jd_utc) -> np.ndarray:
-    """True where the satellite sees the Sun (the Sun-ward ray misses a spherical Earth)."""
-    sun = sun_teme_unit(jd_utc) * sun_distance_km(jd_utc)[..., None]
-    d = sun - r_teme_km
-    d_len = np.linalg.norm(d, axis=-1)
-    d_hat = d / d_len[..., None]
-    # Closest approach of the ray r + s*d_hat (s >= 0) to the Earth's centre.
-    s = -np.einsum("...i,...i->...", r_teme_km, d_hat)
-    closest = r_teme_km + np.maximum(s, 0.0)[..., None] * d_hat
-    return np.linalg.norm(closest, axis=-1) > WGS84_A_KM
-
-
 def sun_flags(r_teme_km, tau_s, jd0: float, fr0: float, theta_rad, frames: StationFrames,
               station: int, grid_s: float = 3600.0):
     """(sunlit, sine of the Sun's elevation at ``station``) at times ``tau_s`` (seconds after
@@ -153,7 +141,7 @@ def sun_flags(r_teme_km, tau_s, jd0: float, fr0: float, theta_rad, frames: Stati
 
     The Sun's direction and distance are computed on a ``grid_s`` grid and interpolated
     linearly (the Sun moves 0.04 deg an hour: the chord error is ~1e-7 rad). Sunlit means
-    the Sun-ward ray misses a spherical Earth, as in :func:`is_sunlit`.
+    the Sun-ward ray misses a spherical Earth.
     """
     tau_s = np.asarray(tau_s, dtype=float)
     if tau_s.size == 0:
@@ -182,17 +170,6 @@ def sun_flags(r_teme_km, tau_s, jd0: float, fr0: float, theta_rad, frames: Stati
     u = frames.up[station]
     sin_el = (c * sx + s * sy) * u[0] + (c * sy - s * sx) * u[1] + sz * u[2]
     return lit, sin_el
-
-
-def sun_elevation_deg(jd_utc, theta_rad, frames: StationFrames, station_idx) -> np.ndarray:
-    """Sun elevation at stations (geometric, degrees), for twilight tests."""
-    sun = sun_teme_unit(jd_utc)
-    c, s = np.cos(theta_rad), np.sin(theta_rad)
-    x = c * sun[..., 0] + s * sun[..., 1]
-    y = -s * sun[..., 0] + c * sun[..., 1]
-    u = frames.up[station_idx]
-    return np.degrees(np.arcsin(np.clip(
-        x * u[..., 0] + y * u[..., 1] + sun[..., 2] * u[..., 2], -1.0, 1.0)))
 
 
 def orbit_bounds(satrec) -> tuple[float, float]:
