@@ -54,7 +54,7 @@ def fault_plan(rng: random.Random, hours: float, per_hour: float) -> list[str]:
     specs = ["drop=0.0005:out", "garble=0.0005:out"]      # a slightly noisy line, always
     t = 600.0
     end = hours * 3600.0
-    while True:
+    while per_hour > 0:
         t += rng.expovariate(per_hour / 3600.0)
         if t >= end:
             return specs

@@ -4,10 +4,13 @@ from __future__ import annotations
 
 import argparse
 
+AZAZ_PROTOCOLS = ("gs232b-azaz", "gs232b-azaz2")
+
 
 def register(sub) -> None:
     p = sub.add_parser(
-        "rotator", help="talk to a rotator controller: position, goto, stop, park, raw",
+        "rotator", help="talk to a rotator controller: position, goto, stop, park, raw, "
+                        "sync/unsync (AZ/AZ)",
         description="Send one command to a controller on any pyserial URL (/dev/ttyUSB0, COM3, "
                     "socket://host:port, /dev/pts/N of 'tracker emulate').")
     p.add_argument("--port", required=True, help="serial device or pyserial URL")
@@ -31,6 +34,12 @@ def register(sub) -> None:
     act.add_parser("park", help="turn to the park position")
     r = act.add_parser("raw", help="send one command line, print the reply bytes")
     r.add_argument("cmd")
+    y = act.add_parser("sync", help="GS-232B-AZ/AZ: antenna 2 follows antenna 1 + OFFSET_DEG "
+                                    "(Y / Ynnn) until 'unsync'")
+    y.add_argument("offset_deg", type=float, metavar="OFFSET_DEG",
+                   help="azimuth 2 = azimuth 1 + this, mod 360 (0..360, whole degrees)")
+    act.add_parser("unsync", help="GS-232B-AZ/AZ: cancel sync (Y999); antenna 2 stays "
+                                  "where it is and takes its own commands again")
     p.set_defaults(func=run)
 
 
@@ -46,6 +55,13 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"--timeout {args.timeout} is invalid; use a number of seconds > 0")
     if args.baud is not None and args.baud <= 0:
         raise ConfigError(f"--baud {args.baud} is invalid; use a positive rate such as 9600")
+    if args.action in ("sync", "unsync") and args.protocol.lower() not in AZAZ_PROTOCOLS:
+        raise ConfigError(f"{args.action} is a GS-232B-AZ/AZ command; use --protocol "
+                          f"gs232b-azaz (got {args.protocol})")
+    if args.action == "sync" and not (math.isfinite(args.offset_deg)
+                                      and 0 <= round(args.offset_deg) <= 360):
+        raise ConfigError(f"sync offset {args.offset_deg:g} is invalid; use 0..360 degrees "
+                          f"(antenna 2 = antenna 1 + offset, mod 360)")
     kw = {"timeout_s": args.timeout, "autobaud": args.autobaud,
           "has_elevation": not args.az_only}
     if args.baud:
@@ -67,4 +83,12 @@ def run(args: argparse.Namespace) -> int:
             drv.stop()
         elif args.action == "raw":
             print(repr(drv.raw(args.cmd)))
+        elif args.action == "sync":
+            iface = getattr(drv, "parent", drv)        # gs232b-azaz2 is antenna 2's view
+            iface.sync(args.offset_deg)
+            print(f"antenna 2 follows antenna 1 + {iface.sync_offset:03d} deg; drive antenna "
+                  f"1 (--protocol gs232b-azaz), 'unsync' cancels")
+        elif args.action == "unsync":
+            getattr(drv, "parent", drv).unsync()
+            print("sync cancelled: antenna 2 takes its own commands again")
     return 0
