@@ -158,6 +158,13 @@ class _AxisWatch:
         if self.ref_t_s is not None and abs(readback_deg - self.ref_pos_deg) < (
                 axis.resolution_deg - 1e-9):
             self.carried_deg += self._segment_deg(t_s)   # no motion yet: keep counting
+            if self.carried_deg < axis.resolution_deg - 1e-9 and (
+                    self.expect is None or not self.expect.moving(t_s)):
+                # It had arrived and nothing visible went unseen since: standing still was
+                # right until now, so this command's settle time starts now - not at the end
+                # of the last move, or a hold then a command acted on a little late would
+                # read as a "stall" as long as the hold.
+                self.ref_t_s, self.still_since_s = t_s, None
         else:
             self.ref_t_s, self.ref_pos_deg, self.carried_deg = t_s, readback_deg, 0.0
             self.still_since_s = None
@@ -717,6 +724,8 @@ def run_pass(core: TrackCore, link: Link, clock: Clock, on_status: Callable[[Sta
                     events("state", state="port_lost", note=str(e))
                 link.drop()
                 core.resync()
+                if should_stop():
+                    break          # asked to stop while the port is gone: do not wait for it
                 if s.reconnect_give_up_s is not None and t - lost_since > s.reconnect_give_up_s:
                     raise PortLostError(f"port gone for {t - lost_since:.0f} s; giving up. "
                                         f"Last error: {e}") from e
