@@ -57,7 +57,7 @@ def fault_plan(rng: random.Random, hours: float, per_hour: float) -> list[str]:
     while per_hour > 0:
         t += rng.expovariate(per_hour / 3600.0)
         if t >= end:
-            return specs
+            break
         kind = rng.choice(["silent", "disconnect", "powercycle", "jam", "noise", "delay"])
         if kind == "silent":
             specs.append(f"silent={rng.uniform(3, 30):.1f}@{t:.1f}")
@@ -72,6 +72,7 @@ def fault_plan(rng: random.Random, hours: float, per_hour: float) -> list[str]:
                          f"{rng.uniform(30, 300):.0f}")
         else:
             specs.append(f"delay={rng.uniform(0.1, 0.8):.2f}@{t:.1f}+{rng.uniform(30, 300):.0f}")
+    return specs
 
 
 def main(argv: list[str] | None = None) -> int:
