@@ -64,6 +64,9 @@ class StreamSettings:
     reconnect_max_s: float = 2.0      # a USB adapter that comes back is found within ~2 s
     reconnect_give_up_s: float | None = None   # None: keep trying until the pass ends
     timeouts_before_lost: int = 3
+    # Unreadable replies show the line is alive (noise, a stray byte): reopening the port
+    # rarely helps and costs a second or more, so only a longer run of them counts.
+    garbled_before_lost: int = 10
     aim_step_s: float = 0.5
     park_timeout_s: float = 180.0
 
@@ -675,7 +678,7 @@ def run_pass(core: TrackCore, link: Link, clock: Clock, on_status: Callable[[Sta
     s = core.settings
     link.events = events
     reconnects = 0
-    timeouts = 0
+    timeouts = garbled = 0
     backoff_s = s.reconnect_initial_s
     lost_since: float | None = None
     errors: list[float] = []
@@ -687,7 +690,7 @@ def run_pass(core: TrackCore, link: Link, clock: Clock, on_status: Callable[[Sta
             t = clock.timestamp()
             try:
                 az, el = link.position()
-                timeouts = 0
+                timeouts = garbled = 0
                 if lost_since is not None:
                     events("state", state="reconnected",
                            note=f"port back after {t - lost_since:.1f} s; resuming the plan")
@@ -714,9 +717,12 @@ def run_pass(core: TrackCore, link: Link, clock: Clock, on_status: Callable[[Sta
             except (PortLostError, RotatorTimeout, ProtocolError, RotatorIOError) as e:
                 if isinstance(e, (RotatorTimeout, ProtocolError)) and not isinstance(
                         e, PortLostError):
-                    timeouts += 1
-                    events("state", state="no_reply", note=str(e), count=timeouts)
-                    if timeouts < s.timeouts_before_lost:
+                    if isinstance(e, ProtocolError):
+                        garbled += 1
+                    else:
+                        timeouts += 1
+                    events("state", state="no_reply", note=str(e), count=timeouts + garbled)
+                    if timeouts < s.timeouts_before_lost and garbled < s.garbled_before_lost:
                         clock.sleep(s.cycle_s)
                         continue
                 if lost_since is None:
