@@ -553,8 +553,14 @@ class TrackCore:
         if ant is not None:
             el = ant[1] if ant[1] is not None else 0.0
             bearing = float(self.spec.bearing_of(ant[0]))
-            err = float(angle_between_deg(pointing_enu(ant[0], el, self.spec.stop_bearing_deg),
-                                          pointing_enu(float(taz), float(tel), 0.0)))
+            if self.spec.has_elevation:
+                err = float(angle_between_deg(
+                    pointing_enu(ant[0], el, self.spec.stop_bearing_deg),
+                    pointing_enu(float(taz), float(tel), 0.0)))
+            else:
+                # the beam's elevation is set by hand: only azimuth is ours to get right, as
+                # in the planner's prediction
+                err = abs((bearing - float(taz) + 180.0) % 360.0 - 180.0)
         span = max(self.los_s - self.aos_s, 1e-9)
         cmd = self.last_command
         return Status(t_s=t_s, phase=self.phase, mode=self.mode, target_az_deg=float(taz),
