@@ -280,3 +280,27 @@ def test_broken_plan_file_names_file_and_line(tmp_path):
         read_plan_file(f)
     with pytest.raises(ConfigError, match="cannot read"):
         read_plan_file(tmp_path / "missing.steps")
+
+
+def test_tables_are_checked_against_the_rotator_and_the_mask_they_are_sent_to():
+    # A plan file may come from another rotator or station: check it where it is used.
+    from tracker.steptable import check_tables_fit
+
+    mask = HorizonMask((0.0, 180.0, 200.0, 340.0), (0.0, 0.0, 8.5, 8.5))
+    station = Station("masked", STATION.lat_deg, STATION.lon_deg, 10.0, 0.0, mask)
+    for track in (high_pass(), low_pass()):
+        prog = compile_pass(track, G5500, station, "gs232b", interval_s=2)
+        check_tables_fit(prog.tables, G5500, station)        # its own: fits
+    over = tables_from_points("W", 1, [(10, 5), (400, 20), (420, 30)], PROFILES["gs232b"])
+    with pytest.raises(LimitError, match=r"point 2 \(400 020\) is beyond G-400's 360"):
+        check_tables_fit([over], G5500.with_(name="G-400", az_span_deg=360.0), STATION)
+    wall = Station("wall", STATION.lat_deg, STATION.lon_deg, 0.0, 0.0,
+                   HorizonMask((0.0,), (12.0,)))
+    low = tables_from_points("W", 1, [(10, 15), (11, 11), (12, 20)], PROFILES["gs232b"])
+    with pytest.raises(LimitError, match=r"point 2 \(011 011\) is below the horizon mask"):
+        check_tables_fit([low], G5500, wall, "x.steps")
+    flip = tables_from_points("W", 1, [(10, 170), (11, 169)], PROFILES["gs232b"])
+    with pytest.raises(LimitError, match=r"point 1 .* below the horizon mask"):
+        check_tables_fit([flip], G5500, wall)               # 10 deg over the top, south
+    with pytest.raises(LimitError, match="elevation range 0-90"):
+        check_tables_fit([flip], G5500.with_(name="G-5400", el_max_deg=90.0), STATION)

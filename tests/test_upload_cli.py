@@ -141,3 +141,17 @@ def test_config_rotator_is_used_and_named_in_the_plan_file(tmp_path, capsys):
     rc = main(["upload", "ISS", *WHERE, *AT, "--config", str(cfg), "--rotator", "roof",
                "--mains-hz", "60", "--dry-run"])
     assert rc == 2 and "mains_hz = 60 in that section" in capsys.readouterr().err
+
+
+def test_from_file_is_checked_against_this_station_and_rotator(tmp_path, capsys):
+    # The tiny plan points at 5-7 deg elevation: refused, before anything is sent, where the
+    # horizon mask is 10 deg (the plan file does not carry the mask it was made for).
+    f = tmp_path / "tiny.steps"
+    _tiny_plan(f)
+    mask = tmp_path / "horizon.txt"
+    mask.write_text("0 10\n")
+    rc = main(["upload", "--from", str(f), "--port", "socket://127.0.0.1:9", "--now",
+               "--mask", str(mask), "--at", "2026-08-23T02:00:00Z"])
+    err = capsys.readouterr().err
+    assert rc == 2 and "point 1 (010 005) is below the horizon mask" in err, err
+    assert err.count("\n") == 1 and "Traceback" not in err

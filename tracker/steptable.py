@@ -386,6 +386,34 @@ def wire_az(spec: RotatorSpec, m_deg):
     return m
 
 
+def check_tables_fit(tables: Sequence[StepTable], spec: RotatorSpec, station,
+                     source: str = "the plan") -> None:
+    """Refuse (LimitError) tables with a point outside ``spec``'s travel or below the
+    station's horizon mask: a plan file may have been made for another rotator or station."""
+    from tracker.planner import boresight_horizon_ok
+
+    for n, table in enumerate(tables, 1):
+        wire = np.asarray(table.az_deg, dtype=float)
+        m = np.mod(wire - spec.stop_bearing_deg, 360.0) if spec.controller_maps_south else wire
+        el = None if table.el_deg is None else np.asarray(table.el_deg, dtype=float)
+        bad = m > spec.az_span_deg + 1e-9
+        why = f"beyond {spec.name}'s {spec.az_span_deg:g} deg azimuth travel"
+        if el is not None and spec.has_elevation:
+            el_bad = (el < spec.el_min_deg - 1e-9) | (el > spec.el_max_deg + 1e-9)
+            if el_bad.any() and not bad.any():
+                bad, why = el_bad, (f"outside {spec.name}'s elevation range "
+                                    f"{spec.el_min_deg:g}-{spec.el_max_deg:g} deg")
+            if not bad.any():
+                bad = ~boresight_horizon_ok(spec, station, m, el)
+                why = f"below the horizon mask of station {station.name}"
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            point = f"{int(wire[k]):03d}" + ("" if el is None else f" {int(el[k]):03d}")
+            raise LimitError(f"{source}: table {n} point {k + 1} ({point}) is {why}; make a "
+                             f"new plan for this rotator and station (tracker plan ... "
+                             f"--steptable FILE)")
+
+
 def compile_program(path: MountPath, spec: RotatorSpec, profile: TableProfile | str, *,
                     interval_s: int | None = None, max_error_deg: float | None = None,
                     start_az_deg: float | None = None, start_el_deg: float | None = None,

@@ -112,7 +112,12 @@ def build_program(args: argparse.Namespace, now_s: float, current=None):
 
 def run(args: argparse.Namespace) -> int:
     from tracker.errors import ConfigError
-    from tracker.steptable import format_plan_file, read_plan_file, table_profile
+    from tracker.steptable import (
+        check_tables_fit,
+        format_plan_file,
+        read_plan_file,
+        table_profile,
+    )
     from tracker.upload import resume_schedule
 
     if args.from_file and not args.protocol:
@@ -141,7 +146,9 @@ def run(args: argparse.Namespace) -> int:
                                   f"make a new plan, or add --now to resume from the point "
                                   f"due now")
             tables = resume_schedule(tables, now, args.baud)
-        return _send(args, tables, clock, simulate, _plan_file_rotator(args, plan.header))
+        spec = _plan_file_rotator(args, plan.header)
+        check_tables_fit(tables, spec, station_from_args(args, quiet=True), str(args.from_file))
+        return _send(args, tables, clock, simulate, spec)
 
     now_s = clock.timestamp()
     program, header = build_program(args, now_s)
