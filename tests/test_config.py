@@ -175,3 +175,15 @@ def test_tracking_mains_hz_slows_presets_but_not_own_sections(tmp_path):
     assert config.rotator("G-1000DXA").name == "G-1000DXA"   # DC motors: mains independent
     assert config.user_rotator("ROOF") is config.rotator("roof")
     assert config.user_rotator("G-5500") is None
+
+
+def test_config_option_before_the_subcommand(tmp_path, capsys):
+    from tracker.cli import main
+
+    p = tmp_path / "c.toml"
+    p.write_text('[station]\nname = "roof"\nlat_deg = 10.5\nlon_deg = 20.0\n')
+    assert main(["--config", str(p), "config", "show"]) == 0
+    out = capsys.readouterr().out
+    assert str(p) in out and "lat_deg = 10.5" in out
+    assert main(["--config", str(tmp_path / "none.toml"), "config", "show"]) == 2
+    assert "does not exist" in capsys.readouterr().err

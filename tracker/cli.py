@@ -26,6 +26,10 @@ def build_parser() -> argparse.ArgumentParser:
         prog="tracker",
         description="Satellite and celestial pass tracker for GS-232 class antenna rotators.")
     parser.add_argument("--version", action="version", version=f"tracker {tracker.__version__}")
+    # Also accepted before the subcommand (``tracker --config F passes``); a subcommand's own
+    # --config default would overwrite the same dest, hence a separate one.
+    parser.add_argument("--config", metavar="FILE", dest="global_config",
+                        help="config file (default: $TRACKER_CONFIG or the user config dir)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for info in sorted(pkgutil.iter_modules(tracker.commands.__path__), key=lambda m: m.name):
         if info.name.startswith("_"):
@@ -40,6 +44,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     parser = build_parser()
     args = parser.parse_args(argv)
+    if args.global_config and getattr(args, "config", None) is None:
+        args.config = args.global_config
     if not getattr(args, "func", None):
         parser.print_help()
         return EXIT_USAGE
