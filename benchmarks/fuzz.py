@@ -12,7 +12,8 @@ raised an undocumented exception. The targets are the ones the CI hypothesis tes
 ``--engine random`` (default) draws near-valid mutations, random bytes and token soup from
 a seeded ``random.Random`` (fastest); ``--engine hypothesis`` draws from the CI tests'
 hypothesis strategy (generation only: every input is run, failures are collected, not
-shrunk).
+shrunk). Hypothesis draws ``--batch`` inputs per example, because its per-example
+bookkeeping, not the targets, limits the rate (about 5x faster at 20 than at 1).
 """
 
 from __future__ import annotations
@@ -36,6 +37,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", default="", help="run targets whose name contains this")
     ap.add_argument("--engine", choices=("random", "hypothesis"), default="random",
                     help="input generator (default random; hypothesis: the CI strategy)")
+    ap.add_argument("--batch", type=int, default=20,
+                    help="hypothesis engine: inputs drawn per hypothesis example (default 20)")
     ap.add_argument("--time-limit-s", type=float, default=None,
                     help="stop a target after this many seconds (its count is then lower; "
                          "the table says so)")
@@ -88,7 +91,7 @@ def _run_target(t, args) -> tuple[int, Counter[str], dict[str, bytes], float]:
 
     try:
         if args.engine == "hypothesis":
-            _hypothesis_run(t, args.count, args.seed, one)
+            _hypothesis_run(t, args.count, args.seed, args.batch, one)
         else:
             rng = random.Random(f"{args.seed}:{t.name}")
             while n < args.count:
@@ -102,17 +105,32 @@ class _TimeUp(BaseException):
     """Ends a target at --time-limit-s (a BaseException so hypothesis does not catch it)."""
 
 
-def _hypothesis_run(target, count: int, seed: int, one) -> None:
+def _hypothesis_run(target, count: int, seed: int, batch: int, one) -> None:
     from hypothesis import HealthCheck, Phase, given, settings
     from hypothesis import seed as hseed
+    from hypothesis import strategies as st
 
-    @settings(max_examples=count, deadline=None, database=None, phases=[Phase.generate],
-              suppress_health_check=list(HealthCheck))
+    left = count
+    batch = max(1, batch)
+
+    # Examples that overrun hypothesis' buffer are discarded unrun, so the budget is counted
+    # in inputs actually run, with a generous example ceiling.
+    @settings(max_examples=4 * (count // batch + 1), deadline=None, database=None,
+              phases=[Phase.generate], suppress_health_check=list(HealthCheck))
     @hseed(seed)
-    @given(data=F.hypothesis_inputs(target))
-    def run(data: bytes) -> None:
-        one(data)
-    run()
+    @given(data=st.lists(F.hypothesis_inputs(target), min_size=batch, max_size=batch))
+    def run(data: list[bytes]) -> None:
+        nonlocal left
+        for item in data[:left]:
+            one(item)
+        left -= min(left, len(data))
+        if left == 0:
+            raise _TimeUp
+    try:
+        run()
+    except _TimeUp:
+        if left:
+            raise
 
 
 def reply_integrity(n: int, seed: int) -> int:
@@ -138,6 +156,8 @@ def reply_integrity(n: int, seed: int) -> int:
             for line in framer.feed(session.feed(b"C2\r")):
                 try:
                     value = parse_position(line)
+                    if value[1] is None:  # the driver refuses a C2 reply without elevation
+                        raise ProtocolError("no elevation", line)
                 except ProtocolError:
                     counts["rejected"] += 1
                     continue

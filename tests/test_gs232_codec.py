@@ -70,7 +70,11 @@ def test_parse_position_tolerant(line, want):
 
 
 @pytest.mark.parametrize("line", [b"", b"?>", b"AZ=", b"C2", b"AZ=12x EL=1", b"+0aaa+0eee",
-                                  b"\x00\xff"])
+                                  b"\x00\xff",
+                                  # a digit dropped or doubled by line noise: width or range
+                                  b"AZ=12  EL=045", b"AZ=1233  EL=045", b"AZ=123  EL=04",
+                                  b"AZ=123  EL=0455", b"AZ=451  EL=045", b"+012+0045",
+                                  b"+01233+0045", b"+0123+0181"])
 def test_parse_position_rejects_keeping_raw(line):
     with pytest.raises(ProtocolError) as ei:
         parse_position(line)
@@ -80,6 +84,9 @@ def test_parse_position_rejects_keeping_raw(line):
 def test_elevation_and_table_status_and_error():
     assert parse_elevation(b"EL=045") == 45.0
     assert parse_elevation(b"+0045") == 45.0
+    for bad in (b"EL=04", b"EL=0455", b"+045", b"+0045+0010"):
+        with pytest.raises(ProtocolError):
+            parse_elevation(bad)
     assert parse_table_status(b"+0002+0010") == (2, 10)
     assert parse_table_status(b"=0002=0010") == (2, 10)
     assert parse_table_status(b"3") == (None, 3)

@@ -172,9 +172,15 @@ def encode_table(interval_s: int, points: Sequence, *, az_max_deg: float = 450.0
 
 # Codec: replies --------------------------------------------------------------------------------
 
-_AZEL_RE = re.compile(rb"^AZ=\s*([+-]?\d{1,4})\s*(?:EL=\s*([+-]?\d{1,4}))?$")
-_EL_RE = re.compile(rb"^EL=\s*([+-]?\d{1,4})$")
-_PLUS_RE = re.compile(rb"^([+-])(\d{3,5})(?:([+-])(\d{3,5}))?$")
+# Fields are zero-padded: 3 digits (4 on ERC-style azimuths), or a short negative such as
+# SPID's `-00`. Replies carry no checksum, so a field with a digit dropped or doubled by line
+# noise is refused here by its width or range rather than read as a wrong angle.
+_FIELD = rb"([+-]?\d{2,4})"
+_AZEL_RE = re.compile(rb"^AZ=\s*" + _FIELD + rb"\s*(?:EL=\s*" + _FIELD + rb")?$")
+_EL_RE = re.compile(rb"^EL=\s*" + _FIELD + rb"$")
+_PLUS_RE = re.compile(rb"^([+-]\d{4,5})(?:([+-]\d{4,5}))?$")
+_AZ_MAX_DEG = 450
+_EL_MAX_DEG = 180
 _N_RE = re.compile(rb"^[+=](\d{1,4})[+=](\d{1,4})$")
 
 
@@ -187,27 +193,36 @@ def parse_position(line: bytes) -> tuple[float, float | None]:
     """Parse a C/C2 reply: ``AZ=aaa  EL=eee`` (any spacing, negatives, 4-digit az),
     ``AZ=aaa``, ``+0aaa+0eee`` or ``+0aaa``; raises :class:`ProtocolError`."""
     s = line.strip()
-    m = _AZEL_RE.match(s)
+    m = _AZEL_RE.match(s) or _PLUS_RE.match(s)
     if m:
-        return float(int(m.group(1))), None if m.group(2) is None else float(int(m.group(2)))
-    m = _PLUS_RE.match(s)
-    if m:
-        az = int(m.group(2)) * (-1 if m.group(1) == b"-" else 1)
-        el = None if m.group(3) is None else int(m.group(4)) * (-1 if m.group(3) == b"-" else 1)
-        return float(az), None if el is None else float(el)
-    raise ProtocolError("not a GS-232 position reply (expected AZ=aaa EL=eee or +0aaa+0eee)",
-                        line)
+        az = _angle(m.group(1), _AZ_MAX_DEG)
+        el = None if m.group(2) is None else _angle(m.group(2), _EL_MAX_DEG)
+        if az is not None and (m.group(2) is None or el is not None):
+            return az, el
+    raise ProtocolError("not a GS-232 position reply (expected AZ=aaa EL=eee or +0aaa+0eee "
+                        "with 3-digit fields in range)", line)
 
 
 def parse_elevation(line: bytes) -> float:
     s = line.strip()
-    m = _EL_RE.match(s)
-    if m:
-        return float(int(m.group(1)))
-    m = _PLUS_RE.match(s)
-    if m and m.group(3) is None:
-        return float(int(m.group(2)) * (-1 if m.group(1) == b"-" else 1))
+    m = _EL_RE.match(s) or _PLUS_RE.match(s)
+    if m and m.lastindex == 1:
+        el = _angle(m.group(1), _EL_MAX_DEG)
+        if el is not None:
+            return el
     raise ProtocolError("not a GS-232 elevation reply (expected EL=eee or +0eee)", line)
+
+
+def _angle(field: bytes, max_deg: int) -> float | None:
+    """A reply field as degrees, or None if no controller could have sent it."""
+    digits = field.lstrip(b"+-")
+    negative = field.startswith(b"-")
+    if len(digits) < 3 and not negative:
+        return None
+    value = int(digits)
+    if value > max_deg:
+        return None
+    return float(-value if negative else value)
 
 
 def parse_table_status(line: bytes) -> tuple[int | None, int]:
