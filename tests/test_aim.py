@@ -100,3 +100,36 @@ def test_over_the_top_pointing_counts_as_pointing():
     motor = MotorModel(SPEC, 190.0, 120.0, 0.0)
     err = predicted_error(path, motor.az, motor.el, 0.0, np.array([0.0, 5.0]))
     assert np.all(err < 1e-6)
+
+
+def test_chosen_peak_stays_inside_the_deadband_when_the_antenna_keeps_up():
+    # The sample where the error leaves the deadband belongs to the next command: counting
+    # it made every candidate look 'lagging' and let peaks above the deadband through.
+    path = arc_path()
+    motor = MotorModel(SPEC, 100.0, 0.0, 0.0)
+    peaks = []
+    for t in np.arange(0.0, 590.0, 0.5):
+        if needs_command(path, motor.az, motor.el, t, 2.8, 1.0):
+            a = choose_aim(path, motor.az, motor.el, t, 2.8)
+            motor.command(a.az_m_deg, a.el_deg, t)
+            peaks.append(a.peak_error_deg)
+    assert len(peaks) > 10 and max(peaks) <= 2.8
+
+
+def test_approximate_path_is_scored_against_the_real_target():
+    """A keyhole-style path that is 2 deg off the target: the aim policy's error is the
+    error to the target, not to the path it follows."""
+    from types import SimpleNamespace
+
+    from tracker.skytrack import SkyTrack
+
+    t = np.arange(0.0, 121.0, 1.0)
+    track = SkyTrack.from_azel(t, 100.0 + 0.5 * t, np.full_like(t, 40.0), name="K")
+    plan = SimpleNamespace(t_s=t, cmd_az_deg=100.0 + 0.5 * t, cmd_el_deg=np.full_like(t, 42.0),
+                           lead_s=0.0, mode="keyhole", track=track,
+                           visible=np.ones_like(t, dtype=bool))
+    path = AimPath.from_plan(plan, SPEC)
+    motor = MotorModel(SPEC, 110.0, 42.0, 0.0)          # on the path at t = 20 s
+    err = predicted_error(path, motor.az, motor.el, 20.0, np.array([20.0]))
+    assert err[0] == pytest.approx(2.0, abs=0.05)
+    assert np.allclose(path.at(20.0), (110.0, 42.0))    # still follows the planned path

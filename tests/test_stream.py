@@ -290,3 +290,30 @@ def test_near_overhead_pass_stays_within_plan_error_and_deadband():
     assert any(core._fast(t, 0.0) for t in track.t_s)   # the follow stretch was used
     # the plan's own error near the zenith, the deadband elsewhere; never lost (> 5 deg)
     assert max(errs) <= max(plan.max_error_deg, 3.0) + 0.5
+
+
+def test_move_clears_mask_follows_both_axes_at_their_rates():
+    from tracker.stream import move_clears_mask
+
+    wall = Station(mask=HorizonMask((0.0, 45.0, 50.0, 60.0, 90.0), (0.0, 0.0, 20.0, 0.0, 0.0)))
+    # Elevation (2.24 deg/s) lags azimuth (5.17 deg/s): sweeping 30 -> 70 at el 5 -> 25
+    # passes the 20 deg wall at 50 while still low.
+    assert not move_clears_mask(SPEC, wall, (30.0, 5.0), (70.0, 25.0))
+    assert move_clears_mask(SPEC, wall, (30.0, 25.0), (70.0, 25.0))
+    assert move_clears_mask(SPEC, Station(), (30.0, 0.0), (70.0, 0.0))
+
+
+def test_preposition_leads_into_the_pass_and_saves_the_move_before_aos():
+    """A low pass: resting on the AOS point the antenna would need a small move just before
+    AOS; the last pre-position move goes ahead on the path instead, so the target drifts
+    through the whole deadband after AOS and the first tracking move comes much later."""
+    track = arc_pass(duration_s=600, az0_deg=100.0, az1_deg=160.0, max_el_deg=1.0, pad_s=30)
+    rig = Rig(track=track, start_az=60.0)
+    res = rig.run()
+    assert res.completed
+    az0, el0 = (int(v) for v in rig.fake.written[0][1:].split())
+    assert 100 < az0 <= 103 and el0 == 0          # ahead of AOS (az 100), within the band
+    first_track = next(t for t, k, d in rig.events
+                       if k == "command" and d.get("reason") == "track")
+    assert first_track - rig.core.aos_s > 10.0   # the target drifts through it first
+    assert track_errors(rig).max() <= 3.0 + 1.5

@@ -43,6 +43,10 @@ class AimPath:
     az_m_deg: np.ndarray
     el_deg: np.ndarray
     stop_bearing_deg: float = 0.0
+    # Where the target really is (east-north-up at t_s) when that differs from the path:
+    # keyhole and unwind paths are approximations, and the error that matters is the error
+    # to the target, not to the path.
+    sky_enu: np.ndarray | None = None
 
     @classmethod
     def from_arrays(cls, t_s, az_m_deg, el_deg, spec: RotatorSpec) -> AimPath:
@@ -78,7 +82,15 @@ class AimPath:
             if spec.has_elevation:
                 exact_e = 180.0 - track.el_deg if flip else track.el_deg
                 el = np.where(vis, np.clip(exact_e, spec.el_min_deg, spec.el_max_deg), el)
-        return cls(t, az, el, float(spec.stop_bearing_deg))
+        sky = None
+        if track is not None and len(track) == len(t):
+            vis = np.asarray(getattr(plan, "visible", track.el_deg >= 0.0), dtype=bool)
+            if vis.any():
+                # An azimuth-only rotator is judged on azimuth alone (as its plan is).
+                sky_el = track.el_deg if spec.has_elevation else np.zeros_like(t)
+                sky = np.where(vis[:, None], azel_to_enu(track.az_deg, sky_el),
+                               pointing_enu(az, el, spec.stop_bearing_deg))
+        return cls(t, az, el, float(spec.stop_bearing_deg), sky)
 
     @property
     def start_s(self) -> float:
@@ -94,8 +106,12 @@ class AimPath:
 
     def direction(self, t_s) -> np.ndarray:
         """Where the path points (east-north-up unit vectors), shape ``(..., 3)``."""
-        az, el = self.at(t_s)
-        return pointing_enu(az, el, self.stop_bearing_deg)
+        if self.sky_enu is None:
+            az, el = self.at(t_s)
+            return pointing_enu(az, el, self.stop_bearing_deg)
+        v = np.stack([np.interp(t_s, self.t_s, self.sky_enu[:, k]) for k in range(3)],
+                     axis=-1)
+        return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
 def pointing_enu(az_m_deg, el_deg, stop_bearing_deg: float = 0.0) -> np.ndarray:
@@ -236,9 +252,15 @@ def choose_aim(path: AimPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t0_
     # antenna is where it is), so it does not count in the comparison.
     t_settle = min(float(np.min(arrival)), ts[-1])
     window_end = np.maximum(t0_s + np.maximum(hold, min_window_s), t_settle)
-    in_window = (ts[None, :] >= t_settle) & (ts[None, :] <= window_end[:, None])
+    # The sample where the error leaves the deadband ends the hold and is the next
+    # command's, not this one's, unless it comes on arrival: then this aim never held.
+    in_window = (ts[None, :] >= t_settle) & (
+        (ts[None, :] < window_end[:, None] - 1e-9) | (ts[None, :] <= arrival[:, None] + step_s))
     peak = np.max(np.where(in_window, err, 0.0), axis=1)
-    level = max(deadband_deg, float(np.min(peak)) + peak_slack_deg)
+    # Slack above the best peak only when the deadband cannot be kept anyway (the rotator
+    # lags); otherwise a longer hold must not buy a peak outside the deadband.
+    best_peak = float(np.min(peak))
+    level = deadband_deg if best_peak <= deadband_deg else best_peak + peak_slack_deg
     ok = peak <= level
     # Hold per motor start (and a little per command): the fewest relay clicks and bytes for
     # the time the error stays bounded.

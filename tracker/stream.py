@@ -402,7 +402,10 @@ class TrackCore:
         if phase is Phase.WAIT or phase is Phase.DONE:
             return None
         if phase is Phase.PREPOSITION:
-            return self._next_move(t_s, self.pre_moves, "preposition")
+            cmd = self._next_move(t_s, self.pre_moves, "preposition")
+            if cmd is not None and self._move_i == len(self.pre_moves) - 1:
+                cmd = self._lead_in(t_s, cmd)
+            return cmd
         if phase is Phase.PARK:
             if not self.settings.park_after_pass:
                 self.phase = Phase.DONE
@@ -425,20 +428,26 @@ class TrackCore:
             return None
         # TRACK
         s = self.settings
-        band = max(s.deadband_deg - s.margin_deg, 0.5 * s.deadband_deg)
+        band = self._band()
         level = band if t_s >= self._hold_until_s else max(band, self._hold_level_deg)
-        # Move before the error reaches the deadband: one cycle, the start delay and the time
-        # the slower axis needs for a typical step (about twice the deadband).
-        slow = min(self.spec.az_rate_deg_s, self.spec.el_rate_deg_s or math.inf)
-        lookahead = s.cycle_s + self.spec.start_delay_s + min(2.0 * s.deadband_deg / slow, 4.0)
+        # Move before the error reaches the deadband, but no earlier than needed: every second
+        # of early warning moves the next aim point back by the path's travel in that time.
+        # Once a motor runs it outruns the target (faster paths are followed below), so only
+        # the wait until it starts has to be foreseen: one cycle and the start delay.
+        lookahead = s.cycle_s + self.spec.start_delay_s
         if self._fast(t_s, lookahead):
             i = min(int(np.searchsorted(self._plan_t, t_s)), len(self._plan_t) - 1)
             el = float(self._plan_el[i]) if self.spec.has_elevation else None
             cmd = self._safe(float(self._plan_az[i]), el, "track")
             self._hold_until_s = -math.inf
         else:
-            if self._phase_commanded is Phase.TRACK and not needs_command(
-                    self.path, self.motor.az, self.motor.el, t_s, level, lookahead):
+            # After the whole pre-position (which already leads into the pass) the antenna
+            # may hold where it is, as within the pass.
+            settled = self._phase_commanded is Phase.TRACK or (
+                self._phase_commanded is Phase.PREPOSITION
+                and self._move_i >= len(self.pre_moves))
+            if settled and not needs_command(self.path, self.motor.az, self.motor.el, t_s,
+                                             level, lookahead):
                 return None
             aim = choose_aim(self.path, self.motor.az, self.motor.el, t_s, band,
                              step_s=s.aim_step_s)
@@ -457,6 +466,47 @@ class TrackCore:
                     cmd.el_deg is None or abs(cmd.el_deg - last.el_deg) < 1e-9):
                 return None
         return cmd
+
+    def _band(self) -> float:
+        s = self.settings
+        return max(s.deadband_deg - s.margin_deg, 0.5 * s.deadband_deg)
+
+    def _lead_in(self, t_s: float, last: Command, horizon_s: float = 120.0) -> Command:
+        """The last pre-position move, aimed ahead on the path: resting there the antenna
+        lets the target drift through the whole deadband from the start of tracking, where
+        resting on the AOS point it would need one small move just before AOS, a motor start
+        per axis for nothing. Kept as planned when no point ahead holds the deadband from the
+        start of tracking or the direct move to it would dip below the mask."""
+        t_a = self.track_from_s
+        ts = np.arange(t_a, min(t_a + horizon_s, self.path.end_s) + 1e-9,
+                       self.settings.aim_step_s)
+        if len(ts) < 2:
+            return last
+        cand_az, cand_el = self.path.at(ts)
+        q_az = np.array([self.motor.az.quantise(a) for a in cand_az])
+        q_el = (np.array([self.motor.el.quantise(e) for e in cand_el])
+                if self.motor.el is not None and last.el_deg is not None
+                else np.zeros_like(q_az))
+        err = angle_between_deg(pointing_enu(q_az, q_el, self.path.stop_bearing_deg)[:, None],
+                                self.path.direction(ts)[None, :])          # (candidate, t)
+        off = err > self._band()
+        # Held from the start of tracking: a candidate counts until the error first leaves
+        # the deadband, and only if it is inside at the start.
+        hold = np.where(off.any(axis=1), np.argmax(off, axis=1), len(ts))
+        if not (hold > 0).any():
+            return last
+        # Hold per motor start, as within the pass (an axis already on target costs none).
+        starts = (np.abs(q_az - self.motor.az.target_deg) > 1e-9).astype(float)
+        if self.motor.el is not None and last.el_deg is not None:
+            starts += np.abs(q_el - self.motor.el.target_deg) > 1e-9
+        k = int(np.argmax(np.where(hold > 0, hold / (starts + 0.3), -1.0)))
+        lead = self._safe(float(q_az[k]), None if last.el_deg is None else float(q_el[k]),
+                          "preposition")
+        if lead.clamped or not move_clears_mask(self.spec, self.station,
+                                                self.motor.position(t_s),
+                                                (lead.az_m_deg, lead.el_deg)):
+            return last
+        return lead
 
     def _fast(self, t_s: float, lookahead_s: float) -> bool:
         """True where the path runs the az or el motor more than ``follow_fraction`` of
@@ -518,7 +568,10 @@ class TrackCore:
         if cmd.reason == "park":
             self._park_sent_s = t_s
         if cmd.aim is not None:
-            self._hold_until_s = t_s + cmd.aim.hold_s
+            # The raised level only covers the slew: past the arrival the look-ahead must
+            # see the next exit from the deadband early enough to move before it.
+            self._hold_until_s = min(t_s + cmd.aim.hold_s,
+                                     cmd.aim.arrival_s + self.settings.cycle_s)
             self._hold_level_deg = cmd.aim.peak_error_deg + 0.05
         self.note = ""
 
@@ -602,6 +655,23 @@ def safe_target(spec: RotatorSpec, station: Station, az_m_deg: float, el_deg: fl
         why.append(f"raised above the horizon mask ({floor:.1f} deg at "
                    f"{look_bearing % 360.0:.0f})")
     return az, el, "; ".join(why)
+
+
+def move_clears_mask(spec: RotatorSpec, station: Station, start: tuple[float, float | None],
+                     end: tuple[float, float | None], samples: int = 64) -> bool:
+    """True if both axes, started together from ``start`` at their own rates, keep the
+    boresight on or above the horizon mask all the way to ``end`` (mechanical az, el)."""
+    if not spec.has_elevation or start[1] is None or end[1] is None:
+        return True
+    (m0, e0), (m1, e1) = start, end
+    t_end = max(abs(m1 - m0) / spec.az_rate_deg_s, abs(e1 - e0) / spec.el_rate_deg_s)
+    t = np.linspace(0.0, t_end, samples)
+    m = m0 + np.sign(m1 - m0) * np.minimum(t * spec.az_rate_deg_s, abs(m1 - m0))
+    e = e0 + np.sign(e1 - e0) * np.minimum(t * spec.el_rate_deg_s, abs(e1 - e0))
+    over = e > 90.0
+    bearing = np.mod(spec.bearing_of(m) + np.where(over, 180.0, 0.0), 360.0)
+    look_el = np.where(over, 180.0 - e, e)
+    return bool(np.all(look_el >= np.asarray(station.horizon_at(bearing)) - 1e-9))
 
 
 # I/O loop ----------------------------------------------------------------------------------

@@ -308,6 +308,12 @@ class _SharedAzAz:
         self._lock = threading.Lock()
         self._drv = None
         self._gen = 0
+        self.finished = False     # the run's final S went out: nothing may move after it
+
+    def final_stop(self) -> bool:
+        """The run's last word, ``S``; a loop that outlives the join can only stop after it."""
+        self.finished = True
+        return self.all_stop()
 
     def axis(self, n: int) -> _AxisLease:
         with self._lock:
@@ -362,9 +368,15 @@ class _AxisLease:
         return self.axis.position()
 
     def goto(self, az_deg: float, el_deg: float | None = None) -> None:
+        if self.shared.finished:
+            raise TrackerError("the run has ended (all-stop sent); no further moves")
         self.axis.goto(az_deg)
 
     def stop(self) -> None:
+        if self.shared.finished:
+            # A loop slower than the join: its A / E would land after the run's S.
+            self.shared.all_stop()
+            return
         self.axis.stop()      # A / E: this antenna only; the run's all-stop is S
 
     def close(self) -> None:
@@ -627,7 +639,7 @@ def _run_both(ants: list[_Antenna], shared: _SharedAzAz, station, clock, passes:
         for t in threads:
             t.join(timeout=JOIN_TIMEOUT_S)
         # Last word on the wire: S, after both loops sent their own A / E.
-        if shared.all_stop():
+        if shared.final_stop():
             out.event("command", cmd="stop", note="S: both antennas")
         else:
             out.event("state", state="stop_failed", reason="all-stop S did not reach the "

@@ -36,7 +36,7 @@ from tracker.protocols.gs232 import (
 
 AZAZ_PROFILE = Gs232Profile(
     name="gs232b-azaz", family="b", c2_separator=b"", set_ack=b"", b_commands=True,
-    help_pages=("", "2", "3"), baudrate=9600,
+    help_pages=("", "2", "3"), baudrate=9600, second_field_max_deg=450,
     description="GS-232B-AZ/AZ dual azimuth (VE2DX proposal): AZ=aaaEL=bbb with azimuth 2 "
                 "in the EL field, silent set commands")
 AXIS_CAPS = Capabilities(has_elevation=False, has_step_tables=True,

@@ -74,6 +74,8 @@ class Gs232Profile:
     help_pages: tuple[str, ...] = ("", "2")
     baudrate: int = 9600
     lf_is_command: bool = False
+    # The largest value the second (EL) field can carry: AZ/AZ boxes put azimuth 2 there.
+    second_field_max_deg: int = 180
 
     def with_(self, **changes) -> Gs232Profile:
         return replace(self, **changes)
@@ -189,25 +191,26 @@ def is_error_reply(line: bytes) -> bool:
     return line.strip().replace(b" ", b"") in (b"?>", b">")
 
 
-def parse_position(line: bytes) -> tuple[float, float | None]:
+def parse_position(line: bytes, el_max_deg: int = _EL_MAX_DEG) -> tuple[float, float | None]:
     """Parse a C/C2 reply: ``AZ=aaa  EL=eee`` (any spacing, negatives, 4-digit az),
-    ``AZ=aaa``, ``+0aaa+0eee`` or ``+0aaa``; raises :class:`ProtocolError`."""
+    ``AZ=aaa``, ``+0aaa+0eee`` or ``+0aaa``; raises :class:`ProtocolError`. ``el_max_deg``
+    bounds the second field (450 where it carries a second azimuth)."""
     s = line.strip()
     m = _AZEL_RE.match(s) or _PLUS_RE.match(s)
     if m:
         az = _angle(m.group(1), _AZ_MAX_DEG)
-        el = None if m.group(2) is None else _angle(m.group(2), _EL_MAX_DEG)
+        el = None if m.group(2) is None else _angle(m.group(2), el_max_deg)
         if az is not None and (m.group(2) is None or el is not None):
             return az, el
     raise ProtocolError("not a GS-232 position reply (expected AZ=aaa EL=eee or +0aaa+0eee "
                         "with 3-digit fields in range)", line)
 
 
-def parse_elevation(line: bytes) -> float:
+def parse_elevation(line: bytes, el_max_deg: int = _EL_MAX_DEG) -> float:
     s = line.strip()
     m = _EL_RE.match(s) or _PLUS_RE.match(s)
     if m and m.lastindex == 1:
-        el = _angle(m.group(1), _EL_MAX_DEG)
+        el = _angle(m.group(1), el_max_deg)
         if el is not None:
             return el
     raise ProtocolError("not a GS-232 elevation reply (expected EL=eee or +0eee)", line)
@@ -438,14 +441,14 @@ class Gs232Driver(RotatorDriver):
     def position(self) -> tuple[float, float | None]:
         if self.capabilities.has_elevation:
             line = self._query(b"C2")
-            az, el = parse_position(line)
+            az, el = parse_position(line, self.profile.second_field_max_deg)
             if el is None:
                 raise ProtocolError("C2 reply has no elevation", line)
             return az, el
         return parse_position(self._query(b"C"))[0], None
 
     def elevation(self) -> float:
-        return parse_elevation(self._query(b"B"))
+        return parse_elevation(self._query(b"B"), self.profile.second_field_max_deg)
 
     def goto(self, az_deg: float, el_deg: float | None = None) -> None:
         if not self.capabilities.has_elevation:
