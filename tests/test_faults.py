@@ -301,6 +301,21 @@ def test_delay_beyond_the_timeout_is_a_timeout(bench):
     assert isinstance(out, RotatorTimeout)
 
 
+def test_replies_held_for_a_client_that_left_are_dropped_with_it(tmp_path):
+    # Over a long unattended run clients come and go: what was held back for one must not
+    # pile up, nor reach the next client.
+    b = Bench("tcp", ["delay=5"], tmp_path)
+    try:
+        d = b.driver(retries=0)
+        out, _ = bounded(d.position)
+        assert isinstance(out, RotatorTimeout)
+        assert b.inj.next_release_in_s() is not None      # the reply is still held
+        d.close()
+        assert wait_until(lambda: b.inj.next_release_in_s() is None, 5.0)
+    finally:
+        b.close()
+
+
 def test_silent_window_times_out_then_recovers(bench):
     b = bench(["silent=1.0@0"])
     d = b.driver()

@@ -337,6 +337,8 @@ class FaultInjector:
             out = bytearray()
             while q and q[0][0] <= now:
                 out += q.pop(0)[1]
+            if not q:
+                del self._queues[id(session)]
             return bytes(out)
 
     def next_release_in_s(self) -> float | None:

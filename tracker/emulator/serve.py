@@ -90,6 +90,14 @@ class _Server:
             self._conns.remove(conn)
             self._sel.unregister(conn.fileno())
             conn.close()
+            self._forget(conn)
+
+    def _forget(self, conn: _Conn) -> None:
+        # Replies held back for a client that is gone must not reach the next one (session
+        # ids are reused) nor pile up over a long run of reconnects.
+        inj = getattr(self.controller.faults, "injector", None)
+        if inj is not None:
+            inj.forget(conn.session)
 
     def _on_accept(self) -> None:  # TCP only
         raise NotImplementedError
@@ -266,6 +274,7 @@ class PtyServer(_Server):
         if conn in self._conns:
             self._conns.remove(conn)
             self._sel.unregister(conn.fileno())
+            self._forget(conn)
             # the master is closed in _close_own (or by hangup)
 
     def hangup(self) -> None:
