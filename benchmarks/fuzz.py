@@ -102,7 +102,8 @@ def _run_target(t, args) -> tuple[int, Counter[str], dict[str, bytes], float]:
 
 
 class _TimeUp(BaseException):
-    """Ends a target at --time-limit-s (a BaseException so hypothesis does not catch it)."""
+    """Ends a target at --time-limit-s, and the hypothesis engine's loop once --count inputs
+    ran (a BaseException so hypothesis does not catch it)."""
 
 
 def _hypothesis_run(target, count: int, seed: int, batch: int, one) -> None:

@@ -130,3 +130,15 @@ def test_peer_closing_tcp_is_port_lost():
     finally:
         d.close()
         peer.close()
+
+
+@pytest.mark.parametrize("reply", [b"AZ=12  EL=045\r\n", b"AZ=1233  EL=045\r\n",
+                                   b"AZ=123  EL=04\r\n", b"+01233+0045\r\n"])
+def test_reply_with_a_digit_lost_or_doubled_is_refused_not_read(make_peer, reply):
+    # No checksum on the wire: a field of the wrong width or out of range is line noise.
+    peer = make_peer(lambda req: reply)
+    d = _driver(peer)
+    with pytest.raises(ProtocolError) as ei:
+        _timed(d.position)
+    assert ei.value.raw == reply.strip()
+    d.close()

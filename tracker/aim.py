@@ -34,6 +34,10 @@ import numpy as np
 from tracker.mount import AxisMotor, RotatorSpec
 from tracker.skytrack import azel_to_enu
 
+# What one command costs besides its motor starts, in starts: the bytes and the read-back
+# disturbance of a command that starts nothing (a retarget of a running motor).
+COMMAND_COST_STARTS = 0.3
+
 
 @dataclass(frozen=True)
 class AimPath:
@@ -264,7 +268,7 @@ def choose_aim(path: AimPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t0_
     ok = peak <= level
     # Hold per motor start (and a little per command): the fewest relay clicks and bytes for
     # the time the error stays bounded.
-    value = hold / (starts + 0.3)
+    value = hold / (starts + COMMAND_COST_STARTS)
     best = float(np.max(np.where(ok, value, -np.inf)))
     near = ok & (value >= hold_fraction * best)
     pick = int(np.argmin(np.where(near, peak, np.inf)))

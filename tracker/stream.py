@@ -25,7 +25,15 @@ from enum import Enum
 
 import numpy as np
 
-from tracker.aim import Aim, AimPath, angle_between_deg, choose_aim, needs_command, pointing_enu
+from tracker.aim import (
+    COMMAND_COST_STARTS,
+    Aim,
+    AimPath,
+    angle_between_deg,
+    choose_aim,
+    needs_command,
+    pointing_enu,
+)
 from tracker.clock import Clock
 from tracker.errors import (
     PortLostError,
@@ -36,6 +44,7 @@ from tracker.errors import (
     TrackerError,
 )
 from tracker.mount import AxisMotor, MotorModel, RotatorSpec
+from tracker.planner import boresight_horizon_ok
 from tracker.skytrack import SkyTrack
 from tracker.station import Station
 
@@ -499,7 +508,7 @@ class TrackCore:
         starts = (np.abs(q_az - self.motor.az.target_deg) > 1e-9).astype(float)
         if self.motor.el is not None and last.el_deg is not None:
             starts += np.abs(q_el - self.motor.el.target_deg) > 1e-9
-        k = int(np.argmax(np.where(hold > 0, hold / (starts + 0.3), -1.0)))
+        k = int(np.argmax(np.where(hold > 0, hold / (starts + COMMAND_COST_STARTS), -1.0)))
         lead = self._safe(float(q_az[k]), None if last.el_deg is None else float(q_el[k]),
                           "preposition")
         if lead.clamped or not move_clears_mask(self.spec, self.station,
@@ -668,10 +677,7 @@ def move_clears_mask(spec: RotatorSpec, station: Station, start: tuple[float, fl
     t = np.linspace(0.0, t_end, samples)
     m = m0 + np.sign(m1 - m0) * np.minimum(t * spec.az_rate_deg_s, abs(m1 - m0))
     e = e0 + np.sign(e1 - e0) * np.minimum(t * spec.el_rate_deg_s, abs(e1 - e0))
-    over = e > 90.0
-    bearing = np.mod(spec.bearing_of(m) + np.where(over, 180.0, 0.0), 360.0)
-    look_el = np.where(over, 180.0 - e, e)
-    return bool(np.all(look_el >= np.asarray(station.horizon_at(bearing)) - 1e-9))
+    return bool(np.all(boresight_horizon_ok(spec, station, m, e)))
 
 
 # I/O loop ----------------------------------------------------------------------------------
