@@ -54,8 +54,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (TrackerError, TleError) as e:
         print(f"tracker: error: {e}", file=sys.stderr)
         return EXIT_USAGE
-    except KeyboardInterrupt:
-        print("tracker: interrupted", file=sys.stderr)
+    except KeyboardInterrupt as e:
+        # SIGTERM / SIGHUP inside a controller session arrive here as Ctrl-C does (after
+        # the session's all-stop), named; the exit code stays the Ctrl-C one.
+        name = getattr(e, "signame", None)
+        print("tracker: interrupted" + (f" ({name})" if name else ""), file=sys.stderr)
         return 130
     except BrokenPipeError:
         return 0

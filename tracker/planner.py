@@ -177,6 +177,18 @@ def boresight_horizon_ok(spec: RotatorSpec, station: Station, m_az_deg, el_deg,
     return look_e >= np.asarray(station.horizon_at(np.mod(look_b, 360.0))) - tol_deg
 
 
+def park_position(spec: RotatorSpec, station: Station) -> tuple[float, float]:
+    """Where the antenna parks: the spec's (mechanical az, el), the elevation raised to the
+    horizon mask there (whole resolution steps), so parking never points below it."""
+    park_el = spec.park_el_deg if spec.has_elevation else 0.0
+    if spec.has_elevation:
+        floor = float(station.horizon_at(spec.bearing_of(spec.park_az_deg)))
+        park_el = max(park_el, math.ceil(floor / spec.resolution_deg - 1e-9)
+                      * spec.resolution_deg)
+        park_el = min(park_el, spec.el_max_deg)
+    return float(spec.park_az_deg), float(park_el)
+
+
 def _hold(x: np.ndarray, ia: int, ib: int) -> np.ndarray:
     """Hold the first/last visible value over the padding before AOS and after LOS."""
     x = x.copy()
@@ -513,13 +525,8 @@ def _assemble(ctx: _Ctx, chosen: _Result, results: list[_Result], reason: str,
     pre_moves = tuple(Move(m.t_s + t_pre, m.az_deg, m.el_deg) for m in moves)
     park_moves: tuple[Move, ...] = ()
     if park:
-        park_el = spec.park_el_deg if spec.has_elevation else 0.0
-        if spec.has_elevation:
-            floor = float(station.horizon_at(spec.bearing_of(spec.park_az_deg)))
-            park_el = max(park_el, math.ceil(floor / spec.resolution_deg - 1e-9)
-                          * spec.resolution_deg)
         end = (float(chosen.cmd_az[-1]), float(chosen.cmd_el[-1]))
-        pm, _ = _safe_moves(spec, station, end, (spec.park_az_deg, park_el),
+        pm, _ = _safe_moves(spec, station, end, park_position(spec, station),
                             t[ctx.ib] + ctx.lead_s + PREPOSITION_MARGIN_S)
         park_moves = tuple(pm)
     ordered = sorted(results, key=lambda r: r.score.rank_key(spec.resolution_deg))

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import signal
 import sys
 import threading
 from collections.abc import Callable
@@ -425,6 +424,7 @@ class _AntennaOut:
 
 def run(args: argparse.Namespace) -> int:
     from tracker.protocols import open_driver
+    from tracker.session import ControllerSession, driver_limits
     from tracker.stream import Link
     from tracker.trackui import Fanout, JsonLinesLog, PlainLines, RichPanel
 
@@ -516,10 +516,7 @@ def run(args: argparse.Namespace) -> int:
         url = port
 
     def driver_kw(s) -> dict:
-        kw = {"has_elevation": s.has_elevation,
-              "az_max_deg": 450.0 if s.az_span_deg > 360 and not s.controller_maps_south
-              else 360.0,
-              "el_max_deg": s.el_max_deg or 90.0}
+        kw = driver_limits(s)
         if args.baud or tr.get("baudrate"):
             kw["baudrate"] = args.baud or tr.get("baudrate")
         return kw
@@ -567,25 +564,31 @@ def run(args: argparse.Namespace) -> int:
         ants[0].out, ants[0].ui = out, ui
         ants[0].link = Link(connect, spec)
 
-    def on_term(signum, frame):
-        raise KeyboardInterrupt   # same path as Ctrl-C: all-stop in run_pass's finally
+    def all_stop() -> bool:
+        # The session's last word: S after whatever the loops sent (run_pass stops on its
+        # way out too; this covers a signal or an error outside a pass, e.g. while planning).
+        if shared is not None:
+            return shared.final_stop()
+        return all([a.link.stop() for a in ants])
 
-    old_term = signal.signal(signal.SIGTERM, on_term)
+    def stop_failed(why: str) -> None:
+        out.event("state", state="stop_failed", reason=why)
+
     try:
-        if banner and not tty:
-            out.event("info", text=banner)
-        for note in notes:
-            out.event("info", text=note)
-        for a in ants:
-            a.out.event("state", state="start", target=a.target.name, port=url,
-                        protocol=protocol, rotator=a.spec.name, simulated=simulated,
-                        speed=clock.speed)
-        if dual:
-            _run_both(ants, shared, station, clock, args.passes, timer, out)
-        else:
-            _follow_passes(ants[0], station, clock, args.passes, timer)
+        with ControllerSession(all_stop, stop_at_end=False, on_stop_failed=stop_failed):
+            if banner and not tty:
+                out.event("info", text=banner)
+            for note in notes:
+                out.event("info", text=note)
+            for a in ants:
+                a.out.event("state", state="start", target=a.target.name, port=url,
+                            protocol=protocol, rotator=a.spec.name, simulated=simulated,
+                            speed=clock.speed)
+            if dual:
+                _run_both(ants, shared, station, clock, args.passes, timer, out)
+            else:
+                _follow_passes(ants[0], station, clock, args.passes, timer)
     finally:
-        signal.signal(signal.SIGTERM, old_term)
         for a in ants:
             a.link.drop()
         if shared is not None:

@@ -186,6 +186,7 @@ def _send(args, tables, clock, simulate: bool, spec: RotatorSpec) -> int:
     from tracker.clock import SimClock
     from tracker.errors import ConfigError
     from tracker.protocols import open_driver
+    from tracker.session import ControllerSession, driver_limits
     from tracker.upload import TableRunner
 
     server = None
@@ -210,19 +211,22 @@ def _send(args, tables, clock, simulate: bool, spec: RotatorSpec) -> int:
     else:
         url = args.port
         timing = {}
-    az_max = 450.0 if spec.az_span_deg > 360.0 else 360.0
     try:
-        driver = open_driver(url, args.protocol, baudrate=args.baud,
-                             has_elevation=spec.has_elevation, az_max_deg=az_max, **timing)
+        driver = open_driver(url, args.protocol, baudrate=args.baud, **driver_limits(spec),
+                             **timing)
     except BaseException:
         if server is not None:
             server.close()
         raise
     driver.stop_on_exit = False  # the runner decides: all-stop on every path but --detach
+    log = lambda m: print(f"{_utc(clock)}  {m}", flush=True)  # noqa: E731
     try:
-        runner = TableRunner(driver, clock, baud=args.baud, spec=spec,
-                             log=lambda m: print(f"{_utc(clock)}  {m}", flush=True))
-        report = runner.run(tables, detach=args.detach)
+        # The runner stops at the end (not after --detach) and on its own errors; the
+        # session makes SIGTERM / SIGHUP take the Ctrl-C path and has the last word, S.
+        with ControllerSession(driver.stop, stop_at_end=False,
+                               on_stop_failed=lambda why: log(f"all-stop failed: {why}")):
+            runner = TableRunner(driver, clock, baud=args.baud, spec=spec, log=log)
+            report = runner.run(tables, detach=args.detach)
     finally:
         driver.close()
         if server is not None:
