@@ -96,7 +96,7 @@ def test_goto_out_of_range_sends_nothing(capsys):
     proc, url = start_emulator("--tcp", "0")
     try:
         assert main(["rotator", "--port", url, "goto", "451", "0"]) == 2
-        assert "outside the controller range" in capsys.readouterr().err
+        assert "azimuth 451 is outside the limits" in capsys.readouterr().err
         assert main(["rotator", "--port", url, "position"]) == 0
         assert capsys.readouterr().out.strip() == "0 0"
     finally:
