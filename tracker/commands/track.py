@@ -567,15 +567,18 @@ def run(args: argparse.Namespace) -> int:
     def all_stop() -> bool:
         # The session's last word: S after whatever the loops sent (run_pass stops on its
         # way out too; this covers a signal or an error outside a pass, e.g. while planning).
-        if shared is not None:
-            return shared.final_stop()
-        return all([a.link.stop() for a in ants])
-
-    def stop_failed(why: str) -> None:
-        out.event("state", state="stop_failed", reason=why)
+        # A failed stop is reported here (Link.stop reports its own), never raised over the
+        # error that ended the run.
+        if shared is None:
+            return all([a.link.stop() for a in ants])
+        if shared.final_stop():
+            return True
+        out.event("state", state="stop_failed", reason="all-stop S did not reach the "
+                                                       "controller")
+        return False
 
     try:
-        with ControllerSession(all_stop, stop_at_end=False, on_stop_failed=stop_failed):
+        with ControllerSession(all_stop, stop_at_end=False):
             if banner and not tty:
                 out.event("info", text=banner)
             for note in notes:
