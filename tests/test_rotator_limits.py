@@ -190,3 +190,17 @@ def test_south_mapping_controller_takes_bearings_below_360():
     lim.check_wire(0.0, 10.0)
     with pytest.raises(LimitError):
         lim.check_wire(370.0, 10.0)
+
+
+def test_planning_spec_is_narrowed_to_the_controller():
+    g5500 = preset("G-5500")
+    assert EffectiveLimits.of(g5500).rotator() is g5500          # nothing to narrow
+    el90 = EffectiveLimits.of(g5500, None, Capabilities(el_max_deg=90.0)).rotator()
+    assert (el90.el_max_deg, el90.az_span_deg) == (90.0, 450.0)
+    p36 = EffectiveLimits.of(g5500.with_(park_az_deg=440.0), None,
+                             Capabilities(az_max_deg=360.0)).rotator()
+    assert (p36.az_span_deg, p36.park_az_deg, p36.el_max_deg) == (360.0, 360.0, 180.0)
+    # A 0-359 scale (SAK-232) is a full turn for a 360 deg rotator: nothing to narrow.
+    g400 = preset("G-400")
+    assert EffectiveLimits.of(g400, None, Capabilities(has_elevation=False, az_max_deg=359.0)
+                              ).rotator() is g400

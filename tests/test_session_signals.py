@@ -225,3 +225,39 @@ def test_rotator_position_leaves_a_started_move_running(config):
         assert b"S" not in _lines(ctrl) and ctrl.moving()
     finally:
         server.close()
+
+
+# Effective limits before planning: tracker track through a real rotctld ---------------------
+
+
+@pytest.mark.hamlib
+@pytest.mark.slow
+def test_track_through_rotctld_plans_inside_its_elevation_limit(tmp_path):
+    """Hamlib's dummy rotator (``rotctld -m 1``) takes elevation 0..90. A near-overhead pass
+    that the default G-5500 (0-180) would follow as a keyhole over the top is planned inside
+    0..90 instead (it used to plan el 0-180 and abort before AOS on the first move above 90).
+    SIGTERM then ends the run the Ctrl-C way."""
+    from test_rotctld import ROTCTLD, _start_rotctld
+
+    if ROTCTLD is None:
+        pytest.skip("Hamlib rotctld not installed")
+    empty = tmp_path / "empty.toml"
+    empty.write_text("")
+    proc, port = _start_rotctld("-m", "1")
+    # ISS 05:19:52-05:30:43, max el 86.5: the G-5500 plan is a keyhole sweep el 0-180.
+    child = Child(["track", "ISS (ZARYA)", "--protocol", "rotctld", "--port",
+                   f"127.0.0.1:{port}", "--at", "2026-08-23T05:17:00Z", "--speed", "5",
+                   "--plain"], empty)
+    try:
+        child.wait_for(lambda: child.said("mode "), "the plan")
+        text = "".join(child.out)
+        assert "planning inside the controller's limits: az 0-450, el 0-90" in text, text
+        mode = next(ln for ln in child.out if "mode " in ln).split("mode ")[1]
+        assert mode.startswith(("normal", "overlap")), mode
+        rc = child.stop_with(signal.SIGTERM)
+        err = "".join(child.err)
+        assert rc == 130 and "interrupted (SIGTERM)" in err and "outside" not in err, err
+    finally:
+        child.kill()
+        proc.terminate()
+        proc.wait(5)

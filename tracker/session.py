@@ -120,6 +120,24 @@ class EffectiveLimits:
     def has_elevation(self) -> bool:
         return self.el_range_deg is not None
 
+    def rotator(self) -> RotatorSpec:
+        """The spec narrowed to these limits, for planning inside them (a controller that
+        takes elevation up to 90 only gets no flip or keyhole plan over the top; a 450 deg
+        rotator on a controller in 360 deg mode plans no overlap). A scale that ends just short
+        of 360 (0-359) is a full turn; anything the spec cannot express is left to the guard
+        and the driver, which refuse such moves."""
+        spec = self.spec
+        changes: dict = {}
+        if not spec.controller_maps_south and \
+                360.0 <= self.az_mech_max_deg < spec.az_span_deg:
+            changes["az_span_deg"] = self.az_mech_max_deg
+            changes["park_az_deg"] = min(spec.park_az_deg, self.az_mech_max_deg)
+        if spec.has_elevation and self.el_range_deg is not None \
+                and self.el_range_deg[1] < spec.el_max_deg:
+            changes["el_max_deg"] = self.el_range_deg[1]
+            changes["park_el_deg"] = min(spec.park_el_deg, self.el_range_deg[1])
+        return spec.with_(**changes) if changes else spec
+
     def describe(self) -> str:
         """``az 0-450, el 0-90`` in wire degrees, and what narrowed the spec."""
         top = min(self.wire_az_max_deg, self.az_mech_max_deg) \

@@ -590,6 +590,7 @@ def run(args: argparse.Namespace) -> int:
             if dual:
                 _run_both(ants, shared, station, clock, args.passes, timer, out)
             else:
+                _plan_inside_the_controller(ants[0], station, out)
                 _follow_passes(ants[0], station, clock, args.passes, timer)
     finally:
         for a in ants:
@@ -606,6 +607,19 @@ def run(args: argparse.Namespace) -> int:
                   f"{res.max_error_deg:.1f} deg, {res.reconnects} reconnects"
                   + (" (simulated)" if simulated else ""))
     return 0
+
+
+def _plan_inside_the_controller(ant: _Antenna, station, out) -> None:
+    """Effective limits, once, before planning: the rotator spec narrowed by what the
+    connected controller accepts (rotctld's limits, a 360 deg mode), so every pass is planned
+    inside them instead of failing on a move the controller refuses."""
+    from tracker.session import EffectiveLimits
+
+    limits = EffectiveLimits.of(ant.spec, station, ant.link.ensure().capabilities)
+    spec = limits.rotator()
+    if spec != ant.spec:
+        out.event("info", text=f"planning inside the controller's limits: {limits.describe()}")
+        ant.spec = ant.link.spec = spec
 
 
 def _run_both(ants: list[_Antenna], shared: _SharedAzAz, station, clock, passes: int,
