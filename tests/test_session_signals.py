@@ -98,6 +98,10 @@ def _lines(ctrl) -> list[bytes]:
     return [line.strip() for _t, line, _r in ctrl.log]
 
 
+def _moves_sent(ctrl) -> list[bytes]:
+    return [ln for ln in _lines(ctrl) if ln[:1] in (b"W", b"M")]
+
+
 def _assert_stopped_last(child: Child, rc: int, sig: int, ctrl) -> None:
     err = "".join(child.err)
     assert rc == 130, (rc, "".join(child.out[-10:]), err)
@@ -119,11 +123,13 @@ def config(tmp_path) -> Path:
 # tracker track ----------------------------------------------------------------------------
 
 TRACK_PHASES = {
-    # phase: (the line the child prints when it enters it, must the antenna be turning)
+    # phase: (the line the child prints when it is in it, must the antenna be turning)
+    "wait": ("mode ", False),      # planned, waiting minutes for the pre-position time
     "preposition": ("phase    preposition", True),
     "track": ("phase    track", False),
     "park": ("phase    park", True),
 }
+WAIT_AT = "2026-08-23T02:00:00Z"   # the pre-position starts 6 simulated minutes later
 
 
 @pytest.mark.slow
@@ -131,15 +137,18 @@ TRACK_PHASES = {
 @pytest.mark.parametrize("sig", SIGNALS, ids=lambda s: signal.Signals(s).name)
 def test_track_signal_ends_with_all_stop_last(sig, phase, config):
     spec = load_config(str(config)).rotator("farpark")
-    clock = SimClock(datetime.fromisoformat(TRACK_AT.replace("Z", "+00:00")), TRACK_SPEED)
+    at = WAIT_AT if phase == "wait" else TRACK_AT
+    clock = SimClock(datetime.fromisoformat(at.replace("Z", "+00:00")), TRACK_SPEED)
     ctrl = Gs232Controller("gs232b", spec, clock=clock)
     server = serve_tcp(ctrl)
     child = Child(["track", "ISS (ZARYA)", "--port", server.url, "--rotator", "farpark",
-                   "--at", TRACK_AT, "--speed", str(TRACK_SPEED), "--plain"], config)
+                   "--at", at, "--speed", str(TRACK_SPEED), "--plain"], config)
     try:
         line, turning = TRACK_PHASES[phase]
         child.wait_for(lambda: child.said(line) and (ctrl.moving() or not turning),
                        f"phase {phase}")
+        if phase == "wait":
+            assert b"C2" in _lines(ctrl) and _moves_sent(ctrl) == []
         rc = child.stop_with(sig)
         _assert_stopped_last(child, rc, sig, ctrl)
     finally:
