@@ -220,3 +220,15 @@ def test_config_init_paths(tmp_path, capsys):
     assert main(["config", "init", "--config", str(cfg)]) == 0
     assert (tmp_path / "c.toml.tmp").read_text() == "the user's own\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["afile", "c.toml", "c.toml.tmp"]
+
+
+def test_config_init_in_a_folder_it_may_not_write(tmp_path, capsys, monkeypatch):
+    # `config init --config /root/c.toml` as a user: creating the temporary file fails with
+    # EACCES (injected here, since root may write anywhere).
+    def refuse(*_a, **_k):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(tempfile, "mkstemp", refuse)
+    err = _one_line_exit_2(capsys, ["config", "init", "--config", str(tmp_path / "c.toml")])
+    assert "cannot write in folder" in err and "Permission denied" in err
+    assert list(tmp_path.iterdir()) == []

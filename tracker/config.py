@@ -423,6 +423,9 @@ def write_template(path: Path, force: bool = False) -> Path:
     label = "config file"
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError):
+        raise ConfigError(f"{label} {path}: a part of the folder {path.parent} is a file, "
+                          "not a folder; choose another --config path") from None
     except OSError as e:
         raise ConfigError(f"{label} {path}: cannot create folder {path.parent} "
                           f"({e.strerror}); choose another --config path") from None

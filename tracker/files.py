@@ -45,7 +45,8 @@ def check_output(path: str | Path, *, force: bool = False, label: str = "--out")
         raise ConfigError(f"{where}: a part of the path is a file, not a folder; choose a "
                           "path in an existing folder") from None
     except OSError as e:
-        raise ConfigError(f"{where}: cannot use this path ({e.strerror})") from None
+        raise ConfigError(f"{where}: cannot reach this path ({e.strerror}); choose one in a "
+                          "folder you can write") from None
     if st is not None and not stat.S_ISREG(st.st_mode):
         raise ConfigError(f"{where} is {_kind(st.st_mode)}, not a regular file; give a file "
                           "name")
