@@ -232,3 +232,15 @@ def test_config_init_in_a_folder_it_may_not_write(tmp_path, capsys, monkeypatch)
     err = _one_line_exit_2(capsys, ["config", "init", "--config", str(tmp_path / "c.toml")])
     assert "cannot write in folder" in err and "Permission denied" in err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_outputs_are_checked_before_the_work(tmp_path, capsys):
+    # An existing --plot is refused before the plan is computed or printed.
+    png = tmp_path / "sky.png"
+    png.write_bytes(b"mine")
+    assert main(["plan", "ISS", "--tle", TLE, *WHERE, *AT, "--plot", str(png)]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and "--plot" in captured.err and "already exists" in captured.err
+    assert png.read_bytes() == b"mine"
+    err = _one_line_exit_2(capsys, ["batch", TLE, *WHERE, *AT, "--plot", str(png)])
+    assert "already exists" in err and png.read_bytes() == b"mine"

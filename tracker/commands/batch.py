@@ -171,10 +171,12 @@ def plans_for(args: argparse.Namespace, table, elements) -> list | None:
 def check_outputs(args: argparse.Namespace) -> None:
     """Refuse unusable output paths before the (possibly long) pass search."""
     from tracker.files import check_output
+    from tracker.plot import check_plot_path
 
-    for flag in ("out", "plot"):
-        if getattr(args, flag, None):
-            check_output(getattr(args, flag), force=args.force, label=f"--{flag}")
+    if args.out:
+        check_output(args.out, force=args.force, label="--out")
+    if getattr(args, "plot", None):
+        check_plot_path(args.plot, force=args.force)
 
 
 def emit(args: argparse.Namespace, text: str) -> None:
