@@ -41,6 +41,9 @@ def test_directory_and_missing_folder_are_refused(tmp_path, capsys):
     assert "is a directory" in _one_line_exit_2(capsys, str(folder))
     assert (folder / "keep").read_text() == "x"
     assert "does not exist" in _one_line_exit_2(capsys, str(tmp_path / "no" / "ttyEMU0"))
+    (tmp_path / "afile").write_text("keep")
+    assert "is not a folder" in _one_line_exit_2(capsys, str(tmp_path / "afile" / "tty"))
+    assert (tmp_path / "afile").read_text() == "keep"
 
 
 def test_link_to_a_user_file_is_refused(tmp_path, capsys):

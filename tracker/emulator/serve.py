@@ -402,8 +402,9 @@ def check_link_path(link: str) -> None:
                           "the link)")
     folder = os.path.dirname(link) or "."
     if not os.path.isdir(folder):
-        raise ConfigError(f"--link {link}: folder {folder} does not exist; create it or "
-                          "choose another path")
+        what = "is not a folder" if os.path.exists(folder) else "does not exist"
+        raise ConfigError(f"--link {link}: folder {folder} {what}; create it or choose "
+                          "another path")
 
 
 def place_link(link: str, device: str) -> None:
