@@ -21,7 +21,8 @@ from pathlib import Path
 
 from tle.catalog import Catalog
 from tracker.batch import find_passes_batch, plan_summaries, satrecs_of
-from tracker.export import pass_records, to_csv, to_ics, write_atomic
+from tracker.export import pass_records, to_csv, to_ics
+from tracker.files import write_atomic
 from tracker.mount import preset
 from tracker.schedule import build_schedule, parse_priorities
 from tracker.station import Station
@@ -41,6 +42,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rotator", default="G-5500")
     ap.add_argument("--priority", action="append", default=[], metavar="NAME=N")
     ap.add_argument("--out", default="plan-week", help="output folder")
+    ap.add_argument("--force", action="store_true", help="replace the files of an earlier run")
     args = ap.parse_args(argv)
 
     start = datetime.fromisoformat(args.start.replace("Z", "+00:00")).astimezone(timezone.utc)
@@ -55,11 +57,13 @@ def main(argv: list[str] | None = None) -> int:
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    write_atomic(out / "passes.csv", to_csv(records))
+    write_atomic(out / "passes.csv", to_csv(records), force=args.force)
     write_atomic(out / "passes.ics", to_ics(records, start.timestamp(),
-                                           f"Amateur passes over {station.name}"))
+                                           f"Amateur passes over {station.name}"),
+                 force=args.force)
     sched = build_schedule(records, spec, parse_priorities(args.priority))
-    write_atomic(out / "schedule.csv", to_csv([records[i] for i in sched.chosen]))
+    write_atomic(out / "schedule.csv", to_csv([records[i] for i in sched.chosen]),
+                 force=args.force)
     modes: dict[str, int] = {}
     for r in records:
         if r["plan"]:
@@ -75,4 +79,10 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from tracker.errors import ConfigError
+
+    try:
+        sys.exit(main())
+    except ConfigError as e:  # e.g. an earlier run's files without --force
+        print(f"plan_week: error: {e}", file=sys.stderr)
+        sys.exit(2)

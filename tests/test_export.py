@@ -26,8 +26,8 @@ from tracker.export import (
     to_ics,
     to_json,
     to_table,
-    write_atomic,
 )
+from tracker.files import write_atomic
 from tracker.station import Station
 
 START = datetime(2026, 8, 22, 13, 45, tzinfo=timezone.utc)
@@ -118,7 +118,7 @@ def test_write_atomic_never_truncates_on_error(tmp_path):
         write_atomic(out, 12345)  # type: ignore[arg-type]  # write() fails mid-way
     assert out.read_text() == "first\n"
     assert [p.name for p in tmp_path.iterdir()] == ["passes.csv"]  # no temp file left
-    write_atomic(out, "second\r\n")
+    write_atomic(out, "second\r\n", force=True)
     assert out.read_bytes() == b"second\r\n"
     with pytest.raises(ConfigError, match="does not exist"):
         write_atomic(tmp_path / "nope" / "x.csv", "x")
@@ -130,8 +130,8 @@ def test_write_atomic_failed_rename_keeps_what_is_there(tmp_path):
     dest = tmp_path / "out.csv"
     dest.mkdir()
     (dest / "keep.txt").write_text("keep\n")
-    with pytest.raises(ConfigError, match="cannot write"):
-        write_atomic(dest, "new\n")
+    with pytest.raises(ConfigError, match="is a directory, not a regular file"):
+        write_atomic(dest, "new\n", force=True)
     assert (dest / "keep.txt").read_text() == "keep\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.csv"]
 
@@ -162,7 +162,7 @@ def test_write_atomic_gives_normal_file_permissions(tmp_path):
         kept = tmp_path / "kept.csv"
         kept.write_text("old\n")
         kept.chmod(0o640)
-        write_atomic(kept, "new\n")
+        write_atomic(kept, "new\n", force=True)
         assert stat.S_IMODE(kept.stat().st_mode) == 0o640 and kept.read_text() == "new\n"
     finally:
         os.umask(umask)

@@ -184,7 +184,7 @@ def test_bad_downloads_are_rejected_and_the_copy_is_kept(tmp_path, celestrak, cl
 def test_slow_server_times_out(tmp_path, celestrak, clock):
     celestrak.behaviour["weather"] = "slow"
     store = make_store(tmp_path, celestrak, clock, timeout_s=0.3)
-    with pytest.raises(TleFetchError, match=r"no answer within 0\.3 s .*cached copy kept"):
+    with pytest.raises(TleFetchError, match=r"no complete answer within 0\.3 s .*cached copy kept"):
         store.update(["weather"])
     assert store.paths() == []
 

@@ -11,10 +11,14 @@ from __future__ import annotations
 
 import http.client
 import json
+import math
 import os
 import re
+import socket
 import statistics
 import tempfile
+import threading
+import time
 import urllib.error
 import urllib.parse
 import urllib.request
@@ -31,6 +35,12 @@ DEFAULT_GROUPS = ("amateur", "weather", "stations", "visual")
 FORMATS = ("tle", "json", "csv", "xml")
 MIN_INTERVAL_S = 2 * 3600.0
 DEFAULT_TIMEOUT_S = 20.0
+# The largest CelesTrak group in the largest format is a few tens of MiB; a bigger body is a
+# wrong URL (or a hostile server) and must not be read into memory.
+MAX_BODY_BYTES = 64 * 2**20
+# A new download with fewer than this share of the cached sets is most likely cut short at a
+# set boundary (it still parses); it replaces the cache only when forced.
+MIN_KEPT_SHARE = 2 / 3
 META_NAME = "sources.json"
 ELEMENT_SUFFIXES = (".txt", ".tle", ".json", ".csv", ".xml")
 USER_AGENT = "rotator-tracker (+https://github.com/; tle store)"
@@ -50,34 +60,143 @@ class FetchResponse:
 Fetch = Callable[[str, Mapping[str, str], float], FetchResponse]
 
 
-def urllib_fetch(url: str, headers: Mapping[str, str], timeout_s: float) -> FetchResponse:
-    """GET ``url`` with urllib; 304 is a response, other HTTP errors raise TleFetchError."""
+class _Deadline:
+    """One deadline for a whole request (connect, redirects, headers, body): when it passes,
+    every socket the request opened is shut down, which ends any read in progress at once
+    (a socket timeout alone only bounds each read, and a server dripping a byte a second
+    would never trip it)."""
+
+    def __init__(self, seconds: float):
+        self.end_s = time.monotonic() + seconds
+        self.expired = False
+        self._socks: list[socket.socket] = []
+        self._lock = threading.Lock()
+        self._timer = threading.Timer(seconds, self._fire)
+        self._timer.daemon = True
+
+    def remaining_s(self) -> float:
+        return max(0.001, self.end_s - time.monotonic())
+
+    def track(self, sock: socket.socket) -> None:
+        with self._lock:
+            self._socks.append(sock)
+            if not self.expired:
+                return
+        self._shut(sock)
+
+    def _fire(self) -> None:
+        with self._lock:
+            self.expired = True
+            socks = list(self._socks)
+        for sock in socks:
+            self._shut(sock)
+
+    @staticmethod
+    def _shut(sock: socket.socket) -> None:
+        try:
+            sock.shutdown(socket.SHUT_RDWR)
+        except OSError:
+            pass
+
+    def __enter__(self) -> _Deadline:
+        self._timer.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._timer.cancel()
+
+
+def _opener(deadline: _Deadline) -> urllib.request.OpenerDirector:
+    """A urllib opener whose connections connect within the time left and register their
+    socket with ``deadline``."""
+
+    def bounded(base):
+        class Connection(base):
+            def connect(self):
+                self.timeout = deadline.remaining_s()
+                super().connect()
+                deadline.track(self.sock)
+        return Connection
+
+    class HTTP(urllib.request.HTTPHandler):
+        def http_open(self, req):
+            return self.do_open(bounded(http.client.HTTPConnection), req)
+
+    class HTTPS(urllib.request.HTTPSHandler):
+        def https_open(self, req):
+            return self.do_open(bounded(http.client.HTTPSConnection), req,
+                                context=self._context)
+
+    return urllib.request.build_opener(HTTP, HTTPS)
+
+
+def _read_body(reply, url: str, max_bytes: int) -> bytes:
+    text = (reply.headers.get("Content-Length") or "").strip()
+    length = int(text) if text.isdigit() else None
+    if length is not None and length > max_bytes:
+        raise TleFetchError(f"{url}: the server announces {length / 2**20:.0f} MiB, more than "
+                            f"the {max_bytes / 2**20:.0f} MiB limit for element sets (wrong "
+                            "URL?); cached copy kept")
+    chunks, size = [], 0
+    while True:
+        chunk = reply.read(min(1 << 16, max_bytes + 1 - size))
+        if not chunk:
+            if length is not None and size < length:  # read(n) does not raise IncompleteRead
+                raise http.client.IncompleteRead(b"".join(chunks), length - size)
+            return b"".join(chunks)
+        chunks.append(chunk)
+        size += len(chunk)
+        if size > max_bytes:
+            raise TleFetchError(f"{url}: the body is larger than the {max_bytes / 2**20:.0f} "
+                                "MiB limit for element sets (wrong URL?); cached copy kept")
+
+
+def _no_answer(url: str, timeout_s: float) -> TleFetchError:
+    return TleFetchError(f"{url}: no complete answer within {timeout_s:g} s (slow server or no "
+                         "network?); cached copy kept")
+
+
+def urllib_fetch(url: str, headers: Mapping[str, str], timeout_s: float,
+                 max_bytes: int | None = None) -> FetchResponse:
+    """GET ``url`` with urllib within ``timeout_s`` for the whole request and at most
+    ``max_bytes`` of body; 304 is a response, other HTTP errors raise TleFetchError."""
+    max_bytes = MAX_BODY_BYTES if max_bytes is None else max_bytes
     request = urllib.request.Request(url, headers={"User-Agent": USER_AGENT, **headers})
-    try:
-        with urllib.request.urlopen(request, timeout=timeout_s) as reply:
-            body = reply.read()
-            return FetchResponse(reply.status, body,
-                                 {k.lower(): v for k, v in reply.headers.items()})
-    except urllib.error.HTTPError as e:
-        if e.code == 304:
-            return FetchResponse(304, b"", {k.lower(): v for k, v in e.headers.items()})
-        raise TleFetchError(f"{url}: HTTP {e.code} {e.reason}; cached copy kept") from None
-    except http.client.IncompleteRead as e:
-        raise TleFetchError(f"{url}: truncated download ({len(e.partial)} bytes arrived, "
-                            f"{e.expected} missing); cached copy kept") from None
-    except TimeoutError:
-        raise TleFetchError(f"{url}: no answer within {timeout_s:g} s (slow server or no "
-                            "network?); cached copy kept") from None
-    except urllib.error.URLError as e:
-        reason = e.reason
-        if isinstance(reason, TimeoutError):
-            raise TleFetchError(f"{url}: no answer within {timeout_s:g} s (slow server or no "
-                                "network?); cached copy kept") from None
-        raise TleFetchError(f"{url}: cannot connect ({reason}); no network? cached copy "
-                            "kept") from None
-    except (OSError, http.client.HTTPException) as e:
-        raise TleFetchError(f"{url}: download failed ({e or type(e).__name__}); no network? "
-                            "cached copy kept") from None
+    with _Deadline(timeout_s) as deadline:
+        try:
+            with _opener(deadline).open(request, timeout=timeout_s) as reply:
+                body = _read_body(reply, url, max_bytes)
+                if deadline.expired:  # a body without a length just ends when cut off
+                    raise _no_answer(url, timeout_s)
+                return FetchResponse(reply.status, body,
+                                     {k.lower(): v for k, v in reply.headers.items()})
+        except TleFetchError:
+            raise
+        except urllib.error.HTTPError as e:
+            if e.code == 304:
+                return FetchResponse(304, b"", {k.lower(): v for k, v in e.headers.items()})
+            if 300 <= e.code < 400:
+                raise TleFetchError(f"{url}: too many redirects (HTTP {e.code}; a redirect "
+                                    "loop?); cached copy kept") from None
+            reason = " ".join(str(e.reason).split())
+            raise TleFetchError(f"{url}: HTTP {e.code} {reason}; cached copy kept") from None
+        except Exception as e:
+            if deadline.expired:
+                raise _no_answer(url, timeout_s) from None
+            raise _fetch_error(url, timeout_s, e) from None
+
+
+def _fetch_error(url: str, timeout_s: float, e: Exception) -> TleFetchError:
+    if isinstance(e, http.client.IncompleteRead):
+        return TleFetchError(f"{url}: truncated download ({len(e.partial)} bytes arrived, "
+                             f"{e.expected} missing); cached copy kept")
+    reason = e.reason if isinstance(e, urllib.error.URLError) else e
+    if isinstance(reason, TimeoutError):
+        return _no_answer(url, timeout_s)
+    if isinstance(e, urllib.error.URLError):
+        return TleFetchError(f"{url}: cannot connect ({reason}); no network? cached copy kept")
+    text = " ".join(str(e).split()) or type(e).__name__
+    return TleFetchError(f"{url}: download failed ({text}); no network? cached copy kept")
 
 
 @dataclass(frozen=True)
@@ -123,14 +242,24 @@ def _name_from_url(url: str) -> str:
 def resolve_source(spec: str, base_url: str = DEFAULT_BASE_URL, fmt: str = "tle") -> Source:
     """"amateur" → the CelesTrak GP URL for that group; a URL is kept as given."""
     if "://" in spec:
+        _check_url(spec, spec)
         return Source(_name_from_url(spec), spec)
     if not _GROUP_RE.match(spec):
         raise TleError(f"{spec!r} is neither a CelesTrak group name (like amateur, weather) "
                        "nor a URL")
     if fmt not in FORMATS:
         raise TleError(f"unknown element format {fmt!r}; choose one of {', '.join(FORMATS)}")
+    _check_url(base_url, f"base URL {base_url!r}")
     query = urllib.parse.urlencode({"GROUP": spec, "FORMAT": fmt})
     return Source(spec, f"{base_url}?{query}")
+
+
+def _check_url(url: str, what: str) -> None:
+    """Only http(s) URLs with a host are downloaded (a local file is read with --tle FILE)."""
+    parts = urllib.parse.urlsplit(url)
+    if parts.scheme.lower() not in ("http", "https") or not parts.netloc:
+        raise TleError(f"{what} is not an http:// or https:// URL with a host; give a "
+                       "CelesTrak-style URL (a local file is read with --tle FILE)")
 
 
 def default_cache_dir() -> Path:
@@ -146,16 +275,36 @@ def default_cache_dir() -> Path:
 def _atomic_write(path: Path, data: bytes) -> None:
     # Temp file in the same directory, then os.replace: readers see the old or the new file,
     # never half of one, and a crash leaves the old copy in place.
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".part")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".part")
+    except OSError as e:
+        raise _cache_write_error(path, e) from None
     try:
         with os.fdopen(fd, "wb") as out:
             out.write(data)
             out.flush()
             os.fsync(out.fileno())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as e:
         Path(tmp).unlink(missing_ok=True)
+        if isinstance(e, OSError):
+            raise _cache_write_error(path, e) from None
         raise
+
+
+def _count(entry: Mapping[str, Any]) -> int:
+    """The cached set count of a metadata entry (0 when missing or damaged)."""
+    try:
+        return int(entry.get("count", 0))
+    except (TypeError, ValueError):
+        return 0
+
+
+def _cache_write_error(path: Path, e: OSError) -> TleError:
+    return TleError(f"cannot write {path} ({e.strerror or e}); the element cache "
+                    f"{path.parent} must be a folder you can write (see --cache-dir or "
+                    "$TRACKER_CACHE_DIR); cached copy kept")
 
 
 class TleStore:
@@ -173,6 +322,9 @@ class TleStore:
         self.clock = clock
         self.base_url = (base_url or os.environ.get("TRACKER_CELESTRAK_URL")
                          or DEFAULT_BASE_URL)
+        if not (isinstance(timeout_s, (int, float)) and math.isfinite(timeout_s)
+                and timeout_s > 0):
+            raise TleError(f"timeout {timeout_s!r} is invalid; give a number of seconds > 0")
         self.timeout_s = timeout_s
         self.min_interval_s = min_interval_s
 
@@ -186,7 +338,11 @@ class TleStore:
             data = json.loads(self.meta_path.read_text(encoding="utf-8"))
         except FileNotFoundError:
             return {}
-        except (OSError, ValueError) as e:
+        except OSError as e:  # the folder itself is the problem, not the file's content
+            raise TleError(f"cannot read {self.meta_path} ({e.strerror}); the element cache "
+                           f"{self.cache_dir} must be a folder you can read and write (see "
+                           "--cache-dir or $TRACKER_CACHE_DIR)") from None
+        except ValueError as e:
             raise TleError(f"{self.meta_path}: unreadable cache metadata ({e}); delete it and "
                            "run `tracker tle update --force`") from None
         return data if isinstance(data, dict) else {}
@@ -288,11 +444,11 @@ class TleStore:
         if response.status != 200:
             raise TleFetchError(f"{source.url}: HTTP {response.status}; cached copy kept")
         sets, kind = self._validate(source, response.body)
-        self.cache_dir.mkdir(parents=True, exist_ok=True)
+        self._check_shrink(source, len(sets), _count(entry) if have_copy else 0, force)
         new_path = self.cache_dir / f"{source.name}{_SUFFIX[kind]}"
         _atomic_write(new_path, response.body)
         if old_path is not None and old_path != new_path and old_path.is_file():
-            old_path.unlink()
+            old_path.unlink(missing_ok=True)
         entry.update(
             url=source.url, file=new_path.name, last_check=now_s, count=len(sets),
             last_modified=response.headers.get("last-modified"),
@@ -301,8 +457,18 @@ class TleStore:
         self._save_entry(source.name, entry)
         return UpdateResult(source, "updated", len(sets), f"{len(sets)} element sets")
 
+    @staticmethod
+    def _check_shrink(source: Source, new_count: int, old_count: int, force: bool) -> None:
+        # A body cut at a set boundary (with a matching Content-Length) parses fine; only the
+        # count against the cached copy gives it away.
+        if force or old_count <= 0 or new_count >= MIN_KEPT_SHARE * old_count:
+            return
+        raise TleFetchError(f"download from {source.url} holds {new_count} element sets where "
+                            f"the cached {source.name} has {old_count}; a group shrinking "
+                            f"that much is most likely a cut-short download, so it was "
+                            f"rejected and the cached copy kept (use --force to accept it)")
+
     def _save_entry(self, name: str, entry: Mapping[str, Any]) -> None:
-        self.cache_dir.mkdir(parents=True, exist_ok=True)
         meta = self._read_meta()
         meta[name] = dict(entry)
         self._write_meta(meta)

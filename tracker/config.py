@@ -417,15 +417,16 @@ preset = "G-5500"
 
 def write_template(path: Path, force: bool = False) -> Path:
     """Write :data:`TEMPLATE` to ``path``; refuses to overwrite unless ``force``."""
+    from tracker.files import write_atomic
+
     path = Path(path).expanduser()
-    if path.exists() and not force:
-        raise ConfigError(f"{path} already exists; not overwriting it (use --force to "
-                          f"replace it, or edit it)")
+    label = "config file"
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(path.name + ".tmp")
-        tmp.write_text(TEMPLATE)
-        os.replace(tmp, path)
+    except (FileExistsError, NotADirectoryError):
+        raise ConfigError(f"{label} {path}: a part of the folder {path.parent} is a file, "
+                          "not a folder; choose another --config path") from None
     except OSError as e:
-        raise ConfigError(f"cannot write {path}: {e.strerror}") from e
-    return path
+        raise ConfigError(f"{label} {path}: cannot create folder {path.parent} "
+                          f"({e.strerror}); choose another --config path") from None
+    return write_atomic(path, TEMPLATE, force=force, label=label)

@@ -1,8 +1,8 @@
 """Export pass lists: records, CSV, JSON (schema in docs/batch-json-schema.md), iCalendar.
 
 Everything goes through plain *records* (one dict per pass, see :func:`pass_records`), so the
-batch list and the one-rotator schedule export the same way. :func:`write_atomic` writes a
-file so that an error never leaves a truncated or half-written output behind.
+batch list and the one-rotator schedule export the same way; files are written by
+:func:`tracker.files.write_atomic`.
 """
 
 from __future__ import annotations
@@ -11,11 +11,8 @@ import csv
 import hashlib
 import io
 import json
-import os
-import tempfile
 from collections.abc import Iterable, Sequence
 from datetime import datetime, timezone
-from pathlib import Path
 
 from tracker.errors import ConfigError
 
@@ -187,40 +184,3 @@ def render(fmt: str, records: Sequence[dict], *, meta: dict | None = None,
     if fmt == "ics":
         return to_ics(records, stamp_s, name or "Satellite passes")
     raise ConfigError(f"--format {fmt!r} is unknown; use one of {', '.join(FORMATS)}")
-
-
-def _target_mode(path: Path) -> int:
-    try:
-        return path.stat().st_mode & 0o7777
-    except OSError:
-        umask = os.umask(0o022)
-        os.umask(umask)
-        return 0o666 & ~umask
-
-
-def write_atomic(path: str | Path, text: str) -> Path:
-    """Write ``text`` to ``path`` via a temporary file in the same folder and a rename, so a
-    failure leaves any existing file untouched. ICS keeps its CRLF line ends byte for byte."""
-    path = Path(path)
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise ConfigError(f"--out {path}: folder {folder} does not exist")
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
-    except OSError as e:
-        raise ConfigError(f"--out {path}: cannot write there: {e.strerror}") from None
-    try:
-        # mkstemp makes the file 0600; give it what a plain open() would (the existing
-        # file's mode, else 0666 less the umask) so a shared calendar stays readable.
-        os.fchmod(fd, _target_mode(path))
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException as e:
-        Path(tmp).unlink(missing_ok=True)
-        if isinstance(e, OSError):
-            raise ConfigError(f"--out {path}: cannot write: {e.strerror}") from None
-        raise
-    return path

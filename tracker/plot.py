@@ -39,11 +39,32 @@ def _boresight(plan: MountPlan) -> tuple[np.ndarray, np.ndarray]:
     return np.where(over, np.mod(b + 180.0, 360.0), b), np.where(over, 180.0 - e, e)
 
 
-def sky_plot(plan: MountPlan, station: Station, path: str | Path) -> Path:
-    """Write the polar sky plot of ``plan`` to ``path`` (.png or .svg); returns the path."""
+def check_plot_path(path: str | Path, *, force: bool = False, label: str = "--plot") -> Path:
+    """A .png/.svg name :func:`save_figure` can write (checked before drawing)."""
+    from tracker.files import check_output
+
     path = Path(path)
     if path.suffix.lower() not in (".png", ".svg"):
-        raise ConfigError(f"--plot {path}: use a .png or .svg file name")
+        raise ConfigError(f"{label} {path}: use a .png or .svg file name")
+    check_output(path, force=force, label=label)
+    return path
+
+
+def save_figure(fig, path: Path, *, force: bool = False, label: str = "--plot") -> Path:
+    """Render ``fig`` in memory and write it with :func:`tracker.files.write_atomic`."""
+    import io
+
+    from tracker.files import write_atomic
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format=path.suffix.lower().lstrip("."))
+    return write_atomic(path, buf.getvalue(), force=force, label=label)
+
+
+def sky_plot(plan: MountPlan, station: Station, path: str | Path, *, force: bool = False,
+             label: str = "--plot") -> Path:
+    """Write the polar sky plot of ``plan`` to ``path`` (.png or .svg); returns the path."""
+    path = check_plot_path(path, force=force, label=label)
     plt = _pyplot()
     fig = plt.figure(figsize=(6.4, 6.8))
     ax = fig.add_subplot(projection="polar")
@@ -80,10 +101,6 @@ def sky_plot(plan: MountPlan, station: Station, path: str | Path) -> Path:
     ax.legend(loc="lower left", bbox_to_anchor=(-0.1, -0.12), fontsize=8, ncol=3)
     fig.tight_layout()
     try:
-        fig.savefig(path)
-    except OSError as e:  # missing directory, no permission: a user error, not a crash
-        raise ConfigError(f"--plot {path}: cannot write the file ({e.strerror or e}); "
-                          f"choose a path in an existing, writable directory") from None
+        return save_figure(fig, path, force=force, label=label)
     finally:
         plt.close(fig)
-    return path

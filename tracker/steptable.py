@@ -764,12 +764,14 @@ def format_plan_file(program: StepProgram, header: dict | None = None) -> str:
     return "\n".join(out) + "\n"
 
 
-def write_plan_file(program: StepProgram, path: str | Path, header: dict | None = None) -> None:
-    """Write atomically so an existing plan file is never left half-written."""
-    path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(format_plan_file(program, header))
-    tmp.replace(path)
+def write_plan_file(program: StepProgram, path: str | Path, header: dict | None = None, *,
+                    force: bool = False) -> Path:
+    """Write the plan file with :func:`tracker.files.write_atomic` (an existing file only
+    with ``force``; never half-written)."""
+    from tracker.files import write_atomic
+
+    return write_atomic(path, format_plan_file(program, header), force=force,
+                        label="--steptable")
 
 
 @dataclass(frozen=True)

@@ -11,19 +11,16 @@ from collections.abc import Sequence
 from datetime import datetime, timezone
 from pathlib import Path
 
-from tracker.errors import ConfigError
-
 MAX_ROWS = 80  # more satellites than this: keep the ones with the most passes
 
 
 def timeline_plot(records: Sequence[dict], path: str | Path, start_s: float, end_s: float,
-                  title: str = "", chosen: set[int] | None = None) -> Path:
+                  title: str = "", chosen: set[int] | None = None, *,
+                  force: bool = False) -> Path:
     """Write the timeline of ``records`` (from :func:`tracker.export.pass_records`)."""
-    from tracker.plot import _pyplot
+    from tracker.plot import _pyplot, check_plot_path, save_figure
 
-    path = Path(path)
-    if path.suffix.lower() not in (".png", ".svg"):
-        raise ConfigError(f"--plot {path}: use a .png or .svg file name")
+    path = check_plot_path(path, force=force)
     plt = _pyplot()
     from matplotlib import dates as mdates
 
@@ -67,9 +64,6 @@ def timeline_plot(records: Sequence[dict], path: str | Path, start_s: float, end
     fig.autofmt_xdate()
     fig.tight_layout()
     try:
-        fig.savefig(path)
-    except OSError as e:
-        raise ConfigError(f"--plot {path}: cannot write: {e.strerror}") from None
+        return save_figure(fig, path, force=force)
     finally:
         plt.close(fig)
-    return path

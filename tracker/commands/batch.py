@@ -42,6 +42,8 @@ def add_batch_args(p: argparse.ArgumentParser) -> None:
                      help="only passes lit while the station is dark (Sun below -6 deg)")
     p.add_argument("--format", choices=("table", "csv", "json", "ics"), default="table")
     p.add_argument("--out", metavar="FILE", help="write here (atomically) instead of stdout")
+    p.add_argument("--force", action="store_true",
+                   help="replace existing --out/--plot files (otherwise they are never touched)")
     add_rotator_args(p)
     p.add_argument("--dask", nargs="?", const="", default=None, metavar="ADDRESS",
                    help="run on a Dask cluster (a local one when no scheduler ADDRESS)")
@@ -160,16 +162,28 @@ def plans_for(args: argparse.Namespace, table, elements) -> list | None:
             stem = "".join(c if c.isalnum() or c in "-_" else "_" for c in
                            f"{table.names[int(row['sat'])]}_{station.name}_"
                            f"{iso(row['aos_s'])}")
-            drawn.append(sky_plot(plan, station, folder / f"{stem}.png"))
+            drawn.append(sky_plot(plan, station, folder / f"{stem}.png", force=args.force,
+                                  label="--sky-plots"))
 
     return plan_summaries(table, satrecs, spec, args.min_max_el, on_plan=on_plan)
 
 
-def emit(args: argparse.Namespace, text: str) -> None:
-    from tracker.export import write_atomic
+def check_outputs(args: argparse.Namespace) -> None:
+    """Refuse unusable output paths before the (possibly long) pass search."""
+    from tracker.files import check_output
+    from tracker.plot import check_plot_path
 
     if args.out:
-        path = write_atomic(args.out, text)
+        check_output(args.out, force=args.force, label="--out")
+    if getattr(args, "plot", None):
+        check_plot_path(args.plot, force=args.force)
+
+
+def emit(args: argparse.Namespace, text: str) -> None:
+    from tracker.files import write_atomic
+
+    if args.out:
+        path = write_atomic(args.out, text, force=args.force, label="--out")
         print(f"tracker: wrote {path}", file=sys.stderr)
     else:
         sys.stdout.write(text)
@@ -208,6 +222,7 @@ def report_errors(table) -> None:
 def run(args: argparse.Namespace) -> int:
     from tracker.export import pass_records, render
 
+    check_outputs(args)
     t0 = time.perf_counter()
     elements = load_elements(args.source)
     stations = stations_from_args(args)
@@ -223,7 +238,7 @@ def run(args: argparse.Namespace) -> int:
         from tracker.timeline import timeline_plot
 
         path = timeline_plot(records, args.plot, start.timestamp(), table.end.timestamp(),
-                             title=f"{args.source}: {len(records)} passes")
+                             title=f"{args.source}: {len(records)} passes", force=args.force)
         print(f"tracker: wrote {path}", file=sys.stderr)
     emit(args, text)
     print(f"tracker: {len(records)} passes of {len(elements)} satellites over "

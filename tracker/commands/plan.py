@@ -31,7 +31,7 @@ from tracker.commands._common import (
 def _write_plot(plan, station, value: str, args: argparse.Namespace) -> None:
     from tracker.plot import sky_plot
 
-    path = sky_plot(plan, station, value)
+    path = sky_plot(plan, station, value, force=args.force)
     print(f"sky plot written to {path}", file=sys.stderr)
 
 
@@ -59,6 +59,8 @@ def register(sub) -> None:
     p.add_argument("--format", choices=("table", "json"), default="table")
     for flag, metavar, help_text, _ in OUTPUTS:
         p.add_argument(flag, metavar=metavar, help=help_text)
+    p.add_argument("--force", action="store_true",
+                   help="replace existing output files (otherwise they are never touched)")
     add_station_args(p)
     add_target_args(p)
     add_time_args(p)
@@ -76,6 +78,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("--hours must be more than 0 and at most 720")
     if not 0 < args.threshold <= 90:
         raise ConfigError("--threshold must be more than 0 and at most 90 degrees")
+    _check_outputs(args)
     clock = clock_from_args(args, manual=True)
     now = clock.now()
     station = station_from_args(args, quiet=args.format != "table")
@@ -106,6 +109,17 @@ def run(args: argparse.Namespace) -> int:
         if value:
             writer(plan, station, value, args)
     return 0
+
+
+def _check_outputs(args: argparse.Namespace) -> None:
+    """Refuse an unusable output path before planning (and before printing the plan)."""
+    from tracker.files import check_output
+    from tracker.plot import check_plot_path
+
+    if args.plot:
+        check_plot_path(args.plot, force=args.force)
+    if args.steptable:
+        check_output(args.steptable, force=args.force, label="--steptable")
 
 
 def _utc(t_s: float) -> str:

@@ -14,6 +14,7 @@ import time
 
 from tracker.commands.batch import (
     add_batch_args,
+    check_outputs,
     emit,
     error_records,
     find,
@@ -55,6 +56,7 @@ def run(args: argparse.Namespace) -> int:
     if args.settle < 0:
         raise ConfigError("--settle must be 0 or more seconds")
     priorities = parse_priorities(args.priority, args.priorities)
+    check_outputs(args)
     t0 = time.perf_counter()
     stations = stations_from_args(args)
     if len(stations) != 1:
@@ -86,7 +88,8 @@ def run(args: argparse.Namespace) -> int:
         from tracker.timeline import timeline_plot
 
         path = timeline_plot(records, args.plot, start.timestamp(), table.end.timestamp(),
-                             title=f"schedule for {spec.name}", chosen=chosen)
+                             title=f"schedule for {spec.name}", chosen=chosen,
+                             force=args.force)
         print(f"tracker: wrote {path}", file=sys.stderr)
     emit(args, text)
     print(f"tracker: scheduled {len(sched.chosen)} of {len(records)} passes for {spec.name} "

@@ -26,13 +26,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="CelesTrak GP groups or URLs (default: amateur weather stations "
                              "visual)")
     update.add_argument("--force", action="store_true",
-                        help="fetch even if checked less than 2 hours ago")
+                        help="fetch even if checked less than 2 hours ago, and accept a "
+                             "download with far fewer sets than the cached copy")
     update.add_argument("--format", choices=FORMAT_CHOICES, default="tle",
                         help="element format to request for groups (default: tle)")
     update.add_argument("--base-url", metavar="URL",
                         help="GP query URL (default: $TRACKER_CELESTRAK_URL or CelesTrak)")
     update.add_argument("--timeout", type=float, default=20.0, metavar="S",
-                        help="network timeout per request, seconds (default 20)")
+                        help="time limit for each download as a whole, seconds (default 20)")
     add_time_args(update)
     update.set_defaults(func=_update)
 
@@ -56,8 +57,14 @@ def _store(args: argparse.Namespace, base_url: str | None = None, timeout_s: flo
 
 
 def _update(args: argparse.Namespace) -> int:
-    from tle.store import DEFAULT_GROUPS
+    import math
 
+    from tle.store import DEFAULT_GROUPS
+    from tracker.errors import ConfigError
+
+    if not (math.isfinite(args.timeout) and 0 < args.timeout <= 3600):
+        raise ConfigError(f"--timeout {args.timeout:g} is invalid; give the seconds a "
+                          "download may take, more than 0 and at most 3600 (default 20)")
     store = _store(args, args.base_url, args.timeout)
 
     def report(result) -> None:

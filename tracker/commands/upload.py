@@ -264,5 +264,5 @@ def write_steptable_for_plan(plan, station, path: str, args: argparse.Namespace)
     current = tuple(args.current) if getattr(args, "current", None) else None
     program = compile_pass(plan.track, plan.spec, station, "gs232b", current=current,
                            meta=header)
-    write_plan_file(program, path)
+    write_plan_file(program, path, force=getattr(args, "force", False))
     print(f"step table written to {path}: {program.summary()}", file=sys.stderr)

@@ -11,12 +11,15 @@ client that stops reading never wedges the server.
 from __future__ import annotations
 
 import os
+import re
+import secrets
 import selectors
 import socket
 import threading
 import tty
 
 from tracker.emulator.gs232_controller import Gs232Controller, Session
+from tracker.errors import ConfigError
 
 POLL_S = 0.02
 MAX_QUEUED_OUTPUT = 1 << 20
@@ -244,6 +247,8 @@ class PtyServer(_Server):
         # ``link``: a stable symlink to the current /dev/pts/N, so a "reopened" device (fault
         # disconnect) is found again at the same path, like /dev/ttyUSB0 after a replug.
         self.link = link
+        if link:
+            check_link_path(link)
         self._open_pty()
         self.url = link if link else os.ttyname(self._slave)
         self._start()
@@ -258,11 +263,13 @@ class PtyServer(_Server):
         self._fds = [master, slave]
         self.device = os.ttyname(slave)
         if self.link:
-            tmp = f"{self.link}.new"
-            if os.path.lexists(tmp):
-                os.unlink(tmp)
-            os.symlink(self.device, tmp)
-            os.replace(tmp, self.link)
+            try:
+                place_link(self.link, self.device)
+            except ConfigError:
+                _close_fd(master)
+                _close_fd(slave)
+                self._fds = []
+                raise
         self._conn = _Conn(master, self.controller.open_session(), is_socket=False)
         self._add_conn(self._conn)
 
@@ -289,14 +296,20 @@ class PtyServer(_Server):
         # The link goes too, like /dev/ttyUSB0 on unplug: left dangling it would point at a
         # /dev/pts/N number the kernel hands to the next pty opened by any process, and a
         # client retrying the link would write into that stranger's session.
-        if self.link and os.path.islink(self.link):
-            os.unlink(self.link)
+        self._remove_own_link()
+
+    def _remove_own_link(self) -> None:
+        # Only the link to this server's pty: whatever else is there now is not ours.
+        if self.link and os.path.islink(self.link) and os.readlink(self.link) == self.device:
+            try:
+                os.unlink(self.link)
+            except OSError:
+                pass
 
     def _close_own(self) -> None:
         for fd in self._fds:
             _close_fd(fd)
-        if self.link and os.path.islink(self.link):
-            os.unlink(self.link)
+        self._remove_own_link()
 
     def fault_disconnect(self) -> None:
         """Fault: the device vanishes (as :meth:`hangup`); :meth:`fault_reconnect` brings a
@@ -306,7 +319,12 @@ class PtyServer(_Server):
     def fault_reconnect(self) -> None:
         def do() -> None:
             if not self._fds:
-                self._open_pty()
+                try:
+                    self._open_pty()
+                except ConfigError:
+                    # Something else took the link path while the device was away: leave
+                    # it alone; the device stays gone (clients see no port).
+                    pass
         self._in_loop(do)
 
 
@@ -363,6 +381,54 @@ class TcpServer(_Server):
     def _close_own(self) -> None:
         if self._listen is not None:
             self._listen.close()
+
+
+# What a link made by this emulator points at: a pseudo-terminal slave (Linux, macOS).
+_PTY_DEVICE = re.compile(r"^/dev/(pts/\d+|ttys\d+)$")
+
+
+def check_link_path(link: str) -> None:
+    """``--link PATH`` may be a new name or a symlink to a pty (one this emulator made, maybe
+    left by a run that was killed); anything else the user has there is refused."""
+    if os.path.islink(link):
+        target = os.readlink(link)
+        if _PTY_DEVICE.match(target):
+            return
+        raise ConfigError(f"--link {link} is a symlink to {target}, not a pty link made by "
+                          "tracker emulate; not replacing it (choose another path)")
+    if os.path.lexists(link):
+        kind = "a directory" if os.path.isdir(link) else "an existing file"
+        raise ConfigError(f"--link {link} is {kind}; not replacing it (give a new path for "
+                          "the link)")
+    folder = os.path.dirname(link) or "."
+    if not os.path.isdir(folder):
+        what = "is not a folder" if os.path.exists(folder) else "does not exist"
+        raise ConfigError(f"--link {link}: folder {folder} {what}; create it or choose "
+                          "another path")
+
+
+def place_link(link: str, device: str) -> None:
+    """Point ``link`` at ``device`` atomically, through a uniquely named temporary link in the
+    same folder (so no user file is ever unlinked or clobbered)."""
+    check_link_path(link)
+    folder, name = os.path.split(link)
+    for _ in range(100):
+        tmp = os.path.join(folder, f".{name}.{secrets.token_hex(6)}.tmp")
+        try:
+            os.symlink(device, tmp)
+            break
+        except FileExistsError:
+            continue
+        except OSError as e:
+            raise ConfigError(f"--link {link}: cannot create a link in {folder or '.'} "
+                              f"({e.strerror}); choose a writable folder") from None
+    else:
+        raise ConfigError(f"--link {link}: no free temporary name in {folder or '.'}")
+    try:
+        os.replace(tmp, link)
+    except OSError as e:
+        os.unlink(tmp)
+        raise ConfigError(f"--link {link}: cannot place the link ({e.strerror})") from None
 
 
 def _close_fd(fd: int) -> None:
