@@ -28,7 +28,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import datetime, timedelta, timezone
 
-from tracker.clock import SimClock
+from tracker.clock import ManualClock, SimClock
 from tracker.commands._common import (
     add_station_args,
     add_target_args,
@@ -39,6 +39,7 @@ from tracker.commands._common import (
     target_from_args,
 )
 from tracker.errors import ConfigError, TargetError, TrackerError
+from tracker.transport import is_emulated
 
 DEMO_SECONDS = 60.0        # a whole demo pass in about this much wall time
 STALE_ELEMENTS_DAYS = 14.0  # older elements: the demo replays a pass near their epoch
@@ -483,6 +484,10 @@ def run(args: argparse.Namespace) -> int:
         if demo:
             earliest = min(a.first.aos for a in ants)
             clock = SimClock(max(start, earliest - timedelta(seconds=150)), speed)
+        elif is_emulated(port) and args.speed is None and not dual:
+            # An emu:// controller and this loop on one virtual clock: the pass runs as fast
+            # as the CPU allows, waits included (one loop thread, so one timeline).
+            clock = ManualClock(start)
         else:
             clock = SimClock(start, speed)
     else:
@@ -526,11 +531,11 @@ def run(args: argparse.Namespace) -> int:
 
     def connect():
         kw = driver_kw(spec)
+        # The loop's (possibly simulated) clock: an open-loop driver runs its motor-model
+        # estimate on it, an emu:// controller runs on it; read timeouts stay on the port's
+        # own time either way.
+        kw["clock"] = clock
         if protocol in OPEN_LOOP_PROTOCOLS:
-            # No position query: the driver estimates the antenna with the rotator's motor
-            # model, which must run on the loop's (possibly simulated) clock. Closed-loop
-            # drivers keep wall-clock read timeouts.
-            kw["clock"] = clock
             kw["spec"] = spec
         drv = open_driver(url, protocol, **kw)
         if not drv.capabilities.has_position_query and not open_loop_said:
@@ -555,7 +560,8 @@ def run(args: argparse.Namespace) -> int:
     shared = None
     if dual:
         lock = threading.Lock()
-        shared = _SharedAzAz(lambda: open_driver(url, protocol, **driver_kw(spec)))
+        shared = _SharedAzAz(lambda: open_driver(url, protocol, clock=clock,
+                                                 **driver_kw(spec)))
         out = Fanout(PlainLines(clock), log)   # run-wide lines and records (no antenna)
         for a in ants:
             a.out = _AntennaOut(a.n, a.label, clock, log, lock)
