@@ -86,9 +86,11 @@ def register(sub) -> None:
     p.add_argument("--passes", type=int, default=1, metavar="N",
                    help="passes to track in a row, re-planning from the real antenna "
                         "position between them; 0 = until Ctrl-C (default 1)")
-    p.add_argument("--speed", type=float, metavar="F",
+    p.add_argument("--speed", type=_speed_arg, metavar="F",
                    help="simulation speed factor (emulator demo, or with --at); default so "
-                        "a pass shows in about a minute")
+                        "a pass shows in about a minute; 'max': no waiting at all (virtual "
+                        "time, one antenna, emulators only; the default with --port emu://... "
+                        "and --at)")
     p.add_argument("--deadband", type=float, metavar="DEG",
                    help="pointing error tolerated before moving (default: the rotator's)")
     p.add_argument("--cycle", type=float, metavar="S", help="read-back cycle, s (default 0.5)")
@@ -432,8 +434,8 @@ def run(args: argparse.Namespace) -> int:
     if args.passes < 0:
         raise ConfigError(f"--passes {args.passes} is invalid; use 1 or more, or 0 for "
                           f"'until Ctrl-C'")
-    if args.speed is not None and not (0 < args.speed <= 1000):
-        raise ConfigError(f"--speed {args.speed} is invalid; allowed: > 0 to 1000")
+    if args.speed is not None and args.speed != math.inf and not (0 < args.speed <= 1000):
+        raise ConfigError(f"--speed {args.speed} is invalid; allowed: > 0 to 1000, or max")
     config = config_from_args(args)
     tr = config.tracking
     port = args.port or tr.get("port")
@@ -476,7 +478,21 @@ def run(args: argparse.Namespace) -> int:
     for a in ants:
         a.first = _next_pass(a.target, station, start.timestamp())
     simulated = demo or bool(args.at)
-    if simulated:
+    emulated = demo or is_emulated(port)
+    # Virtual time: the loop and an in-process emulator on one ManualClock (one loop thread,
+    # so one timeline); every wait is a jump of the clock.
+    virtual = args.speed == math.inf or (bool(args.at) and emulated and not demo
+                                         and args.speed is None and not dual)
+    if virtual and not emulated:
+        raise ConfigError("--speed max needs an emulated controller: the built-in one (no "
+                          "--port) or --port emu://PROTOCOL; a real rotator runs in real time")
+    if virtual and dual:
+        raise ConfigError("--speed max runs one antenna; with --target2 give a speed factor "
+                          "(e.g. --speed 50)")
+    if virtual:
+        earliest = min(a.first.aos for a in ants)
+        clock = ManualClock(max(start, earliest - timedelta(seconds=150)) if demo else start)
+    elif simulated:
         # fast enough that the longest of the (first) passes shows in about DEMO_SECONDS
         span = max(a.first.los.timestamp() - max(a.first.aos.timestamp() - 120.0,
                                                   start.timestamp()) for a in ants)
@@ -484,10 +500,6 @@ def run(args: argparse.Namespace) -> int:
         if demo:
             earliest = min(a.first.aos for a in ants)
             clock = SimClock(max(start, earliest - timedelta(seconds=150)), speed)
-        elif is_emulated(port) and args.speed is None and not dual:
-            # An emu:// controller and this loop on one virtual clock: the pass runs as fast
-            # as the CPU allows, waits included (one loop thread, so one timeline).
-            clock = ManualClock(start)
         else:
             clock = SimClock(start, speed)
     else:
@@ -497,11 +509,12 @@ def run(args: argparse.Namespace) -> int:
             raise ConfigError("--speed needs the built-in emulator (no --port) or --at; a "
                               "real rotator runs in real time")
         clock = SystemClock()
-    timer = _DemoTime(clock, [a.n for a in ants]) if demo else None
+    timer = _DemoTime(clock, [a.n for a in ants]) if demo and not virtual else None
 
     server = None
     if demo:
-        from tracker.emulator import Gs232Controller, serve_tcp
+        from tracker.emulator import Gs232Controller
+        from tracker.emulator.virtual import Bench
         from tracker.protocols.gs232 import PROFILES
 
         if dual:
@@ -515,7 +528,7 @@ def run(args: argparse.Namespace) -> int:
         else:
             emulator = protocol.lower() if protocol.lower() in PROFILES else "gs232b"
             controller = Gs232Controller(emulator, spec, clock=clock)
-        server = serve_tcp(controller)
+        server = Bench(controller)       # in-process: emu://bench-N, no socket
         url = server.url
     else:
         url = port
@@ -552,8 +565,9 @@ def run(args: argparse.Namespace) -> int:
     if demo:
         rot = (f"two azimuth-only antennas (ant1 {specs[0].name}, ant2 {specs[1].name})"
                if dual else f"a {spec.name}")
-        banner = (f"SIMULATION: built-in {emulator} emulator with {rot} at {clock.speed:g}x "
-                  f"speed; no real rotator moves. Use --port to drive one.")
+        pace = "virtual time (no waiting)" if virtual else f"{clock.speed:g}x speed"
+        banner = (f"SIMULATION: built-in {emulator} emulator with {rot} at {pace}; no real "
+                  f"rotator moves. Use --port to drive one.")
     # Two antennas show as plain lines (prefixed ant1/ant2), on a terminal too.
     tty = sys.stdout.isatty() and not args.plain and not dual
     log = JsonLinesLog(args.log, clock) if args.log else None
@@ -606,6 +620,16 @@ def run(args: argparse.Namespace) -> int:
                   f"{res.max_error_deg:.1f} deg, {res.reconnects} reconnects"
                   + (" (simulated)" if simulated else ""))
     return 0
+
+
+def _speed_arg(text: str) -> float:
+    """``--speed``: a factor, or ``max`` for virtual time."""
+    if str(text).strip().lower() == "max":
+        return math.inf
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number or 'max'") from None
 
 
 def _run_both(ants: list[_Antenna], shared: _SharedAzAz, station, clock, passes: int,
