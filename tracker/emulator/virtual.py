@@ -79,6 +79,11 @@ class Bench:
     unplug = fault_disconnect
     replug = fault_reconnect
 
+    def drop_connections(self) -> None:
+        """Every open port is cut off; the device stays (a client may reopen at once)."""
+        self.fault_disconnect()
+        self.fault_reconnect()
+
     def tick(self) -> None:
         """Fire the timed faults due now."""
         if self.injector is not None:
