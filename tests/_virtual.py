@@ -40,6 +40,30 @@ class VirtualRig:
         self.bench.close()
 
 
+class SampledClock(ManualClock):
+    """A ManualClock that calls ``on_tick()`` every ``sample_s`` of the time it is advanced
+    through, so a test can watch the emulated antenna between the loop's requests (what a
+    sampler thread did on a SimClock, exactly and without a thread)."""
+
+    def __init__(self, start: datetime, sample_s: float = 0.25):
+        super().__init__(start)
+        self.sample_s = float(sample_s)
+        self.on_tick = None
+        self._next_sample = self.timestamp()
+
+    def advance(self, seconds: float) -> None:
+        end = self.timestamp() + seconds
+        while self.on_tick is not None and self._next_sample <= end:
+            super().advance(max(0.0, self._next_sample - self.timestamp()))
+            self._next_sample += self.sample_s
+            self.on_tick()
+        super().advance(end - self.timestamp())
+
+
+def sampled_clock(start_s: float, sample_s: float = 0.25) -> SampledClock:
+    return SampledClock(datetime.fromtimestamp(start_s, timezone.utc), sample_s)
+
+
 def manual_clock(start_s: float) -> ManualClock:
     """A virtual clock at POSIX time ``start_s``."""
     return ManualClock(datetime.fromtimestamp(start_s, timezone.utc))
