@@ -48,8 +48,8 @@ class Bench:
     def __init__(self, controller, *, faults=(), seed: int = 0, name: str | None = None):
         self.controller = controller
         self.clock: Clock = controller.clock
-        self.injector: FaultInjector | None = install(controller, faults, seed) \
-            if faults else controller.faults.injector
+        if faults:
+            install(controller, faults, seed)
         self.name = name or f"bench-{next(_names)}"
         self.url = f"{SCHEME}://{self.name}"
         self.plugged = True
@@ -60,6 +60,11 @@ class Bench:
             _BENCHES[self.name] = self
 
     # Faults (the injector calls these by name, like a server's) ----------------------------
+
+    @property
+    def injector(self) -> FaultInjector | None:
+        """The controller's fault injector (installed here or later with ``install``)."""
+        return self.controller.faults.injector
 
     def fault_disconnect(self) -> None:
         """The device goes away: open ports fail on their next use, opens fail until
