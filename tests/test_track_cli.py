@@ -48,6 +48,7 @@ def test_demo_runs_a_whole_pass_on_the_builtin_emulator(tmp_path, capsys, monkey
     recs = [json.loads(line) for line in log.read_text().splitlines()]
     kinds = {r["kind"] for r in recs}
     assert {"command", "reply", "state"} <= kinds
+    assert next(r for r in recs if r.get("state") == "start")["speed"] == "max"   # valid JSON
     gotos = [r for r in recs if r["kind"] == "command" and r["cmd"] == "goto"]
     assert gotos[0]["reason"] == "preposition" and gotos[-1]["reason"] == "park"
     done = next(r for r in recs if r.get("state") == "pass_done")

@@ -599,7 +599,7 @@ def run(args: argparse.Namespace) -> int:
         for a in ants:
             a.out.event("state", state="start", target=a.target.name, port=url,
                         protocol=protocol, rotator=a.spec.name, simulated=simulated,
-                        speed=clock.speed)
+                        speed="max" if virtual else clock.speed)
         if dual:
             _run_both(ants, shared, station, clock, args.passes, timer, out)
         else:
