@@ -28,7 +28,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import datetime, timedelta, timezone
 
-from tracker.clock import ManualClock, SimClock
+from tracker.clock import LockstepClock, SimClock
 from tracker.commands._common import (
     add_station_args,
     add_target_args,
@@ -39,7 +39,7 @@ from tracker.commands._common import (
     target_from_args,
 )
 from tracker.errors import ConfigError, TargetError, TrackerError
-from tracker.transport import is_emulated
+from tracker.transport import emu_clock, is_emulated
 
 DEMO_SECONDS = 60.0        # a whole demo pass in about this much wall time
 STALE_ELEMENTS_DAYS = 14.0  # older elements: the demo replays a pass near their epoch
@@ -89,8 +89,7 @@ def register(sub) -> None:
     p.add_argument("--speed", type=_speed_arg, metavar="F",
                    help="simulation speed factor (emulator demo, or with --at); default so "
                         "a pass shows in about a minute; 'max': no waiting at all (virtual "
-                        "time, one antenna, emulators only; the default with --port emu://... "
-                        "and --at)")
+                        "time, emulators only; the default with --port emu://... and --at)")
     p.add_argument("--deadband", type=float, metavar="DEG",
                    help="pointing error tolerated before moving (default: the rotator's)")
     p.add_argument("--cycle", type=float, metavar="S", help="read-back cycle, s (default 0.5)")
@@ -479,19 +478,19 @@ def run(args: argparse.Namespace) -> int:
         a.first = _next_pass(a.target, station, start.timestamp())
     simulated = demo or bool(args.at)
     emulated = demo or is_emulated(port)
-    # Virtual time: the loop and an in-process emulator on one ManualClock (one loop thread,
-    # so one timeline); every wait is a jump of the clock.
+    # Virtual time: the loops and an in-process emulator on one clock that moves only when
+    # every loop waits (LockstepClock); every wait is a jump of the clock.
     virtual = args.speed == math.inf or (bool(args.at) and emulated and not demo
-                                         and args.speed is None and not dual)
+                                         and args.speed is None)
     if virtual and not emulated:
         raise ConfigError("--speed max needs an emulated controller: the built-in one (no "
                           "--port) or --port emu://PROTOCOL; a real rotator runs in real time")
-    if virtual and dual:
-        raise ConfigError("--speed max runs one antenna; with --target2 give a speed factor "
-                          "(e.g. --speed 50)")
     if virtual:
         earliest = min(a.first.aos for a in ants)
-        clock = ManualClock(max(start, earliest - timedelta(seconds=150)) if demo else start)
+        # an emu:// bench made by the caller brings its own clock; else a new one
+        clock = emu_clock(port) if port else None
+        clock = clock or LockstepClock(max(start, earliest - timedelta(seconds=150))
+                                       if demo else start, parties=len(ants))
     elif simulated:
         # fast enough that the longest of the (first) passes shows in about DEMO_SECONDS
         span = max(a.first.los.timestamp() - max(a.first.aos.timestamp() - 120.0,
@@ -650,6 +649,9 @@ def _run_both(ants: list[_Antenna], shared: _SharedAzAz, station, clock, passes:
         finally:
             if timer is not None:
                 timer.leave(a.n)
+            leave = getattr(clock, "leave", None)
+            if leave is not None:    # virtual time: the other loop no longer waits for this one
+                leave()
 
     threads = [threading.Thread(target=work, args=(a,), name=f"track-ant{a.n}", daemon=True)
                for a in ants]
