@@ -59,6 +59,21 @@ def test_demo_runs_a_whole_pass_on_the_builtin_emulator(tmp_path, capsys, monkey
     assert all(r["t"].endswith("Z") for r in recs)
 
 
+def test_demo_at_a_speed_factor_still_runs_on_a_simulated_clock(tmp_path, capsys, monkeypatch):
+    """The demo users watch: a SimClock (paused while planning, idle time skipped) driving
+    the in-process emulator. Only the outcome is checked: its timing is the wall clock's."""
+    monkeypatch.setenv("TRACKER_CONFIG", _config(tmp_path))
+    log = tmp_path / "track.jsonl"
+    rc = main(["track", "ISS (ZARYA)", "--at", AT, "--speed", "1000", "--plain", "--log",
+               str(log)])
+    out = capsys.readouterr().out
+    assert rc == 0 and "at 1000x speed" in out
+    recs = [json.loads(line) for line in log.read_text().splitlines()]
+    assert next(r for r in recs if r.get("state") == "start")["speed"] == 1000.0
+    assert any(r.get("state") == "pass_done" for r in recs)
+    assert any(r["kind"] == "command" and r["cmd"] == "stop" for r in recs)   # all-stop
+
+
 def test_track_on_an_emu_port_runs_the_pass_on_virtual_time(tmp_path, capsys, monkeypatch):
     """--port emu://PROFILE with --at: an in-process controller on the loop's virtual clock
     (no pty, no socket); all-stop is the last thing written."""
