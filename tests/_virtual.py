@@ -2,15 +2,14 @@
 
 The code under test and the emulator share that one clock: every wait (the loop's cycle, a
 read timeout, a reconnect back-off) is a jump of the clock, so a scenario runs in CPU time and
-its bounds on simulated time are exact. Use :func:`virtual_rig` (or the ``virtual_rig``
-fixture, which closes what it made) and hand ``rig.url`` and ``rig.clock`` to the code.
+its bounds on simulated time are exact. Use :func:`virtual_rig` (the test closes the rig) and
+hand ``rig.url`` and ``rig.clock`` to the code under test; :func:`sampled_clock` when the test
+must watch the antenna between the loop's requests.
 """
 
 from __future__ import annotations
 
 from datetime import datetime, timezone
-
-import pytest
 
 from tracker.clock import ManualClock
 from tracker.emulator.virtual import Bench
@@ -74,17 +73,3 @@ def virtual_rig(ctl, faults=(), seed: int = 0) -> VirtualRig:
     if not isinstance(ctl.clock, ManualClock):
         raise TypeError("a virtual rig needs its controller on a ManualClock")
     return VirtualRig(ctl, faults, seed)
-
-
-@pytest.fixture
-def make_virtual_rig():
-    """``make_virtual_rig(ctl, faults=(), seed=0)``; every rig is closed after the test."""
-    rigs: list[VirtualRig] = []
-
-    def make(ctl, faults=(), seed: int = 0) -> VirtualRig:
-        rig = virtual_rig(ctl, faults, seed)
-        rigs.append(rig)
-        return rig
-    yield make
-    for rig in rigs:
-        rig.close()
