@@ -1,5 +1,7 @@
-"""Scripted fault injection: the spec parser, reproducibility, and every fault over a real pty
-and a real TCP socket with the GS-232 driver: typed errors within the timeout, never a hang."""
+"""Scripted fault injection: the spec parser, reproducibility, and every fault against the
+GS-232 driver: typed errors within the timeout, never a hang. The faults run on virtual time
+(the emulator behind ``emu://`` on a ManualClock, bounds measured on the port's time); the
+port vanishing runs over a real pty and a real TCP socket too, as it is the OS's error."""
 
 from __future__ import annotations
 
@@ -8,6 +10,7 @@ from datetime import datetime
 
 import pytest
 from _gs232_helpers import T0, wait_until
+from _virtual import virtual_rig
 
 from tracker.cli import main
 from tracker.clock import ManualClock, SimClock
@@ -16,6 +19,7 @@ from tracker.emulator.faults import EXAMPLES, FaultPlan, install, parse_fault
 from tracker.errors import ConfigError, PortLostError, ProtocolError, RotatorIOError, RotatorTimeout
 from tracker.mount import preset
 from tracker.protocols import open_driver
+from tracker.transport import io_clock
 
 TIMEOUT_S = 0.3
 RETRIES = 1
@@ -214,59 +218,91 @@ def test_drift_and_wrongside_with_a_start_time_begin_then():
     assert s.feed(b"C2\r") == b"AZ=040  EL=010\r\n"
 
 
-# Over real pty / TCP with the driver ------------------------------------------------------
+# With the driver: on virtual time, and the port vanishing over a real pty / TCP ------------
 
 
 class Bench:
-    def __init__(self, kind, specs, tmp_path, speed=1.0, seed=1, az_deg=123, **opts):
-        self.clock = SimClock(datetime.fromisoformat(T0), speed=speed)
+    """``kind``: "emu" (virtual time: a ManualClock, the emulator behind emu://) or "tcp" /
+    "pty" (real I/O, the emulator on a real-time SimClock)."""
+
+    def __init__(self, kind, specs, tmp_path, seed=1, az_deg=123, **opts):
+        start = datetime.fromisoformat(T0)
+        self.kind = kind
+        self.clock = ManualClock(start) if kind == "emu" else SimClock(start, speed=1.0)
         self.ctrl = Gs232Controller("gs232b", preset("G-5500"), self.clock,
                                     EmulatorOptions(**opts), az_deg=az_deg, el_deg=45)
-        self.inj = install(self.ctrl, specs, seed)
-        if kind == "tcp":
-            self.server = serve_tcp(self.ctrl)
+        if kind == "emu":
+            self.server = virtual_rig(self.ctrl, specs, seed)
+            self.inj = self.server.injector
         else:
-            self.server = serve_pty(self.ctrl, link=str(tmp_path / "ttyEMU0"))
+            self.inj = install(self.ctrl, specs, seed)
+            self.server = serve_tcp(self.ctrl) if kind == "tcp" else serve_pty(
+                self.ctrl, link=str(tmp_path / "ttyEMU0"))
         self.url = self.server.url
         self.drivers = []
 
     def driver(self, **kw):
         kw.setdefault("timeout_s", TIMEOUT_S)
         kw.setdefault("retries", RETRIES)
-        d = open_driver(self.url, "gs232b", **kw)
+        d = open_driver(self.url, "gs232b", clock=self.clock, **kw)
         d.stop_on_exit = False
         self.drivers.append(d)
         return d
+
+    def wait_emulator(self, t_s: float) -> None:
+        """Let the emulator's clock pass ``t_s`` s after the faults were installed (virtual
+        time: a jump; real I/O: a bounded wait)."""
+        if self.kind == "emu":
+            self.clock.sleep(t_s - self.inj.elapsed_s() + 1e-3)
+        else:
+            assert wait_until(lambda: self.inj.elapsed_s() > t_s, t_s + 3.0)
 
     def close(self):
         for d in self.drivers:
             d.close()
         self.server.close()
-        assert self.server.closed and not self.server.thread.is_alive()
+        if self.kind != "emu":
+            assert self.server.closed and not self.server.thread.is_alive()
 
 
-@pytest.fixture(params=["tcp", "pty"])
-def bench(request, tmp_path):
+def _bench_factory(kind, tmp_path):
     made = []
 
     def factory(specs, **kw):
-        b = Bench(request.param, specs, tmp_path, **kw)
+        b = Bench(kind, specs, tmp_path, **kw)
         made.append(b)
         return b
-    factory.kind = request.param
+    factory.kind = kind
+    return factory, made
+
+
+@pytest.fixture
+def bench(tmp_path):
+    factory, made = _bench_factory("emu", tmp_path)
+    yield factory
+    for b in made:
+        b.close()
+
+
+@pytest.fixture(params=["emu", "tcp", "pty"])
+def wire_bench(request, tmp_path):
+    factory, made = _bench_factory(request.param, tmp_path)
     yield factory
     for b in made:
         b.close()
 
 
 def bounded(fn, *args):
-    """Call ``fn``; return (result or the typed exception, seconds). Anything else fails."""
-    t0 = time.monotonic()
+    """Call ``fn``; return (result or the typed exception, seconds of the port's time).
+    Anything else fails."""
+    drv = fn.__self__
+    clock = io_clock(drv.port if hasattr(drv, "port") else drv.link.port)
+    t0 = clock.monotonic()
     try:
         out = fn(*args)
     except (RotatorTimeout, ProtocolError, PortLostError) as e:
         out = e
-    elapsed = time.monotonic() - t0
+    elapsed = clock.monotonic() - t0
     assert elapsed < BOUND_S, f"{fn.__name__} took {elapsed:.2f} s"
     return out, elapsed
 
@@ -304,14 +340,14 @@ def test_delay_beyond_the_timeout_is_a_timeout(bench):
 def test_replies_held_for_a_client_that_left_are_dropped_with_it(tmp_path):
     # Over a long unattended run clients come and go: what was held back for one must not
     # pile up, nor reach the next client.
-    b = Bench("tcp", ["delay=5"], tmp_path)
+    b = Bench("emu", ["delay=5"], tmp_path)
     try:
         d = b.driver(retries=0)
         out, _ = bounded(d.position)
         assert isinstance(out, RotatorTimeout)
         assert b.inj.next_release_in_s() is not None      # the reply is still held
         d.close()
-        assert wait_until(lambda: b.inj.next_release_in_s() is None, 5.0)
+        assert b.inj.next_release_in_s() is None
     finally:
         b.close()
 
@@ -321,7 +357,7 @@ def test_silent_window_times_out_then_recovers(bench):
     d = b.driver()
     out, _ = bounded(d.position)
     assert isinstance(out, RotatorTimeout)
-    assert wait_until(lambda: b.inj.elapsed_s() > 1.05, 3)
+    b.wait_emulator(1.05)
     assert bounded(d.position)[0] == (123.0, 45.0)
 
 
@@ -331,8 +367,8 @@ def test_powercycle_over_the_wire_table_lost_autobaud_recovers(bench):
     d.autobaud(attempts=5, interval_s=0.1)
     d.upload_table(5, [130, 140, 150])
     assert d.table_status() == (1, 3)
-    assert b.inj.elapsed_s() < 1.5, "the machine is too busy for this timing"
-    assert wait_until(lambda: b.inj.elapsed_s() > 1.9, 4)
+    assert b.inj.elapsed_s() < 1.5
+    b.wait_emulator(1.9)
     out, _ = bounded(d.table_status)
     assert isinstance(out, RotatorTimeout)          # needs autobaud again: no answers
     d.autobaud(attempts=5, interval_s=0.1)
@@ -341,10 +377,10 @@ def test_powercycle_over_the_wire_table_lost_autobaud_recovers(bench):
 
 
 def test_jam_over_the_wire_the_antenna_does_not_move(bench):
-    b = bench(["jam=az@0"], speed=20.0)
+    b = bench(["jam=az@0"])
     d = b.driver()
     d.goto(200, 45)
-    time.sleep(0.5)                                  # 10 s simulated: ~60 deg if free
+    b.clock.sleep(10.0)                              # ~60 deg if free
     assert d.position() == (123.0, 45.0)
 
 
@@ -354,37 +390,39 @@ def test_wrongside_over_the_wire(bench):
 
 
 def test_drift_over_the_wire(bench):
-    b = bench(["drift=10%"], speed=20.0)
+    b = bench(["drift=10%"])
     d = b.driver()
     d.upload_table(1, list(range(100, 160, 2)))
     d.start_table()
     t0 = b.clock.monotonic()
-    assert wait_until(lambda: b.clock.monotonic() - t0 > 11.5, 3)   # ~0.6 s real
+    b.clock.sleep(11.5)
     cur, total = d.table_status()
     elapsed = b.clock.monotonic() - t0
-    assert total == 30
-    # nominal point = 2 + floor(elapsed / 1.0); drifted = 2 + floor(elapsed / 1.1)
-    assert cur == 2 + int(elapsed / 1.1) or cur == 2 + int((elapsed - 0.1) / 1.1)
+    assert total == 30 and elapsed == pytest.approx(11.5)
+    # nominal point = 2 + floor(11.5 / 1.0) = 13; drifted = 2 + floor(11.5 / 1.1) = 12
+    assert cur == 2 + int(elapsed / 1.1) == 12
     assert cur < 2 + int(elapsed / 1.0)
 
 
-def test_disconnect_typed_error_then_reopen_and_resume(bench):
-    b = bench(["disconnect=0.8@0.4"])
+def test_disconnect_typed_error_then_reopen_and_resume(wire_bench):
+    b = wire_bench(["disconnect=0.8@0.4"])
+    now = (lambda: b.clock.monotonic()) if b.kind == "emu" else time.monotonic
+    pause = b.clock.sleep if b.kind == "emu" else time.sleep
     d = b.driver()
     assert d.position() == (123.0, 45.0)
     err = None
-    t_end = time.monotonic() + 3.0
-    while time.monotonic() < t_end:
+    t_end = now() + 3.0
+    while now() < t_end:
         out, _ = bounded(d.position)
         if isinstance(out, Exception):
             err = out
             break
-        time.sleep(0.02)
+        pause(0.02)
     assert isinstance(err, (PortLostError, RotatorTimeout)), err
     d.close()
     # the port is back at t=1.2 s: reopen until it answers, within 3 s of its return
-    assert wait_until(lambda: b.inj.elapsed_s() > 1.2, 3)
-    back = time.monotonic()
+    b.wait_emulator(1.2)
+    back = now()
     while True:
         try:
             d2 = b.driver()
@@ -392,8 +430,8 @@ def test_disconnect_typed_error_then_reopen_and_resume(bench):
                 break
         except RotatorIOError:
             pass
-        assert time.monotonic() - back < 3.0, "did not resume within 3 s"
-        time.sleep(0.05)
+        assert now() - back < 3.0, "did not resume within 3 s"
+        pause(0.05)
     assert b.inj.stats["disconnect_events"] == 1
 
 
@@ -402,8 +440,8 @@ def test_every_fault_at_once_never_hangs(bench):
                "powercycle=0.2@1.2", "jam=el@0", "drift=1%", "wrongside"], seed=3)
     d = b.driver()
     kinds = set()
-    t_end = time.monotonic() + 2.0
-    while time.monotonic() < t_end:
+    t_end = b.clock.monotonic() + 2.0
+    while b.clock.monotonic() < t_end:
         out, _ = bounded(d.position)
         kinds.add(type(out).__name__)
         try:

@@ -1,6 +1,8 @@
-"""Upload and run step tables against the emulator over a real pty / TCP socket.
+"""Upload and run step tables against the emulator.
 
-The emulator and the host share one fast SimClock, so a few minutes of pass take seconds. The
+The emulator and the host share one clock: a virtual one (the emulator behind ``emu://``, a
+ManualClock that samples the antenna as it advances) for the scenarios, a fast SimClock over a
+real pty / TCP socket for the end-to-end run and the wire-level truncation. The
 pointing error is measured from the emulated antenna (the same motor model the controller
 runs) against the satellite, and must stay within the compiler's prediction + 0.5 deg.
 """
@@ -14,6 +16,7 @@ from datetime import datetime, timezone
 
 import numpy as np
 import pytest
+from _virtual import sampled_clock, virtual_rig
 from test_steptable_fixtures import iss_passes, iss_track, low_pass
 
 from tracker.clock import SimClock
@@ -55,44 +58,66 @@ def mid_pass(track, half_s: float):
 
 
 class Rig:
-    """SimClock + emulator (pty or TCP) + driver, started just before the first upload."""
+    """Clock + emulator + driver, started just before the first upload. ``transport``: "emu"
+    (virtual time, the antenna sampled every 0.125 s as the clock advances) or "pty" / "tcp"
+    (a SimClock at SPEED, a sampler thread)."""
 
-    def __init__(self, program, protocol="gs232b", spec=G5500, transport="pty",
+    def __init__(self, program, protocol="gs232b", spec=G5500, transport="emu",
                  start_s=None, az_deg=None):
         first = program.tables[0]
         t0 = first.upload_t_s - 2.0 if start_s is None else start_s
-        self.clock = SimClock(datetime.fromtimestamp(t0, timezone.utc), speed=SPEED)
+        self.transport = transport
+        self.clock = sampled_clock(t0, 0.125) if transport == "emu" else \
+            SimClock(datetime.fromtimestamp(t0, timezone.utc), speed=SPEED)
         az0 = float(program.tables[0].az_deg[0]) if az_deg is None else az_deg
         el0 = None if spec.el_max_deg is None else float(program.tables[0].el_deg[0])
         self.ctrl = Gs232Controller(protocol, spec, clock=self.clock, az_deg=az0, el_deg=el0)
-        self.server = serve_pty(self.ctrl) if transport == "pty" else serve_tcp(self.ctrl)
+        self.server = {"pty": serve_pty, "tcp": serve_tcp, "emu": virtual_rig}[transport](
+            self.ctrl)
         self.url = self.server.url
         self.protocol = protocol
         self.samples: list[tuple[float, float, float]] = []
+        self._actions: list[tuple[float, object]] = []
         self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._sample, daemon=True)
+        self._thread = threading.Thread(target=self._sample_loop, daemon=True)
 
     def driver(self, url=None):
-        d = Gs232Driver.from_url(url or self.url, self.protocol)
+        d = Gs232Driver.from_url(url or self.url, self.protocol, clock=self.clock)
         d.stop_on_exit = False
         return d
 
+    def at(self, t_s: float, action) -> None:
+        """Run ``action()`` at simulated time ``t_s`` (virtual time only: exactly then)."""
+        assert self.transport == "emu"
+        self._actions.append((t_s, action))
+
     def _sample(self):
+        t = self.clock.timestamp()
+        for due in [a for a in self._actions if a[0] <= t]:
+            self._actions.remove(due)
+            due[1]()
+        az, el = self.ctrl.antenna()
+        self.samples.append((t, az, 0.0 if el is None else el))
+
+    def _sample_loop(self):
         while not self._stop.is_set():
-            t = self.clock.timestamp()
-            az, el = self.ctrl.antenna()
-            self.samples.append((t, az, 0.0 if el is None else el))
+            self._sample()
             time.sleep(0.005)
 
     def __enter__(self):
-        self._thread.start()
+        if self.transport == "emu":
+            self.clock.on_tick = self._sample
+        else:
+            self._thread.start()
         return self
 
     def __exit__(self, *exc):
-        self._stop.set()
-        self._thread.join()
+        if self.transport == "emu":
+            self.clock.on_tick = None
+        else:
+            self._stop.set()
+            self._thread.join()
         self.server.close()
-        assert self.server.closed
 
     def measured_error(self, path, spec, t_from=None, t_to=None):
         s = np.array(self.samples)
@@ -117,7 +142,7 @@ def compile_mid(half_s=60.0, interval_s=2, spec=G5500, protocol="gs232b", max_el
 
 def test_end_to_end_on_a_pty_error_within_prediction():
     path, prog = compile_mid(half_s=60.0, interval_s=2)
-    with Rig(prog) as rig:
+    with Rig(prog, transport="pty") as rig:
         runner = TableRunner(rig.driver(), rig.clock, poll_s=2.0)
         report = runner.run(prog.tables)
         err = rig.measured_error(path, G5500)
@@ -216,14 +241,8 @@ def test_power_cycle_mid_table_is_detected_and_rest_reuploaded():
     path, prog = compile_mid(half_s=60.0, interval_s=2)
     table = prog.tables[0]
     with Rig(prog) as rig:
-        def cycle():
-            while rig.clock.timestamp() < table.start_t_s + 30.0:
-                time.sleep(0.01)
-            rig.ctrl.power_cycle()
-        th = threading.Thread(target=cycle, daemon=True)
-        th.start()
+        rig.at(table.start_t_s + 30.0, rig.ctrl.power_cycle)
         report = TableRunner(rig.driver(), rig.clock, poll_s=1.0).run(prog.tables)
-        th.join()
         assert any("no table" in r for r in report.resyncs)
         assert report.tables_sent == 2
         assert report.uploads[1]["points"] == pytest.approx(len(table) - 15 - 1, abs=3)
@@ -241,7 +260,8 @@ def test_k3ng_chained_20_point_tables():
         report = TableRunner(rig.driver(), rig.clock, poll_s=1.0).run(prog.tables)
         err = rig.measured_error(path, spec)
     assert report.tables_sent == len(prog.tables) and not report.resyncs
-    w_lines = [line for _, line, _ in rig.ctrl.log if line.startswith(b"W")]
+    # every line written (the controller's own log keeps only the last 200)
+    w_lines = [line for line in rig.server.written().split(b"\r") if line.startswith(b"W")]
     assert len(w_lines) >= 4 * (len(prog.tables) - 1)
     assert err.max() <= prog.prediction.max_error_deg + 0.5
 
@@ -275,16 +295,10 @@ def test_detach_exits_after_t_and_leaves_the_controller_stepping():
 def test_rotator_not_following_is_stopped_and_reported():
     _, prog = compile_mid(half_s=60.0, interval_s=2)
     with Rig(prog) as rig:
-        def jam():
-            while rig.clock.timestamp() < prog.tables[0].start_t_s + 5.0:
-                time.sleep(0.01)
-            rig.ctrl.jam("az")
-        th = threading.Thread(target=jam, daemon=True)
-        th.start()
+        rig.at(prog.tables[0].start_t_s + 5.0, lambda: rig.ctrl.jam("az"))
         with pytest.raises(StallError, match="not following"):
             TableRunner(rig.driver(), rig.clock, poll_s=1.0).run(prog.tables)
-        th.join()
-        assert wait_for(lambda: last_line(rig) == b"S")
+        assert last_line(rig) == b"S" and rig.server.written().endswith(b"S\r")
 
 
 def test_low_pass_full_length_with_default_interval_fits_one_table():
@@ -308,18 +322,11 @@ def test_jam_is_stopped_within_3_s_by_the_motor_model(axis):
     # so only the motor model (not the span of recent points) can see it stop in time.
     _, prog = compile_mid(half_s=60.0, interval_s=2)
     table = prog.tables[0]
-    with Rig(prog, transport="tcp") as rig:
+    with Rig(prog) as rig:
         jam_t = table.start_t_s + 21.0
-
-        def jam():
-            while rig.clock.timestamp() < jam_t:
-                time.sleep(0.002)
-            rig.ctrl.jam(axis)
-        th = threading.Thread(target=jam, daemon=True)
-        th.start()
+        rig.at(jam_t, lambda: rig.ctrl.jam(axis))
         with pytest.raises(StallError, match=f"not following the table: the {axis} axis"):
             TableRunner(rig.driver(), rig.clock, poll_s=1.0, spec=G5500).run(prog.tables)
-        th.join()
         t_stop = _stop_time_after(rig, jam_t)
     assert t_stop is not None
     # el: the next point that differs from the one it jammed on decides when it is visible
@@ -342,7 +349,7 @@ def test_waiting_on_repeated_points_and_a_slew_is_not_a_stall():
     table = tables_from_points("W", 2, pts, PROFILES["gs232b"], start_t_s=base.start_t_s)
     table = type(table)(**{**table.__dict__, "upload_t_s": base.upload_t_s,
                            "arrive_t_s": base.arrive_t_s})
-    with Rig(prog, transport="tcp") as rig:
+    with Rig(prog) as rig:
         for spec in (G5500, None):
             runner = TableRunner(rig.driver(), rig.clock, poll_s=0.5, spec=spec)
             shift = rig.clock.timestamp() + 3.0 - table.upload_t_s
@@ -361,7 +368,7 @@ def test_garbled_replies_are_asked_again_not_resynced():
     from tracker.emulator.faults import install
 
     path, prog = compile_mid(half_s=45.0, interval_s=2)
-    with Rig(prog, transport="tcp") as rig:
+    with Rig(prog) as rig:
         inj = install(rig.ctrl, ["garble=0.01:out"], 11)
         logs: list[str] = []
         report = TableRunner(rig.driver(), rig.clock, poll_s=1.0, spec=G5500,
@@ -407,7 +414,7 @@ def test_el_blips_over_a_socket_run_to_the_end_without_a_false_stall(spec):
     table = _flicker_table(1_800_000_000.0, n=80)
     table = type(table)(**{**table.__dict__, "upload_t_s": table.start_t_s - 2.0,
                            "arrive_t_s": table.start_t_s - 1.5})
-    with Rig(SimpleNamespace(tables=[table]), transport="tcp") as rig:
+    with Rig(SimpleNamespace(tables=[table])) as rig:
         logs: list[str] = []
         report = TableRunner(rig.driver(), rig.clock, poll_s=0.5, spec=spec,
                              log=logs.append).run([table])
@@ -428,7 +435,7 @@ def test_resumed_table_far_from_the_antenna_slews_in_without_a_false_stall():
     # polls, but the antenna is closing in, so it is not "not following".
     _, prog = compile_mid(half_s=40.0, interval_s=2)
     table = prog.tables[0]
-    with Rig(prog, transport="tcp", az_deg=_far_az(table)) as rig:
+    with Rig(prog, az_deg=_far_az(table)) as rig:
         logs: list[str] = []
         report = TableRunner(rig.driver(), rig.clock, poll_s=1.0, spec=G5500,
                              log=logs.append).run(prog.tables)
@@ -441,7 +448,7 @@ def test_resumed_table_far_from_the_antenna_slews_in_without_a_false_stall():
 
 def test_antenna_jammed_far_from_the_table_is_still_stopped():
     _, prog = compile_mid(half_s=40.0, interval_s=2)
-    with Rig(prog, transport="tcp", az_deg=_far_az(prog.tables[0])) as rig:
+    with Rig(prog, az_deg=_far_az(prog.tables[0])) as rig:
         rig.ctrl.jam("az")
         with pytest.raises(StallError, match="not following"):
             TableRunner(rig.driver(), rig.clock, poll_s=1.0).run(prog.tables)

@@ -144,6 +144,59 @@ class ManualClock:
             self.advance(seconds)
 
 
+class LockstepClock(ManualClock):
+    """A ManualClock shared by ``parties`` threads (virtual time for concurrent loops).
+
+    Time moves only when every party still running is asleep on the clock, and then to the
+    earliest wake-up: the threads interleave as they would on a real clock, but in CPU time
+    and the same way every run. A party that ends calls :meth:`leave`. A sleeper that waits
+    :attr:`STALL_S` of real time for a party that is neither running to its next sleep nor
+    gone (blocked outside the clock, e.g. on a lock another sleeper holds) moves time on
+    anyway: never a hang. A thread that is not a party (parties counted out) just advances.
+    """
+
+    STALL_S = 2.0
+
+    def __init__(self, start: datetime, parties: int = 1):
+        super().__init__(start)
+        self._cv = threading.Condition()
+        self._parties = int(parties)
+        self._wakes: dict[int, float] = {}        # thread ident -> wake-up (POSIX s)
+
+    def sleep(self, seconds: float) -> None:
+        if seconds <= 0:
+            return
+        me = threading.get_ident()
+        with self._cv:
+            wake = self.timestamp() + seconds
+            self._wakes[me] = wake
+            self._cv.notify_all()
+            try:
+                while self.timestamp() < wake:
+                    # every party asleep and none already due (a due one has yet to leave)
+                    if len(self._wakes) >= self._parties and \
+                            min(self._wakes.values()) > self.timestamp():
+                        self._step()
+                    elif not self._cv.wait(timeout=self.STALL_S):
+                        self._step()
+            finally:
+                del self._wakes[me]
+                self._cv.notify_all()
+
+    def _step(self) -> None:
+        """Move time to the earliest wake-up of the sleepers (caller holds the condition)."""
+        t = min(self._wakes.values())
+        with self._lock:
+            self._ts = max(self._ts, t)
+        self._cv.notify_all()
+
+    def leave(self) -> None:
+        """The calling party is done: the others no longer wait for it."""
+        with self._cv:
+            self._parties -= 1
+            self._cv.notify_all()
+
+
 def utc(year: int, month: int, day: int, hour: int = 0, minute: int = 0, second: float = 0.0
         ) -> datetime:
     """A timezone-aware UTC datetime; fractional seconds allowed."""

@@ -27,7 +27,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import datetime, timedelta, timezone
 
-from tracker.clock import SimClock
+from tracker.clock import LockstepClock, SimClock
 from tracker.commands._common import (
     add_station_args,
     add_target_args,
@@ -38,6 +38,7 @@ from tracker.commands._common import (
     target_from_args,
 )
 from tracker.errors import ConfigError, TargetError, TrackerError
+from tracker.transport import emu_clock, is_emulated
 
 DEMO_SECONDS = 60.0        # a whole demo pass in about this much wall time
 STALE_ELEMENTS_DAYS = 14.0  # older elements: the demo replays a pass near their epoch
@@ -84,9 +85,10 @@ def register(sub) -> None:
     p.add_argument("--passes", type=int, default=1, metavar="N",
                    help="passes to track in a row, re-planning from the real antenna "
                         "position between them; 0 = until Ctrl-C (default 1)")
-    p.add_argument("--speed", type=float, metavar="F",
+    p.add_argument("--speed", type=_speed_arg, metavar="F",
                    help="simulation speed factor (emulator demo, or with --at); default so "
-                        "a pass shows in about a minute")
+                        "a pass shows in about a minute; 'max': no waiting at all (virtual "
+                        "time, emulators only; the default with --port emu://... and --at)")
     p.add_argument("--deadband", type=float, metavar="DEG",
                    help="pointing error tolerated before moving (default: the rotator's)")
     p.add_argument("--cycle", type=float, metavar="S", help="read-back cycle, s (default 0.5)")
@@ -431,8 +433,8 @@ def run(args: argparse.Namespace) -> int:
     if args.passes < 0:
         raise ConfigError(f"--passes {args.passes} is invalid; use 1 or more, or 0 for "
                           f"'until Ctrl-C'")
-    if args.speed is not None and not (0 < args.speed <= 1000):
-        raise ConfigError(f"--speed {args.speed} is invalid; allowed: > 0 to 1000")
+    if args.speed is not None and args.speed != math.inf and not (0 < args.speed <= 1000):
+        raise ConfigError(f"--speed {args.speed} is invalid; allowed: > 0 to 1000, or max")
     config = config_from_args(args)
     tr = config.tracking
     port = args.port or tr.get("port")
@@ -475,7 +477,21 @@ def run(args: argparse.Namespace) -> int:
     for a in ants:
         a.first = _next_pass(a.target, station, start.timestamp())
     simulated = demo or bool(args.at)
-    if simulated:
+    emulated = demo or is_emulated(port)
+    # Virtual time: the loops and an in-process emulator on one clock that moves only when
+    # every loop waits (LockstepClock); every wait is a jump of the clock.
+    virtual = args.speed == math.inf or (bool(args.at) and emulated and not demo
+                                         and args.speed is None)
+    if virtual and not emulated:
+        raise ConfigError("--speed max needs an emulated controller: the built-in one (no "
+                          "--port) or --port emu://PROTOCOL; a real rotator runs in real time")
+    if virtual:
+        earliest = min(a.first.aos for a in ants)
+        # an emu:// bench made by the caller brings its own clock; else a new one
+        clock = emu_clock(port) if port else None
+        clock = clock or LockstepClock(max(start, earliest - timedelta(seconds=150))
+                                       if demo else start, parties=len(ants))
+    elif simulated:
         # fast enough that the longest of the (first) passes shows in about DEMO_SECONDS
         span = max(a.first.los.timestamp() - max(a.first.aos.timestamp() - 120.0,
                                                   start.timestamp()) for a in ants)
@@ -492,11 +508,12 @@ def run(args: argparse.Namespace) -> int:
             raise ConfigError("--speed needs the built-in emulator (no --port) or --at; a "
                               "real rotator runs in real time")
         clock = SystemClock()
-    timer = _DemoTime(clock, [a.n for a in ants]) if demo else None
+    timer = _DemoTime(clock, [a.n for a in ants]) if demo and not virtual else None
 
     server = None
     if demo:
-        from tracker.emulator import Gs232Controller, serve_tcp
+        from tracker.emulator import Gs232Controller
+        from tracker.emulator.virtual import Bench
         from tracker.protocols.gs232 import PROFILES
 
         if dual:
@@ -510,7 +527,7 @@ def run(args: argparse.Namespace) -> int:
         else:
             emulator = protocol.lower() if protocol.lower() in PROFILES else "gs232b"
             controller = Gs232Controller(emulator, spec, clock=clock)
-        server = serve_tcp(controller)
+        server = Bench(controller)       # in-process: emu://bench-N, no socket
         url = server.url
     else:
         url = port
@@ -523,11 +540,11 @@ def run(args: argparse.Namespace) -> int:
 
     def connect():
         kw = driver_kw(spec)
+        # The loop's (possibly simulated) clock: an open-loop driver runs its motor-model
+        # estimate on it, an emu:// controller runs on it; read timeouts stay on the port's
+        # own time either way.
+        kw["clock"] = clock
         if protocol in OPEN_LOOP_PROTOCOLS:
-            # No position query: the driver estimates the antenna with the rotator's motor
-            # model, which must run on the loop's (possibly simulated) clock. Closed-loop
-            # drivers keep wall-clock read timeouts.
-            kw["clock"] = clock
             kw["spec"] = spec
         drv = open_driver(url, protocol, **kw)
         if not drv.capabilities.has_position_query and not open_loop_said:
@@ -544,15 +561,17 @@ def run(args: argparse.Namespace) -> int:
     if demo:
         rot = (f"two azimuth-only antennas (ant1 {specs[0].name}, ant2 {specs[1].name})"
                if dual else f"a {spec.name}")
-        banner = (f"SIMULATION: built-in {emulator} emulator with {rot} at {clock.speed:g}x "
-                  f"speed; no real rotator moves. Use --port to drive one.")
+        pace = "virtual time (no waiting)" if virtual else f"{clock.speed:g}x speed"
+        banner = (f"SIMULATION: built-in {emulator} emulator with {rot} at {pace}; no real "
+                  f"rotator moves. Use --port to drive one.")
     # Two antennas show as plain lines (prefixed ant1/ant2), on a terminal too.
     tty = sys.stdout.isatty() and not args.plain and not dual
     log = JsonLinesLog(args.log, clock) if args.log else None
     shared = None
     if dual:
         lock = threading.Lock()
-        shared = _SharedAzAz(lambda: open_driver(url, protocol, **driver_kw(spec)))
+        shared = _SharedAzAz(lambda: open_driver(url, protocol, clock=clock,
+                                                 **driver_kw(spec)))
         out = Fanout(PlainLines(clock), log)   # run-wide lines and records (no antenna)
         for a in ants:
             a.out = _AntennaOut(a.n, a.label, clock, log, lock)
@@ -586,7 +605,7 @@ def run(args: argparse.Namespace) -> int:
             for a in ants:
                 a.out.event("state", state="start", target=a.target.name, port=url,
                             protocol=protocol, rotator=a.spec.name, simulated=simulated,
-                            speed=clock.speed)
+                            speed="max" if virtual else clock.speed)
             if dual:
                 _run_both(ants, shared, station, clock, args.passes, timer, out)
             else:
@@ -621,6 +640,15 @@ def _plan_inside_the_controller(ant: _Antenna, station, out) -> None:
         out.event("info", text=f"planning inside the controller's limits: {limits.describe()}")
         ant.spec = ant.link.spec = spec
 
+def _speed_arg(text: str) -> float:
+    """``--speed``: a factor, or ``max`` for virtual time."""
+    if str(text).strip().lower() == "max":
+        return math.inf
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number or 'max'") from None
+
 
 def _run_both(ants: list[_Antenna], shared: _SharedAzAz, station, clock, passes: int,
               timer: _DemoTime | None, out) -> None:
@@ -640,6 +668,9 @@ def _run_both(ants: list[_Antenna], shared: _SharedAzAz, station, clock, passes:
         finally:
             if timer is not None:
                 timer.leave(a.n)
+            leave = getattr(clock, "leave", None)
+            if leave is not None:    # virtual time: the other loop no longer waits for this one
+                leave()
 
     threads = [threading.Thread(target=work, args=(a,), name=f"track-ant{a.n}", daemon=True)
                for a in ants]

@@ -204,10 +204,9 @@ def _send(args, tables, clock, simulate: bool, spec: RotatorSpec) -> int:
               f"{args.speed:g}x, starting just before the upload time. Nothing real moves.",
               flush=True)
         url = server.url
-        # The driver paces commands (K3NG: 50 ms a line) on the simulated clock like the
-        # real unit would; its timeouts stay about 1 s / 0.3 s of real time.
-        timing = dict(clock=clock, timeout_s=1.0 * args.speed,
-                      ack_timeout_s=0.3 * args.speed)
+        # Read deadlines and pacing run on the port's time (real, on this pty), whatever
+        # the simulated clock's speed.
+        timing = dict(clock=clock)
     else:
         url = args.port
         timing = {}

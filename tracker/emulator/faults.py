@@ -347,6 +347,16 @@ class FaultInjector:
             heads = [q[0][0] for q in self._queues.values() if q]
             return (min(heads) - self.elapsed_s()) if heads else None
 
+    def next_due_in_s(self) -> float | None:
+        """Emulator seconds until the next timed event or delayed reply (None: none left);
+        a virtual port waits exactly this long instead of polling."""
+        with self._lock:
+            nxt = [self._events[0].t_s - self.elapsed_s()] if self._events else []
+            release = self.next_release_in_s()
+            if release is not None:
+                nxt.append(release)
+            return max(0.0, min(nxt)) if nxt else None
+
     def forget(self, session: object) -> None:
         with self._lock:
             self._queues.pop(id(session), None)

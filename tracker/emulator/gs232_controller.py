@@ -486,6 +486,12 @@ class Session:
         inj = self.controller.faults.injector
         return out + inj.release(self) if inj is not None else out
 
+    def next_output_in_s(self) -> float | None:
+        """Controller seconds until this session has unsolicited output (F/F2 streaming)."""
+        if self.state.calibration not in ("F", "F2"):
+            return None
+        return max(0.0, self.state.next_stream_t - self.controller.clock.monotonic())
+
     def _filter(self, reply: bytes) -> bytes:
         f = self.controller.faults
         if f.silent or not reply:

@@ -147,6 +147,10 @@ class ByteSession:
             self.state.pending.clear()
         return self._filter(out)
 
+    def next_output_in_s(self) -> float | None:
+        """Seconds until unsolicited output (the power-on byte is due at once)."""
+        return 0.0 if self.state.pending else None
+
     def _filter(self, reply: bytes) -> bytes:
         f = self.controller.faults
         if f.silent or not reply:

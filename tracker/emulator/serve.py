@@ -165,19 +165,10 @@ class _Server:
         return min(POLL_S, max(0.0005, due / speed)) if speed != float("inf") else 0.0005
 
     def _feed(self, conn: _Conn, data: bytes) -> bytes:
-        inj = getattr(self.controller.faults, "injector", None)
-        if inj is None or getattr(conn.session, "applies_faults", False):
-            return conn.session.feed(data)
-        # Sessions that do not run the injector themselves get it here, on the wire.
-        data = inj.on_input(data)
-        return inj.on_output(conn.session, conn.session.feed(data)) if data else b""
+        return feed_session(self.controller, conn.session, data)
 
     def _poll(self, conn: _Conn) -> bytes:
-        inj = getattr(self.controller.faults, "injector", None)
-        if inj is None or getattr(conn.session, "applies_faults", False):
-            return conn.session.poll()
-        out = conn.session.poll()
-        return (inj.on_output(conn.session, out) if out else b"") + inj.release(conn.session)
+        return poll_session(self.controller, conn.session)
 
     def _flush_out(self, conn: _Conn) -> None:
         if not conn.out:
@@ -429,6 +420,24 @@ def place_link(link: str, device: str) -> None:
     except OSError as e:
         os.unlink(tmp)
         raise ConfigError(f"--link {link}: cannot place the link ({e.strerror})") from None
+
+def feed_session(controller, session, data: bytes) -> bytes:
+    """Bytes from a client into ``session`` -> the reply bytes, faults applied once."""
+    inj = getattr(controller.faults, "injector", None)
+    if inj is None or getattr(session, "applies_faults", False):
+        return session.feed(data)
+    # Sessions that do not run the injector themselves get it here, on the wire.
+    data = inj.on_input(data)
+    return inj.on_output(session, session.feed(data)) if data else b""
+
+
+def poll_session(controller, session) -> bytes:
+    """Unsolicited bytes (and delayed replies) due now for ``session``, faults applied once."""
+    inj = getattr(controller.faults, "injector", None)
+    if inj is None or getattr(session, "applies_faults", False):
+        return session.poll()
+    out = session.poll()
+    return (inj.on_output(session, out) if out else b"") + inj.release(session)
 
 
 def _close_fd(fd: int) -> None:

@@ -65,7 +65,7 @@ class AzAzDriver(RotatorDriver):
         from tracker.transport import open_port
 
         port = open_port(url, baudrate=baudrate or AZAZ_PROFILE.baudrate, timeout_s=0.05,
-                         rtscts=rtscts)
+                         rtscts=rtscts, clock=kw.get("clock"))
         try:
             return cls(port, **kw)
         except BaseException:

@@ -28,6 +28,7 @@ from tracker.errors import (
 )
 from tracker.protocols.base import Capabilities, Direction, RotatorDriver
 from tracker.protocols.framing import LineFramer
+from tracker.transport import io_clock
 
 CR = b"\r"
 ERROR_REPLY = b"?>"
@@ -279,8 +280,9 @@ class Gs232Driver(RotatorDriver):
     """Driver for one GS-232-class controller on an open port.
 
     One request at a time (a lock); stale input is flushed before each request; each read is
-    bounded by ``timeout_s`` (measured here, on ``clock``); queries are retried ``retries``
-    times on ``?>`` or silence; set commands are never retried (a repeated move is not
+    bounded by ``timeout_s``, measured on the port's time (:func:`tracker.transport.io_clock`:
+    real time on a real port, whatever ``clock`` a simulation runs on); queries are retried
+    ``retries`` times on ``?>`` or silence; set commands are never retried (a repeated move is not
     harmless). Profiles without handshake get at least ``pace_cmd_s`` between commands and
     optionally ``pace_char_s`` between bytes.
     """
@@ -308,6 +310,7 @@ class Gs232Driver(RotatorDriver):
         self.pace_char_s = float(pace_char_s)
         self.ack_timeout_s = float(ack_timeout_s)
         self.clock = clock or SystemClock()
+        self.io_clock = io_clock(port)      # deadlines and pacing: the wire's time
         self.capabilities = self.profile.capabilities(has_elevation, az_max_deg, el_max_deg)
         self.stop_on_exit = True
         self._lock = threading.RLock()
@@ -325,7 +328,8 @@ class Gs232Driver(RotatorDriver):
 
         prof = get_profile(profile)
         port = open_port(url, baudrate=baudrate or prof.baudrate, timeout_s=0.05,
-                         rtscts=prof.rtscts if rtscts is None else rtscts)
+                         rtscts=prof.rtscts if rtscts is None else rtscts,
+                         clock=kw.get("clock"))
         try:
             drv = cls(port, prof, **kw)
         except BaseException:
@@ -354,19 +358,19 @@ class Gs232Driver(RotatorDriver):
             raise PortLostError(f"{what}: port lost: {e}") from e
 
     def _write(self, data: bytes) -> None:
-        wait = self._last_write + self.pace_cmd_s - self.clock.monotonic()
+        wait = self._last_write + self.pace_cmd_s - self.io_clock.monotonic()
         if wait > 0:
-            self.clock.sleep(wait)
+            self.io_clock.sleep(wait)
         with self._io(f"writing {data!r}"):
             if self.pace_char_s > 0:
                 for i in range(len(data)):
                     self.port.write(data[i:i + 1])
                     self.port.flush()
-                    self.clock.sleep(self.pace_char_s)
+                    self.io_clock.sleep(self.pace_char_s)
             else:
                 self.port.write(data)
                 self.port.flush()
-        self._last_write = self.clock.monotonic()
+        self._last_write = self.io_clock.monotonic()
 
     def _read_some(self, remaining_s: float) -> bytes:
         with self._io("reading"):
@@ -387,7 +391,7 @@ class Gs232Driver(RotatorDriver):
                 line = self._lines.pop(0)
                 if line or not skip_empty:
                     return line
-            remaining = deadline - self.clock.monotonic()
+            remaining = deadline - self.io_clock.monotonic()
             if remaining <= 0:
                 return None
             chunk = self._read_some(remaining)
@@ -404,7 +408,7 @@ class Gs232Driver(RotatorDriver):
             for _attempt in range(1 + self.retries):
                 self._flush()
                 self._write(cmd + CR)
-                line = self._next_line(self.clock.monotonic() + self.timeout_s)
+                line = self._next_line(self.io_clock.monotonic() + self.timeout_s)
                 if line is None:
                     partial = self._framer.pending
                     last = RotatorTimeout(
@@ -430,7 +434,7 @@ class Gs232Driver(RotatorDriver):
             self._write(cmd + CR)
             if not self.profile.set_ack and not self.profile.k3ng_messages:
                 return
-            line = self._next_line(self.clock.monotonic() + self.ack_timeout_s,
+            line = self._next_line(self.io_clock.monotonic() + self.ack_timeout_s,
                                    skip_empty=False)
             if line is not None and is_error_reply(line):
                 raise ProtocolError(f"controller rejected {cmd.decode('ascii', 'replace')}",
@@ -527,16 +531,16 @@ class Gs232Driver(RotatorDriver):
             self._flush()
             self._write(cmd)
             out = bytearray()
-            start = self.clock.monotonic()
+            start = self.io_clock.monotonic()
             last = start
             while True:
-                now = self.clock.monotonic()
+                now = self.io_clock.monotonic()
                 if now - start >= self.timeout_s or (out and now - last >= quiet_s):
                     return bytes(out)
                 chunk = self._read_some(min(quiet_s, self.timeout_s - (now - start)))
                 if chunk:
                     out += chunk
-                    last = self.clock.monotonic()
+                    last = self.io_clock.monotonic()
 
     def help(self, page: int = 1) -> str:
         if page not in (1, 2, 3):
@@ -558,9 +562,9 @@ class Gs232Driver(RotatorDriver):
             seen = bytearray()
             for _ in range(attempts):
                 self._write(CR)
-                deadline = self.clock.monotonic() + interval_s
-                while self.clock.monotonic() < deadline:
-                    seen += self._read_some(deadline - self.clock.monotonic())
+                deadline = self.io_clock.monotonic() + interval_s
+                while self.io_clock.monotonic() < deadline:
+                    seen += self._read_some(deadline - self.io_clock.monotonic())
                     if b"CONNECT OK" in seen.upper():
                         self._flush()
                         return

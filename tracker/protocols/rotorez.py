@@ -31,6 +31,7 @@ from tracker.clock import Clock, SystemClock
 from tracker.errors import ConfigError, LimitError, PortLostError, RotatorTimeout
 from tracker.mount import AxisMotor, RotatorSpec
 from tracker.protocols.base import Capabilities, Direction, RotatorDriver
+from tracker.transport import io_clock
 
 try:  # tcflush/tcsetattr on a vanished tty raise termios.error, which is not an OSError
     import termios
@@ -52,13 +53,16 @@ _AI_OLD_RE = re.compile(rb"(?<![\d;])(\d{3});")   # old ERC / "DCU-1 Plus": ddd;
 class ByteLink:
     """One port, one request at a time: paced writes, bounded reads, errors translated.
 
-    Every read is bounded by a deadline on ``clock``; pyserial/OS errors become
+    Every read is bounded by a deadline on the port's time
+    (:func:`tracker.transport.io_clock`, real time for a real port, never a faster simulation
+    clock); pyserial/OS errors become
     :class:`PortLostError`, write timeouts :class:`RotatorTimeout`.
     """
 
     def __init__(self, port, clock: Clock | None = None, pace_cmd_s: float = 0.0):
         self.port = port
-        self.clock = clock or SystemClock()
+        self.clock = clock or SystemClock()     # the caller's (simulation) time
+        self.io_clock = io_clock(port)          # deadlines and pacing: the wire's time
         self.pace_cmd_s = float(pace_cmd_s)
         self.lock = threading.RLock()
         self.closed = False
@@ -76,13 +80,13 @@ class ByteLink:
             raise PortLostError(f"{what}: port lost: {e}") from e
 
     def write(self, data: bytes) -> None:
-        wait = self._last_write + self.pace_cmd_s - self.clock.monotonic()
+        wait = self._last_write + self.pace_cmd_s - self.io_clock.monotonic()
         if wait > 0:
-            self.clock.sleep(wait)
+            self.io_clock.sleep(wait)
         with self.io(f"writing {data!r}"):
             self.port.write(data)
             self.port.flush()
-        self._last_write = self.clock.monotonic()
+        self._last_write = self.io_clock.monotonic()
 
     def flush_input(self) -> None:
         with self.io("flushing input"):
@@ -99,12 +103,12 @@ class ByteLink:
         """Read until ``done(buffer)`` is truthy (returns ``(buffer, result)``) or the timeout
         (returns ``(buffer, None)``)."""
         buf = bytearray()
-        deadline = self.clock.monotonic() + timeout_s
+        deadline = self.io_clock.monotonic() + timeout_s
         while True:
             result = done(bytes(buf))
             if result:
                 return bytes(buf), result
-            remaining = deadline - self.clock.monotonic()
+            remaining = deadline - self.io_clock.monotonic()
             if remaining <= 0:
                 return bytes(buf), None
             buf += self.read_some(remaining)
@@ -112,15 +116,15 @@ class ByteLink:
     def collect(self, quiet_s: float, timeout_s: float) -> bytes:
         """Everything that arrives until ``quiet_s`` of silence (after some data) or timeout."""
         out = bytearray()
-        start = last = self.clock.monotonic()
+        start = last = self.io_clock.monotonic()
         while True:
-            now = self.clock.monotonic()
+            now = self.io_clock.monotonic()
             if now - start >= timeout_s or (out and now - last >= quiet_s):
                 return bytes(out)
             chunk = self.read_some(min(quiet_s, timeout_s - (now - start)))
             if chunk:
                 out += chunk
-                last = self.clock.monotonic()
+                last = self.io_clock.monotonic()
 
     def close(self) -> None:
         if self.closed:
@@ -267,7 +271,8 @@ class RotorEzDriver(RotatorDriver):
                  baudrate: int | None = None, **kw) -> RotorEzDriver:
         from tracker.transport import open_port
 
-        port = open_port(url, baudrate=baudrate or BAUDRATE, timeout_s=0.05)
+        port = open_port(url, baudrate=baudrate or BAUDRATE, timeout_s=0.05,
+                         clock=kw.get("clock"))
         try:
             return cls(port, variant, **kw)
         except BaseException:

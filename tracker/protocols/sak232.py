@@ -63,7 +63,8 @@ class Sak232Driver(RotatorDriver):
     def from_url(cls, url: str, *, baudrate: int | None = None, **kw) -> Sak232Driver:
         from tracker.transport import open_port
 
-        port = open_port(url, baudrate=baudrate or BAUDRATE, timeout_s=0.05)
+        port = open_port(url, baudrate=baudrate or BAUDRATE, timeout_s=0.05,
+                         clock=kw.get("clock"))
         try:
             return cls(port, **kw)
         except BaseException:
