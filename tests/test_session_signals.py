@@ -130,14 +130,14 @@ TRACK_PHASES = {
     "park": ("phase    park", True),
 }
 WAIT_AT = "2026-08-23T02:00:00Z"   # the pre-position starts 6 simulated minutes later
+PARK_AT = "2026-08-23T02:16:00Z"   # joins the pass a minute before LOS, then parks
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("phase", list(TRACK_PHASES))
 @pytest.mark.parametrize("sig", SIGNALS, ids=lambda s: signal.Signals(s).name)
 def test_track_signal_ends_with_all_stop_last(sig, phase, config):
     spec = load_config(str(config)).rotator("farpark")
-    at = WAIT_AT if phase == "wait" else TRACK_AT
+    at = {"wait": WAIT_AT, "park": PARK_AT}.get(phase, TRACK_AT)
     clock = SimClock(datetime.fromisoformat(at.replace("Z", "+00:00")), TRACK_SPEED)
     ctrl = Gs232Controller("gs232b", spec, clock=clock)
     server = serve_tcp(ctrl)
