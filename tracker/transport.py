@@ -25,7 +25,7 @@ def check_baud(baud: object, where: str = "--baud") -> int:
     """``baud`` as an int if it is a serial rate a port can take, else ConfigError naming
     ``where`` (the flag or config key it came from)."""
     if isinstance(baud, bool) or not isinstance(baud, int) or not BAUD_MIN <= baud <= BAUD_MAX:
-        raise ConfigError(f"{where} {baud} is not a usable baud rate; give a whole number from "
+        raise ConfigError(f"{where} {baud} is invalid; give a baud rate (a whole number) from "
                           f"{BAUD_MIN} to {BAUD_MAX:,}, such as 9600 (the controller's setting)")
     return baud
 
