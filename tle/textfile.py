@@ -9,7 +9,8 @@ things the same way:
   file is opened non-blocking in case it changed in between;
 * more than ``max_bytes`` (each use passes a cap that fits its kind of file);
 * bytes that are not UTF-8 (a binary file, or another encoding);
-* a UTF-8 byte-order mark, as Windows Notepad writes it, is dropped rather than refused.
+* a UTF-8 byte-order mark, as Windows Notepad writes it, is dropped rather than refused;
+* ``/dev/null`` reads as an empty file (``--config /dev/null`` = no config).
 
 Lives in ``tle`` (the lower package) so both ``tle`` and ``tracker`` can use it; the caller
 passes the error type its layer raises.
@@ -50,6 +51,8 @@ def read_text_file(path: str | Path, what: str, error: type[Exception],
         info = os.stat(path)
     except OSError as e:
         raise error(f"cannot read {what} {path}: {e.strerror or e}") from None
+    if _is_devnull(info):
+        return ""  # `--config /dev/null`: the usual way to say "an empty file"
     if not stat.S_ISREG(info.st_mode):
         raise error(f"{what} {path} is {_kind(info.st_mode)}, not a regular file; give the "
                     f"path of a text file")
@@ -62,6 +65,16 @@ def read_text_file(path: str | Path, what: str, error: type[Exception],
     except UnicodeDecodeError as e:
         more = f"; {hint}" if hint else ""
         raise error(f"{path}: not a text file (byte {e.start} is not UTF-8){more}") from None
+
+
+def _is_devnull(info: os.stat_result) -> bool:
+    if not stat.S_ISCHR(info.st_mode):
+        return False
+    try:
+        null = os.stat(os.devnull)
+    except OSError:  # pragma: no cover - a system without /dev/null
+        return False
+    return (info.st_rdev, info.st_dev, info.st_ino) == (null.st_rdev, null.st_dev, null.st_ino)
 
 
 def _read_bounded(path: Path, what: str, error: type[Exception], max_bytes: int) -> bytes:

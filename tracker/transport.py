@@ -42,7 +42,7 @@ def check_url(url: str) -> None:
         port = parts.port
     except ValueError:
         port_text = parts.netloc.rpartition(":")[2]
-        raise ConfigError(f"{url!r}: port {port_text!r} is not a TCP port (1-65535); write "
+        raise ConfigError(f"{url!r}: port {port_text} is not a TCP port (1-65535); write "
                           f"{example}") from None
     if not parts.hostname:
         raise ConfigError(f"{url!r} names no host; write {example}")
