@@ -56,7 +56,7 @@ def test_bad_specs_name_the_problem_and_show_the_syntax(bad, why):
 
 
 def test_cli_rejects_a_bad_fault_with_exit_2(capsys):
-    assert main(["emulate", "--tcp", "0", "--fault", "jam=up@3", "--duration", "0"]) == 2
+    assert main(["emulate", "--tcp", "0", "--fault", "jam=up@3", "--duration", "0.1"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("tracker: error: fault 'jam=up@3'") and "Traceback" not in err
 

@@ -98,7 +98,12 @@ class Catalog:
         catalog = cls()
         for path in paths:
             # Collect the skip warnings and pass them on once we know something loaded.
-            for es in load_file(path, skip_bad=skip_bad, on_warning=faults.append):
+            known_faults = len(faults)
+            sets = load_file(path, skip_bad=skip_bad, on_warning=faults.append)
+            if empty_is_error and not sets and len(faults) == known_faults:
+                raise TleFormatError(f"{path}: the file holds no element sets; expected "
+                                     "TLE/3LE lines or OMM JSON/CSV/XML", source=str(path))
+            for es in sets:
                 catalog.add(es)
         if empty_is_error and faults and not catalog._by_id:
             first = faults[0].removeprefix(SKIPPED_PREFIX)
@@ -202,8 +207,17 @@ class Catalog:
         text = query.strip()
         if not text:
             raise UnknownSatelliteError("empty satellite name; give a name or a NORAD id")
-        if text.isdigit() and int(text) in self._by_id:
-            return self._by_id[int(text)]
+        if text.isdigit():
+            # A number is a NORAD id: never a piece of some name like "TIANQI-1 (1)".
+            if int(text) in self._by_id:
+                return self._by_id[int(text)]
+            named = [es for es in self if es.name == text]
+            if len(named) == 1:
+                return named[0]
+            where = "the bundled snapshot" if self.bundled else "the catalogue"
+            raise UnknownSatelliteError(
+                f"no satellite with NORAD id {int(text)} in {where} ({len(self)} sets); check "
+                "the number, or `tracker tle update` to fetch more groups")
         if _ALPHA5.match(text.upper()):
             found = self._by_id.get(alpha5_to_int(text.upper()))
             if found:

@@ -257,14 +257,9 @@ def parse_text(text: str, source: str = "<string>", skip_bad: bool = False,
 def load_file(path: str | Path, skip_bad: bool = False,
               on_warning: WarningHandler | None = None) -> list[ElementSet]:
     """Read a TLE/3LE/OMM file (format sniffed from its content)."""
+    from tle.textfile import ELEMENT_FILE_MAX_BYTES, read_text_file
+
     path = Path(path)
-    try:
-        data = path.read_bytes()
-    except OSError as e:
-        raise TleError(f"cannot read element file {path}: {e.strerror or e}") from None
-    try:
-        text = data.decode("utf-8-sig")
-    except UnicodeDecodeError as e:
-        raise TleFormatError(f"{path}: not a text file (byte {e.start} is not UTF-8); "
-                             "expected TLE/3LE or OMM JSON/CSV/XML", source=str(path)) from None
+    text = read_text_file(path, "element file", TleFormatError, ELEMENT_FILE_MAX_BYTES,
+                          "expected TLE/3LE or OMM JSON/CSV/XML")
     return parse_text(text, str(path), skip_bad, on_warning)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
 import warnings
 from collections.abc import Callable, Iterable, Mapping
 from datetime import datetime, timezone
@@ -33,6 +34,10 @@ _FLOAT_FIELDS = (
     "MEAN_MOTION", "ECCENTRICITY", "INCLINATION", "RA_OF_ASC_NODE", "ARG_OF_PERICENTER",
     "MEAN_ANOMALY", "BSTAR", "MEAN_MOTION_DOT", "MEAN_MOTION_DDOT",
 )
+# An orbit grazing the Earth's surface goes round about 17.8 times a day; more is no orbit.
+MAX_MEAN_MOTION_REV_DAY = 20.0
+# Element sets exist from Sputnik on; a TLE's two-digit year reaches 2056.
+EPOCH_YEARS = (1957, 2100)
 _INT_FIELDS = ("NORAD_CAT_ID", "EPHEMERIS_TYPE", "ELEMENT_SET_NO", "REV_AT_EPOCH")
 
 
@@ -64,9 +69,11 @@ def omm_to_element_set(record: Mapping[str, Any], source: str = "<string>",
     fields["EPOCH"] = _normalise_epoch(fields["EPOCH"])
     for key in _FLOAT_FIELDS:
         try:
-            float(fields[key])
+            value = float(fields[key])
         except ValueError:
             raise fault(f"{key} should be a number, found {fields[key]!r}") from None
+        if not math.isfinite(value):
+            raise fault(f"{key} should be a finite number, found {fields[key]!r}")
     for key in _INT_FIELDS:
         try:
             int(fields[key])
@@ -79,8 +86,12 @@ def omm_to_element_set(record: Mapping[str, Any], source: str = "<string>",
                     f"found {fields['EPOCH']!r}") from None
     if not 0.0 <= float(fields["ECCENTRICITY"]) < 1.0:
         raise fault(f"ECCENTRICITY must be in [0, 1), found {fields['ECCENTRICITY']}")
-    if float(fields["MEAN_MOTION"]) <= 0.0:
-        raise fault(f"MEAN_MOTION must be > 0 rev/day, found {fields['MEAN_MOTION']}")
+    if not 0.0 < float(fields["MEAN_MOTION"]) <= MAX_MEAN_MOTION_REV_DAY:
+        raise fault(f"MEAN_MOTION must be above 0 and at most {MAX_MEAN_MOTION_REV_DAY:g} "
+                    f"rev/day (an orbit above the ground), found {fields['MEAN_MOTION']}")
+    if not EPOCH_YEARS[0] <= epoch.year <= EPOCH_YEARS[1]:
+        raise fault(f"EPOCH year {epoch.year} is outside {EPOCH_YEARS[0]}-{EPOCH_YEARS[1]}; "
+                    f"element sets are dated from the first satellites on")
     norad_id = int(fields["NORAD_CAT_ID"])
     if not 0 < norad_id <= 999_999_999:
         raise fault(f"NORAD_CAT_ID must be a positive number, found {norad_id}")
@@ -116,6 +127,11 @@ def parse_omm_json(text: str, source: str = "<string>", skip_bad: bool = False,
         raise TleFormatError(f"{source}:{e.lineno}: not valid JSON ({e.msg}, column {e.colno}); "
                              "expected a list of OMM records", source=source,
                              line_no=e.lineno) from None
+    except RecursionError:
+        # json nests one Python call per [ or {: OMM records are flat, so this is garbage.
+        raise TleFormatError(f"{source}: JSON nested too deeply to be OMM records; expected "
+                             'a list of flat OMM objects (like [{"OBJECT_NAME": ...}])',
+                             source=source) from None
     if isinstance(data, dict):
         data = [data]
     if not isinstance(data, list) or not all(isinstance(item, dict) for item in data):

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tle.textfile import read_text_file
 from tracker.batchlib.distributed import find_passes_dask
 from tracker.batchlib.finder import (
     PASS_DTYPE,
@@ -49,6 +50,21 @@ def satrecs_of(elements: Iterable) -> tuple[list, list[str]]:
     """(Satrec list, name list) from ``tle`` ElementSets (anything with ``.satrec()``)."""
     elements = list(elements)
     return [e.satrec() for e in elements], [e.name for e in elements]
+
+
+def split_by_epoch(elements: Iterable, start_s: float, end_s: float) -> tuple[list, list]:
+    """(usable, too far): element sets whose epoch lies within
+    :data:`~tracker.targets.MAX_PROPAGATION_DAYS` of every time in ``[start_s, end_s]``, and
+    the rest (SGP4 far from the epoch gives passes that look real and are not)."""
+    from tracker.targets import MAX_PROPAGATION_DAYS
+
+    limit_s = MAX_PROPAGATION_DAYS * 86400.0
+    near, far = [], []
+    for es in elements:
+        epoch_s = es.epoch.timestamp()
+        ok = abs(start_s - epoch_s) <= limit_s and abs(end_s - epoch_s) <= limit_s
+        (near if ok else far).append(es)
+    return near, far
 
 
 def _station(path: Path, line_no: int, values: dict) -> Station:
@@ -115,13 +131,8 @@ def _load_toml(path: Path, text: str) -> list[Station]:
 def load_stations(path: str | Path) -> list[Station]:
     """Read a stations file (CSV or TOML by extension/content); names must be unique."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as e:
-        raise ConfigError(f"cannot read stations file {path}: {e.strerror}") from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"{path}: not a text file; a stations file is CSV or TOML"
-                          ) from None
+    text = read_text_file(path, "stations file", ConfigError,
+                          hint="a stations file is CSV or TOML")
     is_toml = path.suffix.lower() == ".toml" or "[[station]]" in text
     stations = _load_toml(path, text) if is_toml else _load_csv(path, text)
     if not stations:

@@ -173,14 +173,12 @@ def _read_toml(path: Path) -> dict:
         import tomllib
     else:  # pragma: no cover - Python 3.10
         import tomli as tomllib
+    from tle.textfile import read_text_file
+
+    text = read_text_file(path, "config file", ConfigError,
+                          hint="is this a TOML config file?")
     try:
-        data = path.read_bytes()
-    except OSError as e:
-        raise ConfigError(f"cannot read config file {path}: {e.strerror}") from e
-    try:
-        return tomllib.loads(data.decode("utf-8"))
-    except UnicodeDecodeError:
-        raise ConfigError(f"{path}: not UTF-8 text; is this a TOML config file?") from None
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise ConfigError(f"{path}: invalid TOML: {e}; see `tracker config init` for the "
                           f"format") from None

@@ -196,6 +196,7 @@ def _satellite_spans(target: SatelliteTarget, station: Station, t0: float, t1: f
 
     pad = min(max(target.period_s, 3600.0), 1.5 * DAY_S)
     s0, s1 = t0 - pad, t1 + pad
+    target.check_span(t0, t1)  # before find_events: far from the epoch it runs for minutes
     low = _lowest_horizon(station)
     times, events = target.satellite.find_events(
         station.topos(), time_from_posix(s0), time_from_posix(s1), altitude_degrees=low)

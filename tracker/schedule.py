@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tle.textfile import read_text_file
 from tracker.errors import ConfigError
 from tracker.mount import RotatorSpec
 
@@ -54,13 +55,8 @@ def parse_priorities(items: list[str], path: str | Path | None = None) -> dict[s
     sources: list[tuple[str, str]] = []
     if path is not None:
         path = Path(path)
-        try:
-            text = path.read_text()
-        except OSError as e:
-            raise ConfigError(f"cannot read priorities file {path}: {e.strerror}") from None
-        except UnicodeDecodeError:
-            raise ConfigError(f"{path}: not a text file; a priorities file has NAME=N "
-                              f"lines") from None
+        text = read_text_file(path, "priorities file", ConfigError,
+                              hint="a priorities file has NAME=N lines")
         for no, line in enumerate(text.splitlines(), 1):
             line = line.split("#", 1)[0].strip()
             if line:

@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tle.textfile import read_text_file
 from tracker.errors import ConfigError
 from tracker.skytrack import SkyTrack
 from tracker.station import Station
@@ -141,12 +142,7 @@ class ScheduleTarget:
     @classmethod
     def load(cls, path: str | Path) -> ScheduleTarget:
         path = Path(path)
-        try:
-            text = path.read_text()
-        except OSError as e:
-            raise ScheduleError(f"cannot read schedule file {path}: {e.strerror or e}") from e
-        except UnicodeDecodeError:
-            raise ScheduleError(f"{path}: not a text file; {FORMAT_HELP}") from None
+        text = read_text_file(path, "schedule file", ScheduleError, hint=FORMAT_HELP)
         return cls.from_text(text, path.stem, source=str(path), path=path)
 
     @classmethod

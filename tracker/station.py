@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tle.textfile import read_text_file
 from tracker.errors import ConfigError
 
 
@@ -43,13 +44,8 @@ class HorizonMask:
     def load(cls, path: str | Path) -> HorizonMask:
         """Read ``azimuth elevation`` pairs (space, tab or comma separated; ``#`` comments)."""
         path = Path(path)
-        try:
-            text = path.read_text()
-        except OSError as e:
-            raise ConfigError(f"cannot read horizon mask {path}: {e.strerror}") from e
-        except UnicodeDecodeError:
-            raise ConfigError(f"{path}: not a text file; a horizon mask is 'azimuth_deg "
-                              f"elevation_deg' per line") from None
+        text = read_text_file(path, "horizon mask", ConfigError,
+                              hint="a horizon mask is 'azimuth_deg elevation_deg' per line")
         points: dict[float, float] = {}
         for line_no, raw in enumerate(text.splitlines(), 1):
             line = raw.split("#", 1)[0].strip()

@@ -30,6 +30,7 @@ from typing import Protocol
 
 import numpy as np
 
+from tle.textfile import read_text_file
 from tracker.errors import ConfigError, LimitError
 from tracker.mount import AxisMotor, MotorModel, RotatorSpec
 from tracker.skytrack import azel_to_enu
@@ -780,16 +781,16 @@ class PlanFile:
     header: dict
 
 
+def read_plan_text(path: str | Path) -> str:
+    """The text of a plan file (a regular, bounded UTF-8 file; ConfigError otherwise)."""
+    return read_text_file(path, "plan file", ConfigError,
+                          hint="write a plan file with `tracker plan ... --steptable FILE`")
+
+
 def read_plan_file(path: str | Path) -> PlanFile:
     """Read a plan file back into tables (raises ConfigError naming file:line)."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as e:
-        raise ConfigError(f"cannot read plan file {path}: {e.strerror}") from e
-    except UnicodeDecodeError:
-        raise ConfigError(f"{path}: not a text file; write a plan file with "
-                          f"`tracker plan ... --steptable FILE`") from None
+    text = read_plan_text(path)
     header: dict = {}
     profile = None
     tables: list[StepTable] = []

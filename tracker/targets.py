@@ -70,6 +70,15 @@ def ephemeris_note() -> str | None:
             "(pip install skyfield-data)")
 
 
+# SGP4 mean elements describe an orbit near their epoch: LEO predictions drift by minutes
+# within weeks and mean nothing after a year (drag, manoeuvres), and far from the epoch (a
+# century) the model returns numbers that look like passes. Beyond this many days on either
+# side of the epoch a satellite is refused, before any work; the age warning of the catalogue
+# speaks up long before that.
+MAX_PROPAGATION_DAYS = 730.0
+_UNIX_EPOCH_JD = 2440587.5
+
+
 class SatelliteTarget:
     """An Earth satellite from an element set (a ``tle.ElementSet`` or skyfield EarthSatellite).
 
@@ -115,6 +124,35 @@ class SatelliteTarget:
         """True for SDP4 (period >= 225 min) orbits."""
         return self.period_s >= 225.0 * 60.0
 
+    @property
+    def epoch_s(self) -> float:
+        """The elements' epoch in UTC POSIX seconds."""
+        model = self.satellite.model
+        jd = float(model.jdsatepoch) - _UNIX_EPOCH_JD + float(model.jdsatepochF)
+        return jd * 86400.0
+
+    def check_span(self, t0_s: float, t1_s: float) -> None:
+        """Raise PropagationError if ``[t0_s, t1_s]`` reaches further than
+        :data:`MAX_PROPAGATION_DAYS` from the elements' epoch (in either direction)."""
+        from datetime import datetime, timezone
+
+        epoch_s = self.epoch_s
+        worst_s = t0_s if abs(t0_s - epoch_s) >= abs(t1_s - epoch_s) else t1_s
+        days = (worst_s - epoch_s) / 86400.0
+        if abs(days) <= MAX_PROPAGATION_DAYS:
+            return
+        epoch = datetime.fromtimestamp(epoch_s, timezone.utc).strftime("%Y-%m-%d %H:%M")
+        try:
+            when = datetime.fromtimestamp(worst_s, timezone.utc).strftime("%Y-%m-%d")
+        except (OverflowError, OSError, ValueError):
+            when = "the requested time"
+        side = "after" if days > 0 else "before"
+        raise PropagationError(
+            f"{self.name} (NORAD {self.norad_id}): {when} is {abs(days):,.0f} days {side} "
+            f"the elements' epoch ({epoch} UTC); SGP4 elements are only usable within "
+            f"{MAX_PROPAGATION_DAYS:.0f} days of their epoch: choose a time near the epoch "
+            f"or use elements from near that date (`tracker tle update` for current ones)")
+
     def _check(self, t, values: np.ndarray, position) -> None:
         bad = ~np.isfinite(values)
         if np.any(bad):
@@ -135,6 +173,8 @@ class SatelliteTarget:
         from tracker.timescale import time_from_posix
 
         t_s = np.atleast_1d(np.asarray(t_s, dtype=float))
+        if t_s.size:
+            self.check_span(float(t_s.min()), float(t_s.max()))
         t = time_from_posix(t_s)
         topos = station.topos()
         geocentric = self.satellite.at(t)
@@ -156,6 +196,8 @@ class SatelliteTarget:
         from tracker.timescale import time_from_posix
 
         t_s = np.atleast_1d(np.asarray(t_s, dtype=float))
+        if t_s.size:
+            self.check_span(float(t_s.min()), float(t_s.max()))
         t = time_from_posix(t_s)
         topos = station.topos()
         position = (self.satellite - topos).at(t)

@@ -13,11 +13,50 @@ on it, never on a simulation clock that may run 100x faster than the wire.
 from __future__ import annotations
 
 import socket
+import urllib.parse
 
 import serial
 
 from tracker.clock import Clock, SystemClock
-from tracker.errors import RotatorIOError
+from tracker.errors import ConfigError, RotatorIOError
+
+# Serial rates a port can be asked for: the slowest standard rate up to the fastest Linux
+# termios knows (B4000000); pyserial passes anything else through to a failing ioctl.
+BAUD_MIN = 50
+BAUD_MAX = 4_000_000
+_NETWORK_SCHEMES = ("socket", "rfc2217")
+
+
+def check_baud(baud: object, where: str = "--baud") -> int:
+    """``baud`` as an int if it is a serial rate a port can take, else ConfigError naming
+    ``where`` (the flag or config key it came from)."""
+    if isinstance(baud, bool) or not isinstance(baud, int) or not BAUD_MIN <= baud <= BAUD_MAX:
+        raise ConfigError(f"{where} {baud} is invalid; give a baud rate (a whole number) from "
+                          f"{BAUD_MIN} to {BAUD_MAX:,}, such as 9600 (the controller's setting)")
+    return baud
+
+
+def check_url(url: str) -> None:
+    """Refuse a network URL without a valid ``HOST:PORT`` (pyserial's own messages for these
+    are cryptic); device paths and other schemes are left to pyserial."""
+    scheme, sep, _rest = url.partition("://")
+    if not sep or scheme.lower() not in _NETWORK_SCHEMES:
+        return
+    parts = urllib.parse.urlsplit(url)
+    example = f"{scheme}://127.0.0.1:4533"
+    try:
+        port = parts.port
+    except ValueError:
+        port_text = parts.netloc.rpartition(":")[2]
+        raise ConfigError(f"{url!r}: port {port_text} is not a TCP port (1-65535); write "
+                          f"{example}") from None
+    if not parts.hostname:
+        raise ConfigError(f"{url!r} names no host; write {example}")
+    if port is None:
+        raise ConfigError(f"{url!r} names no port; write {scheme}://{parts.hostname}:PORT, "
+                          f"e.g. {example}")
+    if not 1 <= port <= 65535:
+        raise ConfigError(f"{url!r}: port {port} is not a TCP port (1-65535); write {example}")
 
 HANDLERS_PACKAGE = "tracker.serial_handlers"
 if HANDLERS_PACKAGE not in serial.protocol_handler_packages:
@@ -34,16 +73,19 @@ def is_emulated(url: str) -> bool:
 def open_port(url: str, baudrate: int = 9600, timeout_s: float = 1.0,
               write_timeout_s: float | None = 2.0, rtscts: bool = False,
               clock: Clock | None = None, **kwargs):
-    """Open ``url`` with :func:`serial.serial_for_url`; raises :class:`RotatorIOError`.
+    """Open ``url`` with :func:`serial.serial_for_url`; raises :class:`RotatorIOError`, or
+    :class:`ConfigError` for a malformed network URL or an impossible baud rate.
 
     ``clock``: the time an ``emu://`` controller runs on (ignored for real ports, which run
     on real time), normally the caller's simulation clock so both share one timeline."""
     if clock is not None and is_emulated(url):
         kwargs["clock"] = clock
+    check_url(url)
+    check_baud(baudrate, "baud rate")
     try:
         port = serial.serial_for_url(url, baudrate=baudrate, timeout=timeout_s,
                                      write_timeout=write_timeout_s, rtscts=rtscts, **kwargs)
-    except (serial.SerialException, OSError, ValueError) as e:
+    except (serial.SerialException, OSError, ValueError, OverflowError) as e:
         raise RotatorIOError(f"cannot open port {url!r}: {e}. Check the device path or URL "
                              f"(e.g. /dev/ttyUSB0, COM3, socket://127.0.0.1:4533, "
                              f"emu://gs232b)") from e

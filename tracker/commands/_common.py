@@ -91,14 +91,47 @@ def add_target_args(parser: argparse.ArgumentParser) -> None:
                    help="catalogue group (e.g. amateur, weather, stations, visual)")
 
 
+def check_baud_arg(args: argparse.Namespace) -> None:
+    """Refuse an impossible ``--baud`` (0, negative, beyond what a port takes) up front, so a
+    dry run or a simulation refuses it as the real port would."""
+    from tracker.transport import check_baud
+
+    baud = getattr(args, "baud", None)
+    if baud is not None:
+        check_baud(baud, "--baud")
+
+
+def check_number_arg(args: argparse.Namespace, dest: str, lo: float, hi: float,
+                     unit: str = "") -> None:
+    """Refuse ``args.<dest>`` unless it is a finite number in ``[lo, hi]`` (None = not
+    given, allowed); the message names the flag and the range."""
+    import math
+
+    value = getattr(args, dest, None)
+    if value is None:
+        return
+    if not (math.isfinite(value) and lo <= value <= hi):
+        flag = "--" + dest.replace("_", "-")
+        raise ConfigError(f"{flag} {value:g} is invalid; allowed: {lo:g} to {hi:g}"
+                          f"{' ' + unit if unit else ''}")
+
+
 def add_time_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--at", metavar="UTC",
                         help="run as of this UTC time instead of now, e.g. 2026-08-23T12:00Z")
 
 
+# Times a command may run "as of": the span of the JPL DE421 ephemeris (Sun, Moon) and far
+# wider than any element set reaches; also keeps window arithmetic clear of datetime's limits.
+AT_YEARS = (1900, 2100)
+
+
 def parse_utc(text: str) -> datetime:
-    """Parse an ISO-8601 time (``Z``/offset optional; no offset means UTC) to aware UTC."""
+    """Parse an ISO-8601 time (``Z``/offset optional; no offset means UTC) to aware UTC,
+    within :data:`AT_YEARS`."""
     raw = text.strip()
+    if not raw:
+        raise ConfigError("empty time; use ISO-8601 UTC such as 2026-08-23T12:00:00Z")
     s = raw.replace(" ", "T", 1) if "T" not in raw and " " in raw else raw
     if s.endswith(("Z", "z")):
         s = s[:-1] + "+00:00"
@@ -109,7 +142,13 @@ def parse_utc(text: str) -> datetime:
                           f"2026-08-23T12:00:00Z or '2026-08-23 12:00'") from None
     if t.tzinfo is None:
         t = t.replace(tzinfo=timezone.utc)
-    return t.astimezone(timezone.utc)
+    if not AT_YEARS[0] <= t.year <= AT_YEARS[1]:
+        raise ConfigError(f"the time {text!r} is outside {AT_YEARS[0]}-{AT_YEARS[1]}, the "
+                          f"years this tool can compute for; give a time in that range")
+    try:
+        return t.astimezone(timezone.utc)
+    except OverflowError:
+        raise ConfigError(f"the time {text!r} is out of range") from None
 
 
 def clock_from_args(args: argparse.Namespace, manual: bool = False) -> Clock:
@@ -122,7 +161,7 @@ def clock_from_args(args: argparse.Namespace, manual: bool = False) -> Clock:
     from tracker.clock import ManualClock, SimClock, SystemClock
 
     at = getattr(args, "at", None)
-    if not at:
+    if at is None:
         return SystemClock()
     start = parse_utc(at)
     return ManualClock(start) if manual else SimClock(start, speed=1.0)

@@ -19,6 +19,7 @@ from tracker.commands._common import (
     add_rotator_args,
     add_station_args,
     add_time_args,
+    check_number_arg,
     clock_from_args,
     rotator_from_args,
     station_from_args,
@@ -79,8 +80,11 @@ def load_elements(source: str) -> list:
         print(f"tracker: warning: {message}", file=sys.stderr)
 
     path = Path(source)
-    if path.is_file():
+    if path.exists() and not path.is_dir():  # special files: load_file says what is wrong
         sets = load_file(path, skip_bad=True, on_warning=warn)
+    elif path.is_dir() and (any(c in source for c in "/\\") or path.suffix):
+        raise ConfigError(f"{source} is a directory; give a TLE/3LE/OMM file or a group name "
+                          f"such as 'amateur'")
     elif any(c in source for c in "/\\") or path.suffix:
         raise ConfigError(f"cannot read {source}: no such file (or give a group name such as "
                           f"'amateur')")
@@ -92,6 +96,30 @@ def load_elements(source: str) -> list:
     return sets
 
 
+def usable_elements(elements: list, start, end) -> list:
+    """The element sets close enough to their epoch for the window; the others are named in
+    one note, and a window none of them reaches is an error."""
+    from tracker.batch import split_by_epoch
+    from tracker.errors import PropagationError
+    from tracker.targets import MAX_PROPAGATION_DAYS
+
+    near, far = split_by_epoch(elements, start.timestamp(), end.timestamp())
+    if not far:
+        return near
+    epochs = sorted(es.epoch for es in far)
+    span = f"epochs {epochs[0]:%Y-%m-%d} .. {epochs[-1]:%Y-%m-%d}"
+    if not near:
+        raise PropagationError(
+            f"the window {start:%Y-%m-%d} .. {end:%Y-%m-%d} is more than "
+            f"{MAX_PROPAGATION_DAYS:.0f} days from every element set's epoch ({span}); "
+            f"choose a time near the epochs or use elements from near that date")
+    names = ", ".join(es.name for es in far[:5]) + (" ..." if len(far) > 5 else "")
+    print(f"tracker: note: left out {len(far)} satellite(s) whose elements are more than "
+          f"{MAX_PROPAGATION_DAYS:.0f} days from the window ({span}): {names}",
+          file=sys.stderr)
+    return near
+
+
 def stations_from_args(args: argparse.Namespace) -> list:
     from tracker.batch import load_stations
 
@@ -101,7 +129,9 @@ def stations_from_args(args: argparse.Namespace) -> list:
 
 
 def find(args: argparse.Namespace, elements: list, stations: list):
-    """Run the finder (local or Dask) for the parsed options; returns (table, start)."""
+    """Run the finder (local or Dask) for the parsed options; returns (table, start).
+
+    Element sets too far from their epoch for the window are removed from ``elements``."""
     from tracker.batch import find_passes_batch, find_passes_dask, satrecs_of
     from tracker.errors import ConfigError
 
@@ -109,8 +139,11 @@ def find(args: argparse.Namespace, elements: list, stations: list):
         raise ConfigError(f"--days {args.days}: allowed more than 0 and at most 60")
     if not (1 <= args.workers <= 64):
         raise ConfigError(f"--workers {args.workers}: allowed 1 to 64")
+    check_number_arg(args, "min_max_el", 0.0, 90.0, "degrees")
     start = clock_from_args(args, manual=True).now()
     end = start + timedelta(days=args.days)
+    # In place: the table's satellite indices must index the caller's list too (plans_for).
+    elements[:] = usable_elements(elements, start, end)
     if args.dask is not None:
         table = find_passes_dask(elements, stations, start, end, args.min_el,
                                  address=args.dask or None, step_s=args.step)

@@ -67,6 +67,9 @@ def run(args: argparse.Namespace) -> int:
 
     if not (math.isfinite(args.speed) and args.speed > 0):
         raise ConfigError(f"--speed {args.speed} is invalid; use a finite number > 0")
+    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
+        raise ConfigError(f"--duration {args.duration:g} is invalid; use a number of seconds "
+                          f"> 0 (leave it out to run until Ctrl-C)")
     if args.tcp is not None and not 0 <= args.tcp <= 65535:
         raise ConfigError(f"--tcp {args.tcp} is invalid; use a TCP port 1..65535 (0 = any "
                           f"free port)")

@@ -1,7 +1,9 @@
 """``tracker next TARGET``: one line — the next AOS with a countdown, or "up now, LOS in ..".
 
 Exit code 0 when a pass (or the target being up) was found, 1 when there is no pass in the
-search window (``--days``, default 10), 2 for errors.
+search window (``--days``, default 10), 2 for errors. "No pass" is a normal answer (a GEO
+satellite never rising, a polar orbit from the wrong latitude), not bad input, so it keeps
+grep's convention — 1 "nothing found", 2 "trouble" — and scripts can tell the two apart.
 """
 
 from __future__ import annotations
@@ -23,7 +25,9 @@ from tracker.targets import event_labels
 def register(sub) -> None:
     p = sub.add_parser("next", help="when is the next pass of a target (one line)",
                        description="Print one line: the next AOS of TARGET with a countdown, "
-                                   "or 'up now, LOS in ...'.")
+                                   "or 'up now, LOS in ...'. Exit status: 0 a pass was "
+                                   "found, 1 no pass in the window (an answer, as grep "
+                                   "finding nothing; the line says so), 2 an error.")
     p.add_argument("target", metavar="TARGET", help='satellite name or NORAD id, or e.g. Sun')
     p.add_argument("--days", type=float, default=10.0, metavar="D",
                    help="how far ahead to search (default 10 days)")

@@ -86,6 +86,7 @@ def targets_from_args(args: argparse.Namespace, now: datetime) -> list:
 def warn_element_age(targets, now: datetime) -> None:
     """Element-age warnings on stderr: one line per target, or a summary for many."""
     from tle.catalog import age_warning
+    from tracker.targets import MAX_PROPAGATION_DAYS
 
     warnings = []
     oldest = 0.0
@@ -93,6 +94,8 @@ def warn_element_age(targets, now: datetime) -> None:
         es = getattr(t, "elements", None)
         if es is None or not hasattr(es, "age_days"):
             continue
+        if abs(es.age_days(now)) > MAX_PROPAGATION_DAYS:
+            continue  # refused when propagated, with its own line: no warning on top
         w = age_warning(es, now)
         if w:
             warnings.append(w)

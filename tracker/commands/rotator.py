@@ -8,6 +8,7 @@ import sys
 from tracker.commands._common import (
     add_rotator_args,
     add_station_args,
+    check_baud_arg,
     rotator_from_args,
     station_from_args,
 )
@@ -77,8 +78,10 @@ def run(args: argparse.Namespace) -> int:
     # for every protocol.
     if not (math.isfinite(args.timeout) and args.timeout > 0):
         raise ConfigError(f"--timeout {args.timeout} is invalid; use a number of seconds > 0")
-    if args.baud is not None and args.baud <= 0:
-        raise ConfigError(f"--baud {args.baud} is invalid; use a positive rate such as 9600")
+    check_baud_arg(args)
+    if args.action == "raw" and not args.cmd.isascii():
+        raise ConfigError(f"raw command {args.cmd!r} is not ASCII; controllers take ASCII "
+                          f"command lines such as C2")
     if args.action in ("sync", "unsync") and args.protocol.lower() not in AZAZ_PROTOCOLS:
         raise ConfigError(f"{args.action} is a GS-232B-AZ/AZ command; use --protocol "
                           f"gs232b-azaz (got {args.protocol})")

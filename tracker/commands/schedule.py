@@ -12,6 +12,7 @@ import argparse
 import sys
 import time
 
+from tracker.commands._common import check_number_arg
 from tracker.commands.batch import (
     add_batch_args,
     check_outputs,
@@ -46,6 +47,37 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
+# A pause between passes longer than an hour is no "settle" any more (and 1e12 s is a typo).
+MAX_SETTLE_S = 3600.0
+
+
+def check_priority_names(args: argparse.Namespace, elements: list) -> None:
+    """A ``--priority NAME=N`` must name a satellite of the catalogue (a typo would silently
+    leave the satellite at the default priority); names from a priorities file that match
+    nothing here only get a note (one file may serve several catalogues)."""
+    import difflib
+
+    from tracker.errors import ConfigError
+    from tracker.schedule import parse_priorities
+
+    known = {es.name.strip().lower(): es.name for es in elements}
+    for item in args.priority:
+        name = next(iter(parse_priorities([item])))
+        if name in known:
+            continue
+        close = difflib.get_close_matches(name, list(known), n=3)
+        hint = (f"; did you mean {', '.join(repr(known[c]) for c in close)}?" if close else
+                "; give the full name as `tracker passes` shows it")
+        raise ConfigError(f"--priority {item}: no satellite named {name!r} in "
+                          f"{args.source}{hint}")
+    if args.priorities:
+        unknown = sorted(set(parse_priorities([], args.priorities)) - set(known))
+        if unknown:
+            print(f"tracker: note: {args.priorities} names {len(unknown)} satellite(s) not in "
+                  f"{args.source}: {', '.join(unknown[:5])}{' ...' if len(unknown) > 5 else ''}",
+                  file=sys.stderr)
+
+
 def run(args: argparse.Namespace) -> int:
     from tracker.errors import ConfigError
     from tracker.export import pass_records, render
@@ -53,8 +85,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.default_priority < 0:
         raise ConfigError("--default-priority must be 0 or more")
-    if args.settle < 0:
-        raise ConfigError("--settle must be 0 or more seconds")
+    check_number_arg(args, "settle", 0.0, MAX_SETTLE_S, "seconds")
     priorities = parse_priorities(args.priority, args.priorities)
     check_outputs(args)
     t0 = time.perf_counter()
@@ -64,6 +95,7 @@ def run(args: argparse.Namespace) -> int:
                           f"{len(stations)} ({', '.join(s.name for s in stations[:5])}...); "
                           f"give a file with one station or use --station/--lat/--lon")
     elements = load_elements(args.source)
+    check_priority_names(args, elements)
     table, start = find(args, elements, stations)
     if not args.rotator:
         args.rotator = None

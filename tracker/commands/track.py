@@ -32,6 +32,7 @@ from tracker.commands._common import (
     add_station_args,
     add_target_args,
     add_time_args,
+    check_baud_arg,
     config_from_args,
     parse_utc,
     station_from_args,
@@ -110,7 +111,7 @@ def register(sub) -> None:
 
 def _start_time(args, target, demo: bool) -> tuple[datetime, str]:
     """Where the search for the next pass starts, and a note if the demo moved it."""
-    if args.at:
+    if args.at is not None:
         return parse_utc(args.at), ""
     now = datetime.now(timezone.utc)  # CLI boundary: the only place the real time is read
     elements = getattr(target, "elements", None)
@@ -430,6 +431,7 @@ def run(args: argparse.Namespace) -> int:
     from tracker.stream import Link
     from tracker.trackui import Fanout, JsonLinesLog, PlainLines, RichPanel
 
+    check_baud_arg(args)
     if args.passes < 0:
         raise ConfigError(f"--passes {args.passes} is invalid; use 1 or more, or 0 for "
                           f"'until Ctrl-C'")
@@ -476,7 +478,7 @@ def run(args: argparse.Namespace) -> int:
     notes = [note for _s, note in starts if note]
     for a in ants:
         a.first = _next_pass(a.target, station, start.timestamp())
-    simulated = demo or bool(args.at)
+    simulated = demo or args.at is not None
     emulated = demo or is_emulated(port)
     # Virtual time: the loops and an in-process emulator on one clock that moves only when
     # every loop waits (LockstepClock); every wait is a jump of the clock.

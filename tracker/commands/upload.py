@@ -16,6 +16,7 @@ from tracker.commands._common import (
     add_station_args,
     add_target_args,
     add_time_args,
+    check_baud_arg,
     clock_from_args,
     rotator_from_args,
     station_from_args,
@@ -116,10 +117,12 @@ def run(args: argparse.Namespace) -> int:
         check_tables_fit,
         format_plan_file,
         read_plan_file,
+        read_plan_text,
         table_profile,
     )
     from tracker.upload import resume_schedule
 
+    check_baud_arg(args)
     if args.from_file and not args.protocol:
         args.protocol = read_plan_file(args.from_file).header.get("profile") or "gs232b"
     args.protocol = args.protocol or "gs232b"
@@ -136,7 +139,7 @@ def run(args: argparse.Namespace) -> int:
             raise ConfigError(f"{args.from_file} was written for {plan.header['profile']}, "
                               f"not {args.protocol}")
         if args.dry_run:
-            sys.stdout.write(open(args.from_file).read())
+            sys.stdout.write(read_plan_text(args.from_file))
             return 0
         now = clock.timestamp() if not simulate else tables[0].upload_t_s - 1.0
         if args.port and tables[0].start_t_s < now:
