@@ -84,7 +84,9 @@ def test_read_back_lags_the_command(rig):
     with rig.driver() as d:
         d.goto(400, 0)
         az, _ = d.position()
+        assert rig.seen(b"W400 000")      # the move was received, so the lag is the motor's
         assert 0.0 <= az < 400.0          # the motor model's rate shows on the wire
+        assert wait_until(lambda: rig.ctrl.antenna()[0] > az, 5)   # and it is moving there
 
 
 def test_stop_halts_motion_and_exit_sends_stop(rig):

@@ -344,7 +344,9 @@ def test_jam_over_the_wire_the_antenna_does_not_move(bench):
     b = bench(["jam=az@0"], speed=20.0)
     d = b.driver()
     d.goto(200, 45)
-    time.sleep(0.5)                                  # 10 s simulated: ~60 deg if free
+    assert wait_until(lambda: b"W200 045" in [c for _t, c, _r in b.ctrl.log], 2)
+    t0 = b.clock.monotonic()
+    assert wait_until(lambda: b.clock.monotonic() - t0 > 10.0, 3)   # ~60 deg if free
     assert d.position() == (123.0, 45.0)
 
 
