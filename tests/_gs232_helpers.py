@@ -12,6 +12,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 T0 = "2026-08-23T12:00:00+00:00"
+# The suite's one time constant: how long a test polls for an effect before failing. It only
+# bounds a failure; a passing test ends as soon as its condition holds.
+WAIT_S = 10.0
+# Simulated-motor speed of the real-I/O tier where the rate is not the subject.
+SPEED = 150.0
 TRANSCRIPTS = Path(__file__).parent / "data" / "transcripts"
 
 
@@ -116,7 +121,7 @@ class RawPeer:
             os.close(self._slave)
 
 
-def wait_until(pred, timeout_s: float = 5.0, step_s: float = 0.02) -> bool:
+def wait_until(pred, timeout_s: float = WAIT_S, step_s: float = 0.01) -> bool:
     end = time.monotonic() + timeout_s
     while time.monotonic() < end:
         if pred():
