@@ -5,9 +5,12 @@ and ``tracker emulate`` as a real subprocess. The fixtures that build them are i
 from __future__ import annotations
 
 import os
+import shutil
 import signal
+import socket
 import subprocess
 import sys
+import time
 from datetime import datetime
 
 import pytest
@@ -116,3 +119,41 @@ class EmulateProcess:
         self.proc.stderr.close()
         self.returncode = self.proc.returncode
         return self.proc.returncode, out, err
+
+
+ROTCTLD = shutil.which("rotctld")
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def start_rotctld(*args: str) -> tuple[subprocess.Popen, int]:
+    """Hamlib ``rotctld ARGS`` on a free 127.0.0.1 port; returns once it accepts."""
+    for _attempt in range(3):
+        port = free_port()
+        proc = subprocess.Popen([ROTCTLD, *args, "-T", "127.0.0.1", "-t", str(port)],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        end = time.monotonic() + WAIT_S
+        while time.monotonic() < end and proc.poll() is None:
+            try:
+                socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
+                return proc, port
+            except OSError:
+                time.sleep(0.02)
+        proc.kill()
+        proc.wait()
+    raise RuntimeError(f"rotctld {args} did not start listening")
+
+
+def stop_process(proc: subprocess.Popen) -> None:
+    """SIGTERM, then wait (SIGKILL only if it will not end)."""
+    if proc.poll() is None:
+        proc.terminate()
+    try:
+        proc.wait(WAIT_S)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
