@@ -128,3 +128,17 @@ def wait_until(pred, timeout_s: float = WAIT_S, step_s: float = 0.01) -> bool:
             return True
         time.sleep(step_s)
     return pred()
+
+
+def advance_until(clock, pred, step_s: float = 1.0, timeout_s: float = WAIT_S) -> bool:
+    """Like :func:`wait_until`, but jump the SimClock ``step_s`` simulated seconds forward
+    between polls: for waits on the emulated motors that are not what a test is about. The
+    motor model runs on simulated time, so a jump is the same slew seen sooner. Only once the
+    controller has the command: a jump before it arrives would delay the start in simulated
+    time (and put an open-loop estimate off)."""
+    def check() -> bool:
+        if pred():
+            return True
+        clock.skip(step_s)
+        return False
+    return wait_until(check, timeout_s)

@@ -9,7 +9,7 @@ import time
 from datetime import datetime
 
 import pytest
-from _gs232_helpers import T0, RawPeer, wait_until
+from _gs232_helpers import T0, RawPeer, advance_until, wait_until
 from _rigs import ROTCTLD, start_rotctld
 
 from tracker.clock import SimClock
@@ -115,7 +115,9 @@ def test_three_party_chain_to_the_gs232b_emulator():
     try:
         with open_driver(f"rotctld://127.0.0.1:{port}", "rotctld", timeout_s=5) as drv:
             drv.goto(180, 45)
-            assert wait_until(lambda: ctrl.antenna() == (180.0, 45.0), 15), ctrl.antenna()
+            assert wait_until(lambda: any(c == b"W180 045" for _t, c, _r in ctrl.log))
+            assert advance_until(clock, lambda: ctrl.antenna() == (180.0, 45.0)), \
+                ctrl.antenna()
             assert drv.position() == (180.0, 45.0)
             drv.goto(20, 10)
             assert wait_until(ctrl.moving, 5)
@@ -163,7 +165,7 @@ def test_tracker_track_through_rotctld_to_the_gs232b_emulator(tmp_path, capsys, 
 
     from tracker.cli import main
 
-    speed = 50.0      # rotctld paces its GS-232B backend in real time (50 ms per write)
+    speed = 100.0     # rotctld paces its GS-232B backend in real time (50 ms per write)
     clock = SimClock(datetime.fromisoformat("2026-08-23T02:06:05+00:00"), speed=speed)
     ctrl = Gs232Controller("gs232b", preset("G-5500"), clock)
     server = serve_pty(ctrl)
