@@ -6,7 +6,7 @@ from __future__ import annotations
 from datetime import datetime
 
 import pytest
-from _gs232_helpers import T0, wait_until
+from _gs232_helpers import T0, advance_until, wait_until
 
 from tracker.clock import ManualClock
 from tracker.emulator.sak232_controller import ZELPRO_RAU, Sak232Controller, Sak232Options
@@ -35,10 +35,16 @@ def test_driver_moves_the_antenna_and_estimate_follows(emulated_rig):
                      rate_deg_s=ZELPRO_RAU.az_rate_deg_s) as drv:
         assert not drv.capabilities.has_position_query
         drv.goto(90)
-        assert wait_until(lambda: not ctrl.moving() and abs(ctrl.antenna() - 90) < 0.5, 10)
+        # once the controller has the command, the slew is seen sooner by jumping the shared
+        # clock: the driver's estimate and the emulated motor both run on it
+        assert wait_until(lambda: len(ctrl.log) == 1)
+        assert advance_until(clock, lambda: not ctrl.moving()
+                             and abs(ctrl.antenna() - 90) < 0.5)
         assert drv.position()[0] == pytest.approx(ctrl.antenna(), abs=1.0)
         drv.move_relative(-45)
-        assert wait_until(lambda: not ctrl.moving() and abs(ctrl.antenna() - 45) < 0.5, 10)
+        assert wait_until(lambda: len(ctrl.log) == 2)
+        assert advance_until(clock, lambda: not ctrl.moving()
+                             and abs(ctrl.antenna() - 45) < 0.5)
         assert drv.position()[0] == pytest.approx(45.0, abs=1.0)
         drv.orient(200)                   # calibrate: this heading is 200
         assert wait_until(lambda: ctrl.antenna() == pytest.approx(200.0), 5)
