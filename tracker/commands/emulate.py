@@ -104,13 +104,14 @@ def run(args: argparse.Namespace) -> int:
             import tempfile
             link = os.path.join(tempfile.mkdtemp(prefix="tracker-emu-"), "ttyEMU0")
         server = serve_pty(ctrl, link=link)
-    print(server.url, flush=True)
+    # handlers first: whoever reads the port line may signal at once
+    stop = threading.Event()
+    restore = _stop_on_signals(stop)
     tty = sys.stdout.isatty()
     started = time.monotonic()
     last = ""
-    stop = threading.Event()
-    restore = _stop_on_signals(stop)
     try:
+        print(server.url, flush=True)
         while not stop.is_set():
             line = ctrl.status_line()
             if tty:
