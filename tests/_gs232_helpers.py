@@ -12,6 +12,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 T0 = "2026-08-23T12:00:00+00:00"
+# The suite's one time constant: how long a test polls for an effect before failing. It only
+# bounds a failure; a passing test ends as soon as its condition holds.
+WAIT_S = 10.0
+# Simulated-motor speed of the real-I/O tier where the rate is not the subject.
+SPEED = 150.0
 TRANSCRIPTS = Path(__file__).parent / "data" / "transcripts"
 
 
@@ -116,10 +121,24 @@ class RawPeer:
             os.close(self._slave)
 
 
-def wait_until(pred, timeout_s: float = 5.0, step_s: float = 0.02) -> bool:
+def wait_until(pred, timeout_s: float = WAIT_S, step_s: float = 0.01) -> bool:
     end = time.monotonic() + timeout_s
     while time.monotonic() < end:
         if pred():
             return True
         time.sleep(step_s)
     return pred()
+
+
+def advance_until(clock, pred, step_s: float = 1.0, timeout_s: float = WAIT_S) -> bool:
+    """Like :func:`wait_until`, but jump the SimClock ``step_s`` simulated seconds forward
+    between polls: for waits on the emulated motors that are not what a test is about. The
+    motor model runs on simulated time, so a jump is the same slew seen sooner. Only once the
+    controller has the command: a jump before it arrives would delay the start in simulated
+    time (and put an open-loop estimate off)."""
+    def check() -> bool:
+        if pred():
+            return True
+        clock.skip(step_s)
+        return False
+    return wait_until(check, timeout_s)

@@ -9,22 +9,18 @@ from datetime import datetime
 import pytest
 from _gs232_helpers import T0, wait_until
 
-from tracker.clock import ManualClock, SimClock
-from tracker.emulator import serve_pty, serve_tcp
+from tracker.clock import ManualClock
 from tracker.emulator.azaz_controller import AzAzController
 from tracker.errors import LimitError
 from tracker.protocols import open_driver
 from tracker.protocols.azaz import AzAzDriver  # registers gs232b-azaz, gs232b-azaz2
 
 
-@pytest.fixture(params=["pty", "tcp"])
-def served(request):
-    clock = SimClock(datetime.fromisoformat(T0), speed=120.0)
-    ctrl = AzAzController(clock=clock)
-    server = serve_pty(ctrl) if request.param == "pty" else serve_tcp(ctrl)
-    yield ctrl, server, clock
-    server.close()
-    assert server.closed and not server.thread.is_alive()
+@pytest.fixture
+def served(emulated_rig):
+    """(controller, server, clock) on a real pty and a real TCP socket, leak-checked."""
+    rig = emulated_rig("gs232b-azaz", 120.0)
+    return rig.ctrl, rig.server, rig.clock
 
 
 def _cmds(ctrl):

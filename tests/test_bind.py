@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import re
 import socket
-import subprocess
-import sys
 from datetime import datetime
 from pathlib import Path
 
@@ -97,14 +95,11 @@ def test_reopened_listener_after_a_disconnect_fault_is_still_loopback():
         server.close()
 
 
-def test_emulate_cli_binds_loopback_unless_told():
+def test_emulate_cli_binds_loopback_unless_told(emulate):
     def first_line(*extra):
-        proc = subprocess.Popen([sys.executable, "-m", "tracker", "emulate", "--tcp", "0",
-                                 "--duration", "0.5", *extra], stdout=subprocess.PIPE,
-                                stderr=subprocess.PIPE, text=True)
-        line = proc.stdout.readline().strip()
-        proc.communicate(timeout=20)
-        return line
+        p = emulate("--tcp", "0", *extra)
+        assert p.stop()[0] == 0
+        return p.url
     assert first_line().startswith("socket://127.0.0.1:")
     assert first_line("--bind", "0.0.0.0").startswith("socket://0.0.0.0:")   # user's choice
 

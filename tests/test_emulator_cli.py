@@ -4,8 +4,6 @@ another (or in-process), over a real pty and a real TCP socket."""
 from __future__ import annotations
 
 import signal
-import subprocess
-import sys
 import time
 
 import pytest
@@ -13,13 +11,10 @@ import pytest
 from tracker.cli import main
 
 
-def start_emulator(*extra: str) -> tuple[subprocess.Popen, str]:
-    proc = subprocess.Popen([sys.executable, "-m", "tracker", "emulate", "--speed", "100",
-                             "--duration", "30", *extra],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    url = proc.stdout.readline().strip()
-    assert url.startswith(("/dev/pts/", "socket://")), (url, proc.stderr.read())
-    return proc, url
+def start_emulator(emulate, *extra: str):
+    p = emulate("--speed", "100", *extra)
+    assert p.url.startswith(("/dev/pts/", "socket://")), (p.url, p.stop())
+    return p
 
 
 def poll_position(url: str, capsys, want: str, timeout_s: float = 10.0) -> str:
@@ -30,42 +25,42 @@ def poll_position(url: str, capsys, want: str, timeout_s: float = 10.0) -> str:
         out = capsys.readouterr().out.strip()
         if out == want:
             break
-        time.sleep(0.1)
+        time.sleep(0.02)
     return out
 
 
 @pytest.mark.parametrize("where", [["--pty"], ["--tcp", "0"]], ids=["pty", "tcp"])
-def test_emulate_and_rotator_goto_moves_the_antenna(where, capsys):
-    proc, url = start_emulator("--protocol", "gs232b", *where)
-    try:
-        assert main(["rotator", "--port", url, "goto", "270", "30"]) == 0
-        assert poll_position(url, capsys, "270 30") == "270 30"
-        assert main(["rotator", "--port", url, "park"]) == 0
-        assert main(["rotator", "--port", url, "stop"]) == 0
-        assert main(["rotator", "--port", url, "raw", "Q"]) == 0
-        assert capsys.readouterr().out.strip() == repr(b"?>\r\n")
-    finally:
-        proc.send_signal(signal.SIGINT)
-        proc.wait(timeout=10)
-        # not communicate(): it bypasses what readline() already buffered
-        out, err = proc.stdout.read(), proc.stderr.read()
-    proc.stdout.close()
-    proc.stderr.close()
-    assert proc.returncode == 0 and "Traceback" not in err, err
+def test_emulate_and_rotator_goto_moves_the_antenna(where, emulate, capsys):
+    p = start_emulator(emulate, "--protocol", "gs232b", *where)
+    url = p.url
+    assert main(["rotator", "--port", url, "goto", "270", "30"]) == 0
+    assert poll_position(url, capsys, "270 30") == "270 30"
+    assert main(["rotator", "--port", url, "park"]) == 0
+    assert main(["rotator", "--port", url, "stop"]) == 0
+    assert main(["rotator", "--port", url, "raw", "Q"]) == 0
+    assert capsys.readouterr().out.strip() == repr(b"?>\r\n")
+    rc, out, err = p.stop()
+    assert rc == 0 and "Traceback" not in err, err
     assert "gs232b  az" in out, (out, err)          # plain status lines when stdout is not a TTY
 
 
-def test_emulate_k3ng_over_tcp(capsys):
-    proc, url = start_emulator("--protocol", "k3ng", "--tcp", "0")
-    try:
-        assert main(["rotator", "--port", url, "--protocol", "k3ng", "goto", "90", "10"]) == 0
-        assert poll_position(url, capsys, "90 10") == "90 10"
-    finally:
-        proc.send_signal(signal.SIGINT)
-        proc.wait(timeout=10)
-        proc.stdout.close()
-        proc.stderr.close()
-    assert proc.returncode == 0
+def test_emulate_k3ng_over_tcp(emulate, capsys):
+    url = start_emulator(emulate, "--protocol", "k3ng", "--tcp", "0").url
+    assert main(["rotator", "--port", url, "--protocol", "k3ng", "goto", "90", "10"]) == 0
+    assert poll_position(url, capsys, "90 10") == "90 10"
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP], ids=["SIGTERM", "SIGHUP"])
+def test_emulate_ends_cleanly_on_sigterm_and_sighup_even_with_sigint_ignored(emulate, sig):
+    # started as from the background of a non-interactive shell: SIGINT inherited as ignored
+    p = emulate("--tcp", "0", "--fault", "jam=az@0",
+                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    assert p.url.startswith("socket://127.0.0.1:"), p.url
+    assert "gs232b  az" in p.readline()           # serving: the first status line
+    p.proc.send_signal(signal.SIGINT)               # ignored, as in such a shell
+    rc, out, err = p.stop(sig)
+    assert rc == 0 and err == "", err
+    assert "faults: " in out and "jam_events 1" in out   # the summary of a clean end
 
 
 @pytest.mark.parametrize(("argv", "message"), [
@@ -92,18 +87,12 @@ def test_cli_errors_are_one_line_exit_2(argv, message, capsys):
     assert message in err and err.count("\n") == 1 and "Traceback" not in err
 
 
-def test_goto_out_of_range_sends_nothing(capsys):
-    proc, url = start_emulator("--tcp", "0")
-    try:
-        assert main(["rotator", "--port", url, "goto", "451", "0"]) == 2
-        assert "azimuth 451 is outside the limits" in capsys.readouterr().err
-        assert main(["rotator", "--port", url, "position"]) == 0
-        assert capsys.readouterr().out.strip() == "0 0"
-    finally:
-        proc.send_signal(signal.SIGINT)
-        proc.wait(timeout=10)
-        proc.stdout.close()
-        proc.stderr.close()
+def test_goto_out_of_range_sends_nothing(emulate, capsys):
+    url = start_emulator(emulate, "--tcp", "0").url
+    assert main(["rotator", "--port", url, "goto", "451", "0"]) == 2
+    assert "azimuth 451 is outside the limits" in capsys.readouterr().err
+    assert main(["rotator", "--port", url, "position"]) == 0
+    assert capsys.readouterr().out.strip() == "0 0"
 
 
 def test_rotator_timeout_is_reported(capsys):

@@ -380,6 +380,7 @@ def test_jam_over_the_wire_the_antenna_does_not_move(bench):
     b = bench(["jam=az@0"])
     d = b.driver()
     d.goto(200, 45)
+    assert b"W200 045" in [c for _t, c, _r in b.ctrl.log]   # the controller has the move
     b.clock.sleep(10.0)                              # ~60 deg if free
     assert d.position() == (123.0, 45.0)
 
@@ -500,59 +501,44 @@ def test_el_jam_on_an_azimuth_only_rotator_is_counted_not_fatal():
 
 
 @pytest.mark.slow
-def test_cli_emulate_with_faults_end_to_end(capsys):
+def test_cli_emulate_with_faults_end_to_end(emulate, capsys):
     """``tracker emulate --fault ...`` in one process, ``tracker rotator`` in this one: the
     silent window is a one-line error with exit 2, then the port answers again; a pty with a
     disconnect fault is served behind a stable link that comes back."""
-    import subprocess
-    import sys
-
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "tracker", "emulate", "--pty", "--duration", "6",
-         "--fault", "silent=1.5@0", "--fault", "disconnect=1@2", "--fault-seed", "3"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        url = proc.stdout.readline().strip()
-        assert url.endswith("/ttyEMU0"), url               # the stable link, not /dev/pts/N
-        args = ["rotator", "--port", url, "--timeout", "0.2", "position"]
-        assert main(args) == 2
-        err = capsys.readouterr().err
-        assert err.startswith("tracker: error: no reply to C2") and "Traceback" not in err
-        assert wait_until(lambda: main(args) == 0, 3)          # silent window over
-        assert wait_until(lambda: main(args) == 2, 3)          # unplugged at t=2 s
-        assert wait_until(lambda: main(args) == 0, 4)          # back at t=3 s, same path
-        capsys.readouterr()
-    finally:
-        out, _ = proc.communicate(timeout=20)
-    assert proc.returncode == 0
+    p = emulate("--pty", "--fault", "silent=1.5@0", "--fault", "disconnect=1@2",
+                "--fault-seed", "3")
+    url = p.url
+    assert url.endswith("/ttyEMU0"), url               # the stable link, not /dev/pts/N
+    args = ["rotator", "--port", url, "--timeout", "0.2", "position"]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("tracker: error: no reply to C2") and "Traceback" not in err
+    assert wait_until(lambda: main(args) == 0, 3)          # silent window over
+    assert wait_until(lambda: main(args) == 2, 3)          # unplugged at t=2 s
+    assert wait_until(lambda: main(args) == 0, 4)          # back at t=3 s, same path
+    capsys.readouterr()
+    rc, out, _ = p.stop()
+    assert rc == 0
     assert "faults: " in out and "silent_events 1" in out and "disconnect_events 1" in out
 
 
 @pytest.mark.slow
-def test_cli_emulate_tcp_with_faults_end_to_end(capsys):
+def test_cli_emulate_tcp_with_faults_end_to_end(emulate, capsys):
     """``tracker emulate --protocol gs232b --tcp 0 --fault ...``: the port closes for the
     disconnect window (a one-line error, exit 2), then listens again on the same port; a jam
     keeps the antenna where it is although a move was commanded."""
-    import subprocess
-    import sys
-
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "tracker", "emulate", "--protocol", "gs232b", "--tcp", "0",
-         "--duration", "8", "--fault", "jam=az@0", "--fault", "disconnect=1.5@3"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        url = proc.stdout.readline().strip()
-        assert url.startswith("socket://127.0.0.1:"), url
-        pos = ["rotator", "--port", url, "--timeout", "0.3", "position"]
-        assert main(["rotator", "--port", url, "--timeout", "0.3", "goto", "200", "10"]) == 0
-        assert wait_until(lambda: main(pos) == 2, 5)           # port closed at t=3 s
-        err = capsys.readouterr().err
-        assert err.startswith("tracker: error: ") and "Traceback" not in err
-        assert wait_until(lambda: main(pos) == 0, 5)           # listening again, same port
-        az, el = (float(v) for v in capsys.readouterr().out.split()[-2:])
-        assert az == 0 and el > 0, (az, el)     # azimuth jammed; elevation obeyed the goto
-    finally:
-        out, _ = proc.communicate(timeout=20)
-    assert proc.returncode == 0
+    p = emulate("--protocol", "gs232b", "--tcp", "0", "--fault", "jam=az@0",
+                "--fault", "disconnect=1.5@3")
+    url = p.url
+    assert url.startswith("socket://127.0.0.1:"), url
+    pos = ["rotator", "--port", url, "--timeout", "0.3", "position"]
+    assert main(["rotator", "--port", url, "--timeout", "0.3", "goto", "200", "10"]) == 0
+    assert wait_until(lambda: main(pos) == 2, 5)           # port closed at t=3 s
+    err = capsys.readouterr().err
+    assert err.startswith("tracker: error: ") and "Traceback" not in err
+    assert wait_until(lambda: main(pos) == 0, 5)           # listening again, same port
+    az, el = (float(v) for v in capsys.readouterr().out.split()[-2:])
+    assert az == 0 and el > 0, (az, el)     # azimuth jammed; elevation obeyed the goto
+    rc, out, _ = p.stop()
+    assert rc == 0
     assert "jam_events 1" in out and "disconnect_events 1" in out
-

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+import math
 from functools import lru_cache
 from pathlib import Path
 
@@ -35,11 +37,45 @@ def assert_safe(plan: MountPlan, station: Station = STATION) -> None:
         assert np.all(plan.cmd_el_deg >= spec.el_min_deg)
         assert np.all(plan.cmd_el_deg <= spec.el_max_deg)
         assert boresight_horizon_ok(spec, station, plan.cmd_az_deg, plan.cmd_el_deg).all()
+        for az, el in zip(plan.cmd_az_deg, plan.cmd_el_deg, strict=True):
+            assert above_mask_by_hand(spec, station, float(az), float(el)), (az, el)
     for move in plan.preposition_moves + plan.park_moves:
         assert 0 <= move.az_deg <= spec.az_span_deg
         if spec.has_elevation:
             assert boresight_horizon_ok(spec, station, move.az_deg, move.el_deg)
+            assert above_mask_by_hand(spec, station, move.az_deg, move.el_deg), move
     assert moves_clear_the_mask(plan, station)
+
+
+def mask_el_by_hand(station: Station, bearing_deg: float) -> float:
+    """The station's minimum elevation at a true bearing, by walking the mask's segments
+    (an oracle independent of ``HorizonMask.min_el_at`` and ``Station.horizon_at``)."""
+    floor = station.min_el_deg
+    mask = station.mask
+    if mask is None:
+        return floor
+    pts = list(zip(mask.az_deg, mask.min_el_deg, strict=True))
+    pts = [(pts[-1][0] - 360.0, pts[-1][1]), *pts, (pts[0][0] + 360.0, pts[0][1])]
+    b = bearing_deg % 360.0
+    for (a0, e0), (a1, e1) in itertools.pairwise(pts):
+        if a0 <= b <= a1:
+            return max(floor, e0 + (e1 - e0) * (b - a0) / (a1 - a0))
+    raise AssertionError(f"bearing {b} outside the mask's segments")
+
+
+def above_mask_by_hand(spec, station: Station, m_az_deg: float, el_deg: float) -> bool:
+    """Whether the boresight of a mount at (mechanical az, el) is at or above the mask:
+    the look direction is taken from the boresight's unit vector (so an elevation over 90
+    folds over the top without any special case), not from the planner's geometry."""
+    bearing = math.radians(m_az_deg + spec.stop_bearing_deg)
+    el = math.radians(el_deg)
+    east, north, up = (math.cos(el) * math.sin(bearing), math.cos(el) * math.cos(bearing),
+                       math.sin(el))
+    look_el = math.degrees(math.asin(max(-1.0, min(1.0, up))))
+    look_b = math.degrees(math.atan2(east, north)) % 360.0
+    if math.hypot(east, north) < 1e-12:       # straight up: every bearing, and it is clear
+        return True
+    return look_el >= mask_el_by_hand(station, look_b) - 1e-6
 
 
 def moves_clear_the_mask(plan: MountPlan, station: Station) -> bool:

@@ -5,14 +5,12 @@ GS-232B emulator (the emulated antenna really moves)."""
 from __future__ import annotations
 
 import os
-import shutil
-import socket
-import subprocess
 import time
 from datetime import datetime
 
 import pytest
-from _gs232_helpers import T0, RawPeer, wait_until
+from _gs232_helpers import T0, RawPeer, advance_until, wait_until
+from _rigs import ROTCTLD, start_rotctld
 
 from tracker.clock import SimClock
 from tracker.emulator import Gs232Controller, serve_pty
@@ -20,8 +18,6 @@ from tracker.errors import ConfigError, LimitError, ProtocolError, RotatorTimeou
 from tracker.mount import preset
 from tracker.protocols import open_driver
 from tracker.protocols.rotctld import rotctld_url, rprt_error  # registers "rotctld"
-
-ROTCTLD = shutil.which("rotctld")
 
 
 def test_url_forms_and_rprt_mapping():
@@ -73,27 +69,7 @@ if ROTCTLD is None and os.environ.get("CI", "").lower() == "true":
 needs_hamlib = pytest.mark.skipif(ROTCTLD is None, reason="Hamlib rotctld not installed")
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def _start_rotctld(*args: str) -> tuple[subprocess.Popen, int]:
-    for _attempt in range(3):
-        port = _free_port()
-        proc = subprocess.Popen([ROTCTLD, *args, "-T", "127.0.0.1", "-t", str(port)],
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        end = time.monotonic() + 5
-        while time.monotonic() < end and proc.poll() is None:
-            try:
-                socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
-                return proc, port
-            except OSError:
-                time.sleep(0.05)
-        proc.kill()
-        proc.wait()
-    raise RuntimeError(f"rotctld {args} did not start listening")
+_start_rotctld = start_rotctld     # the name other test modules import
 
 
 @pytest.fixture
@@ -139,7 +115,9 @@ def test_three_party_chain_to_the_gs232b_emulator():
     try:
         with open_driver(f"rotctld://127.0.0.1:{port}", "rotctld", timeout_s=5) as drv:
             drv.goto(180, 45)
-            assert wait_until(lambda: ctrl.antenna() == (180.0, 45.0), 15), ctrl.antenna()
+            assert wait_until(lambda: any(c == b"W180 045" for _t, c, _r in ctrl.log))
+            assert advance_until(clock, lambda: ctrl.antenna() == (180.0, 45.0)), \
+                ctrl.antenna()
             assert drv.position() == (180.0, 45.0)
             drv.goto(20, 10)
             assert wait_until(ctrl.moving, 5)
@@ -187,7 +165,7 @@ def test_tracker_track_through_rotctld_to_the_gs232b_emulator(tmp_path, capsys, 
 
     from tracker.cli import main
 
-    speed = 50.0      # rotctld paces its GS-232B backend in real time (50 ms per write)
+    speed = 100.0     # rotctld paces its GS-232B backend in real time (50 ms per write)
     clock = SimClock(datetime.fromisoformat("2026-08-23T02:06:05+00:00"), speed=speed)
     ctrl = Gs232Controller("gs232b", preset("G-5500"), clock)
     server = serve_pty(ctrl)

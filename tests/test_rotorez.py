@@ -2,15 +2,11 @@
 
 from __future__ import annotations
 
-from datetime import datetime
-
 import pytest
-from _gs232_helpers import T0, RawPeer, wait_until
+from _gs232_helpers import RawPeer, wait_until
 
-from tracker.clock import SimClock
-from tracker.emulator import serve_pty, serve_tcp
-from tracker.emulator.rotorez_controller import BANNER, RotorEzController
-from tracker.errors import LimitError, PortLostError, RotatorTimeout
+from tracker.emulator.rotorez_controller import BANNER
+from tracker.errors import LimitError, RotatorTimeout
 from tracker.protocols import open_driver
 from tracker.protocols.rotorez import encode_bearing, parse_ai_reply  # registers rotorez, dcu1
 
@@ -34,20 +30,14 @@ def test_ai_reply_found_among_banner_and_stray_bytes():
     assert parse_ai_reply(b"080;", accept_old=True) == 80
 
 
-@pytest.fixture(params=["pty", "tcp"])
-def served(request):
-    made = []
-
+@pytest.fixture
+def served(emulated_rig):
+    """``served(variant, speed, **controller_kw)`` -> (controller, server, clock) on a real
+    pty and a real TCP socket (the shared rig fixture, leak-checked)."""
     def make(variant="rotorez", speed=100.0, **kw):
-        clock = SimClock(datetime.fromisoformat(T0), speed=speed)
-        ctrl = RotorEzController(variant, clock=clock, **kw)
-        server = serve_pty(ctrl) if request.param == "pty" else serve_tcp(ctrl)
-        made.append(server)
-        return ctrl, server, clock
-    yield make
-    for s in made:
-        s.close()
-        assert s.closed and not s.thread.is_alive()
+        rig = emulated_rig(variant, speed, **kw)
+        return rig.ctrl, rig.server, rig.clock
+    return make
 
 
 def test_rotorez_goto_read_back_stop(served):
@@ -139,15 +129,4 @@ def test_echoing_clone_reply_with_banner_and_old_format():
         old.close()
 
 
-def test_port_lost_is_reported(served):
-    _ctrl, server, clock = served("rotorez")
-    drv = open_driver(server.url, "rotorez", clock=clock, timeout_s=0.3, retries=0)
-    assert drv.position()[0] == 180.0
-    if server.kind == "pty":
-        server.hangup()
-    else:
-        server.drop_connections()
-    with pytest.raises((PortLostError, RotatorTimeout)):
-        for _ in range(20):
-            drv.position()
-    drv.close()
+# The port lost mid-session: test_driver_contract.py::test_backend_port_lost_is_a_typed_error

@@ -5,13 +5,11 @@ against a real ``rotctld -m 1``."""
 from __future__ import annotations
 
 import shutil
-import subprocess
-import sys
 import time
 from datetime import datetime
 
 import pytest
-from _gs232_helpers import T0, wait_until
+from _gs232_helpers import T0, WAIT_S, wait_until
 
 from tracker.cli import main
 from tracker.clock import SimClock
@@ -78,28 +76,22 @@ def test_bad_input_is_one_line_exit_2(emulator, capsys):
     assert rc == 2 and "host:port" in err
 
 
-def test_emulate_subprocess_serves_each_protocol(capsys):
+def test_emulate_subprocess_serves_each_protocol(emulate, capsys):
     protocols = ("rotorez", "dcu1", "sak232", "gs232b-azaz")
-    procs = [subprocess.Popen(
-        [sys.executable, "-m", "tracker", "emulate", "--protocol", p, "--tcp", "0",
-         "--speed", "50", "--duration", "20"], stdout=subprocess.PIPE, text=True)
-        for p in protocols]                   # all at once: four interpreters start together
-    try:
-        for protocol, proc in zip(protocols, procs, strict=True):
-            url = proc.stdout.readline().strip()
-            assert url.startswith("socket://127.0.0.1:"), url
-            assert _rot(capsys, url, protocol, "goto", "10")[0] == 0
-        for protocol, proc in zip(protocols, procs, strict=True):
-            deadline = time.monotonic() + 10
-            seen = ""
-            while time.monotonic() < deadline and " 10.0" not in seen:
-                seen = proc.stdout.readline()
-            assert " 10.0" in seen, (protocol, seen)   # the status line: antenna at 10
-    finally:
-        for proc in procs:
-            proc.terminate()
-            proc.wait(5)
-            proc.stdout.close()
+    # all started before the first is read: four interpreters start together
+    procs = [emulate("--protocol", p, "--tcp", "0", "--speed", "50", url_now=False)
+             for p in protocols]
+    for protocol, proc in zip(protocols, procs, strict=True):
+        url = proc.read_url()
+        assert url.startswith("socket://127.0.0.1:"), url
+        assert _rot(capsys, url, protocol, "goto", "10")[0] == 0
+    for protocol, proc in zip(protocols, procs, strict=True):
+        deadline = time.monotonic() + WAIT_S
+        seen = ""
+        while time.monotonic() < deadline and " 10.0" not in seen:
+            seen = proc.readline()
+        assert " 10.0" in seen, (protocol, seen)   # the status line: antenna at 10
+        assert proc.stop()[0] == 0
 
 
 @pytest.mark.hamlib

@@ -10,7 +10,7 @@ import subprocess
 from datetime import datetime
 
 import pytest
-from _gs232_helpers import T0, wait_until
+from _gs232_helpers import T0, advance_until, wait_until
 
 from tracker.clock import SimClock
 from tracker.emulator import serve_pty
@@ -48,7 +48,8 @@ def emulator(request):
 def test_rotctl_401_sets_reads_back_and_stops(emulator):
     ctrl, server = emulator
     rotctl("401", server.url, "P", "80", "0")
-    assert wait_until(lambda: ctrl.antenna() == 80.0, 10), ctrl.antenna()
+    assert wait_until(lambda: b"AM1;" in [c for _t, c, _r in ctrl.log])   # it is moving
+    assert advance_until(ctrl.clock, lambda: ctrl.antenna() == 80.0), ctrl.antenna()
     # read back, then a long move (250 deg the long way round: south stop) in one session
     out = rotctl("401", server.url, "p", "P", "190", "0").stdout.split()
     assert float(out[0]) == 80.0
@@ -74,7 +75,8 @@ def test_rotctl_403_sets_and_stops(emulator):
     assert wait_until(lambda: not ctrl.moving(), 5)
     assert ctrl.antenna() != 170.0
     rotctl("403", server.url, "P", "200", "0")
-    assert wait_until(lambda: ctrl.antenna() == 200.0, 10), ctrl.antenna()
+    assert wait_until(lambda: ctrl.log[-1][1] == b"AM1;")
+    assert advance_until(ctrl.clock, lambda: ctrl.antenna() == 200.0), ctrl.antenna()
     r = rotctl("403", server.url, "p", ok=False)      # no query on a DCU-1
     assert "Feature not available" in r.stdout + r.stderr
     cmds = [c for _t, c, _r in ctrl.log]

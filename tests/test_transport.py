@@ -28,3 +28,26 @@ def test_network_ports_send_small_requests_at_once():
 def test_open_failure_says_what_to_check():
     with pytest.raises(RotatorIOError, match="Check the device path or URL"):
         open_port("/dev/does-not-exist-tracker")
+
+
+def test_closing_a_network_port_does_not_linger(monkeypatch):
+    # pyserial's socket:// close() sleeps 0.3 s "for quick reconnects"; every reconnect and
+    # every TCP test paid it. Closing must still shut the socket and free the server.
+    from types import SimpleNamespace
+
+    import serial.urlhandler.protocol_socket as protocol_socket
+    from _gs232_helpers import wait_until
+
+    slept: list[float] = []       # the handler's only use of its time module is that sleep
+    monkeypatch.setattr(protocol_socket, "time", SimpleNamespace(sleep=slept.append))
+    with serve_tcp(Gs232Controller("gs232b")) as server:
+        port = open_port(server.url, timeout_s=0.5)
+        sock = port._socket
+        assert wait_until(lambda: server.connections == 1, 2)
+        port.close()
+        assert slept == [] and not port.is_open and sock.fileno() == -1
+        assert wait_until(lambda: server.connections == 0, 2)
+        port.close()                       # a second close is harmless
+        with open_port(server.url, timeout_s=0.5) as again:     # the next client is served
+            again.write(b"C2\r")
+            assert again.read_until(b"\n").startswith(b"AZ=")

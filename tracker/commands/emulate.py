@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
+import threading
+from collections.abc import Callable
 
 
 def register(sub) -> None:
@@ -11,7 +14,7 @@ def register(sub) -> None:
         "emulate", help="run a virtual rotator controller on a pty or TCP port",
         description="Serve an emulated GS-232A/GS-232B/K3NG controller driving a simulated "
                     "rotator. Prints the port (/dev/pts/N or socket://host:port), then a live "
-                    "status line. Ctrl-C stops it.")
+                    "status line. Ctrl-C, SIGTERM or SIGHUP stops it.")
     p.add_argument("--protocol", default="gs232b",
                    help="gs232b (default), gs232b-manual, gs232a, gs23, k3ng, rotorez, dcu1, "
                         "sak232 or gs232b-azaz")
@@ -104,28 +107,56 @@ def run(args: argparse.Namespace) -> int:
             import tempfile
             link = os.path.join(tempfile.mkdtemp(prefix="tracker-emu-"), "ttyEMU0")
         server = serve_pty(ctrl, link=link)
-    print(server.url, flush=True)
+    # handlers first: whoever reads the port line may signal at once
+    stop = threading.Event()
+    restore = _stop_on_signals(stop)
     tty = sys.stdout.isatty()
     started = time.monotonic()
     last = ""
     try:
-        while args.duration is None or time.monotonic() - started < args.duration:
+        print(server.url, flush=True)
+        while not stop.is_set():
             line = ctrl.status_line()
             if tty:
                 print("\r" + line.ljust(100), end="", flush=True)
             elif line != last:
                 print(line, flush=True)
             last = line
-            time.sleep(0.2 if tty else 1.0)
+            wait_s = 0.2 if tty else 1.0
+            if args.duration is not None:
+                left_s = args.duration - (time.monotonic() - started)
+                if left_s <= 0:
+                    break
+                wait_s = min(wait_s, left_s)
+            stop.wait(wait_s)
     except KeyboardInterrupt:
         pass
     finally:
+        restore()
         server.close()
         if tty:
             print()
         if injector is not None:
             print(injector.summary(), flush=True)
     return 0
+
+
+def _stop_on_signals(stop: threading.Event) -> Callable[[], None]:
+    """SIGTERM and SIGHUP end the run like Ctrl-C (port closed, fault summary printed).
+
+    Needed because a process started in the background of a non-interactive shell inherits
+    SIGINT as ignored, so a supervisor or a test can only stop it cleanly with these. Returns
+    the function that puts the previous handlers back (nothing to do off the main thread,
+    where Python allows no handlers)."""
+    if threading.current_thread() is not threading.main_thread():
+        return lambda: None
+    wanted = [signal.SIGTERM] + ([signal.SIGHUP] if hasattr(signal, "SIGHUP") else [])
+    old = {sig: signal.signal(sig, lambda _signum, _frame: stop.set()) for sig in wanted}
+
+    def restore() -> None:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
+    return restore
 
 
 def _check_start_position(spec, az_deg: float | None, el_deg: float | None) -> None:
