@@ -35,7 +35,6 @@ from tracker.errors import (
     ConfigError,
     ProtocolError,
     RotatorIOError,
-    StallError,
     TrackerError,
 )
 from tracker.mount import RotatorSpec
@@ -324,10 +323,9 @@ class TableRunner:
         if self._misses >= 2:
             msg = (f"the antenna is not following the table: reads az {az:g}"
                    + ("" if el is None else f" el {el:g}")
-                   + f", commanded az {az_pts.min():g}..{az_pts.max():g}; stopped the rotator."
-                   " Check the motors, the control box power and the cabling")
+                   + f", commanded az {az_pts.min():g}..{az_pts.max():g}")
             self._all_stop(quiet=True)
-            raise StallError(msg)
+            raise stall_error(msg)
 
     # Helpers ------------------------------------------------------------------------------
 
