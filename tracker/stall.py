@@ -4,9 +4,10 @@ One module for both ways the tracker drives a rotator:
 
 * :class:`AxisWatch` — live tracking (:mod:`tracker.stream`), one command at a time. It keeps
   where the axis was when motion was last seen and how far the commands since then should have
-  moved it. Before an axis is judged stalled the command is re-sent (:func:`resend_due`): a
-  command lost to line noise produces no motion either, and a re-send costs nothing when the
-  controller did get it (the relay is already closed in that direction).
+  moved it. Before an axis is judged stalled the live loop re-sends the command
+  (:meth:`AxisWatch.motion_overdue`, ``StreamSettings.stall_resends``): a command lost to line
+  noise produces no motion either, and a re-send costs nothing when the controller did get it
+  (the relay is already closed in that direction).
 * :class:`TableWatch` — step tables running on the controller (:mod:`tracker.upload`), judged
   from the recent read-backs against the table's points at their (late-shifted) times. The
   table runs on the box, so there is nothing to re-send: a suspected stall is read twice.
@@ -260,7 +261,9 @@ def moving_axis(template: AxisMotor, position_deg: float, target_deg: float, t_s
     return a
 
 
-# Stall detection. Read-backs are whole degrees: from a read-back that sits on its table point
+# Tables running on the controller ------------------------------------------------------
+
+# Read-backs are whole degrees: from a read-back that sits on its table point
 # (the antenna is exactly there) the model must predict >= STALL_MOVE_DEG of travel; from one
 # taken mid-move (up to 0.5 deg off the real position) >= STALL_MOVE_DEG + 0.5. The axis has
 # stalled when it then shows < STALL_STILL_DEG of progress toward the point, read twice (a
@@ -280,9 +283,6 @@ FALLBACK_START_DELAY_S = 0.75
 # one: the antenna may be back already, so a stall must be predicted by both models.
 FALLBACK_FAST_RATE_DEG_S = 10.0
 FALLBACK_FAST_START_DELAY_S = 0.2
-
-
-# Tables running on the controller ------------------------------------------------------
 
 
 class TableWatch:
