@@ -278,9 +278,9 @@ def test_stall_guard_times_a_command_after_a_hold_from_the_command():
     acting 0.3 s late was reported "did not move for 31.9 s". A real jam after the hold must
     still be caught within 3 s."""
     from tracker.mount import AxisMotor
-    from tracker.stream import _AxisWatch
+    from tracker.stall import AxisWatch
 
-    watch = _AxisWatch()
+    watch = AxisWatch()
     axis = AxisMotor(0.0, 360.0, 7.0, 0.5, 1.0, 100.0, 0.0)
     axis.command(94.0, 0.0)
     watch.start(axis, 0.0, 100.0)

@@ -392,11 +392,11 @@ def test_stall_watch_el_blip_up_and_back_is_not_a_jam(spec):
     # Regression: `tracker upload ISS` on the emulator stopped 4 runs in 5 with "el reads 3,
     # the motor model has it at 2.0": the axis had gone 3 -> 2 -> 3 again between readings,
     # and the slow/late model had not yet started the last move back up.
-    from tracker.upload import _StallWatch
+    from tracker.stall import TableWatch
 
     table = _flicker_table(1000.0)
     times = table.command_times()
-    watch = _StallWatch(spec)
+    watch = TableWatch(spec)
     watch.start(table, times[0])
     watch.t_sent(times[1])
     # Read 3 while holding the first blip, then 3 again just after the next blip began.

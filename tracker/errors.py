@@ -54,3 +54,9 @@ class ProtocolError(RotatorIOError):
 
 class StallError(RotatorIOError):
     """A commanded axis did not move: the rotator was stopped and is reported jammed."""
+
+
+class ReadbackError(TrackerError):
+    """The controller's read-back stayed untrustworthy (well-formed positions that contradict
+    each other and every command) for longer than the loop may wait: the rotator was
+    stopped rather than steered blind."""

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 
 import numpy as np
@@ -38,14 +38,16 @@ from tracker.clock import Clock
 from tracker.errors import (
     PortLostError,
     ProtocolError,
+    ReadbackError,
     RotatorIOError,
     RotatorTimeout,
     StallError,
     TrackerError,
 )
-from tracker.mount import AxisMotor, MotorModel, RotatorSpec
+from tracker.mount import MotorModel, RotatorSpec
 from tracker.planner import boresight_horizon_ok
 from tracker.skytrack import SkyTrack
+from tracker.stall import AxisWatch, moving_axis, stall_error
 from tracker.station import Station
 
 
@@ -67,8 +69,15 @@ class StreamSettings:
     follow_fraction: float = 0.4      # path faster than this share of a motor: follow the plan
     park_after_pass: bool = True
     stall_travel_deg: float = 2.0     # expected travel with no motion seen → stall
+    # A command that moved nothing is sent again this many times before the axis counts as
+    # stalled: line noise loses a W now and then, and a W carries no acknowledgement.
+    stall_resends: int = 2
     contradiction_deg: float = 20.0   # read-back this far from belief → not trusted
     settle_readings: int = 2          # agreeing read-backs needed after a contradiction
+    # Read-back that contradicts itself or the commands for this long (a noisy potentiometer,
+    # replies to the wrong command, a second program on the port) ends the run: waiting for
+    # it to settle would never move the antenna again, nor end the pass.
+    inconsistent_give_up_s: float = 30.0
     reconnect_initial_s: float = 0.5
     reconnect_max_s: float = 2.0      # a USB adapter that comes back is found within ~2 s
     reconnect_give_up_s: float | None = None   # None: keep trying until the pass ends
@@ -89,6 +98,7 @@ class Command:
     reason: str                      # preposition / track / park / resume
     aim: Aim | None = None
     clamped: str = ""                # non-empty when a limit or the mask changed the target
+    resend: int = 0                  # > 0: the n-th copy of the last command (no motion seen)
 
 
 @dataclass(frozen=True)
@@ -128,90 +138,6 @@ def mech_candidates_of_wire(spec: RotatorSpec, wire_az_deg: float) -> list[float
     out = [m for m in (wire_az_deg - 360.0, wire_az_deg, wire_az_deg + 360.0)
            if -2.0 <= m <= spec.az_span_deg + 2.0]
     return out or [min(max(wire_az_deg, 0.0), spec.az_span_deg)]
-
-
-def moving_axis(template: AxisMotor, position_deg: float, target_deg: float, t_s: float,
-                moving: bool) -> AxisMotor:
-    """An axis like ``template`` standing at ``position_deg`` at ``t_s``; when ``moving`` it is
-    already running toward ``target_deg`` at ``t_s`` (its start delay is behind it)."""
-    delay = template.start_delay_s
-    a = AxisMotor(template.min_deg, template.max_deg, template.rate_deg_s, delay,
-                  template.resolution_deg, position_deg, t_s - delay)
-    if moving and abs(target_deg - position_deg) > 1e-9:
-        a.command(target_deg, t_s - delay)  # the start delay ends exactly at t_s
-    return a
-
-
-class _AxisWatch:
-    """Stall bookkeeping for one axis: where it was when motion was last seen, and how far
-    the commands since then should have moved it (small tracking steps add up, so a jam is
-    caught even when every single step is too small to judge)."""
-
-    def __init__(self) -> None:
-        self.reset()
-
-    def reset(self) -> None:
-        self.ref_t_s: float | None = None
-        self.ref_pos_deg = 0.0
-        self.expect: AxisMotor | None = None
-        self.seg_t_s = 0.0
-        self.carried_deg = 0.0
-        self.still_since_s: float | None = None   # first read-back showing no motion
-
-    def _segment_deg(self, t_s: float) -> float:
-        if self.expect is None:
-            return 0.0
-        return abs(float(self.expect.position(t_s)) - float(self.expect.position(self.seg_t_s)))
-
-    def start(self, axis: AxisMotor, t_s: float, readback_deg: float) -> None:
-        """A command went out: expect motion from the read-back position, from rest (the
-        belief may think the motor is still running when the real one already stopped, so
-        the full start delay is allowed)."""
-        if self.ref_t_s is not None and abs(readback_deg - self.ref_pos_deg) < (
-                axis.resolution_deg - 1e-9):
-            self.carried_deg += self._segment_deg(t_s)   # no motion yet: keep counting
-            if self.carried_deg < axis.resolution_deg - 1e-9 and (
-                    self.expect is None or not self.expect.moving(t_s)):
-                # It had arrived and nothing visible went unseen since: standing still was
-                # right until now, so this command's settle time starts now - not at the end
-                # of the last move, or a hold then a command acted on a little late would
-                # read as a "stall" as long as the hold.
-                self.ref_t_s, self.still_since_s = t_s, None
-        else:
-            self.ref_t_s, self.ref_pos_deg, self.carried_deg = t_s, readback_deg, 0.0
-            self.still_since_s = None
-        self.expect = AxisMotor(axis.min_deg, axis.max_deg, axis.rate_deg_s, axis.start_delay_s,
-                                axis.resolution_deg, readback_deg, t_s)
-        self.expect.command(axis.target_deg, t_s)
-        self.seg_t_s = t_s
-
-    def check(self, t_s: float, readback_deg: float, resolution_deg: float,
-              stall_travel_deg: float) -> float | None:
-        """Seconds without motion when the axis counts as stalled, else None."""
-        if self.expect is None or self.ref_t_s is None:
-            return None
-        moved = abs(readback_deg - self.ref_pos_deg)
-        if moved >= resolution_deg - 1e-9:
-            # Motion seen: restart the expectation from here, already running.
-            self.expect = moving_axis(self.expect, readback_deg, self.expect.target_deg, t_s,
-                                      self.expect.moving(t_s))
-            self.ref_t_s, self.ref_pos_deg = t_s, readback_deg
-            self.seg_t_s, self.carried_deg = t_s, 0.0
-            self.still_since_s = None
-            return None
-        if self.still_since_s is None:
-            self.still_since_s = t_s
-        expected = self.carried_deg + self._segment_deg(t_s)
-        # Timing jitter (a late read-back, a belief a cycle off) must not look like a stall:
-        # judge only after the start delay plus a second, and only on read-backs spanning
-        # that long. A W has no acknowledgement: if the controller acted on it late (a busy
-        # host, a time-compressed simulation), the first read-backs after it show no motion
-        # yet although the belief's clock says the motor ran long ago.
-        settle_s = self.expect.start_delay_s + 1.0
-        if (expected >= stall_travel_deg and t_s - self.ref_t_s >= settle_s
-                and t_s - self.still_since_s >= settle_s):
-            return t_s - self.ref_t_s
-        return None
 
 
 def pass_window(track: SkyTrack, station: Station) -> tuple[float, float]:
@@ -276,7 +202,7 @@ class TrackCore:
         self.antenna: tuple[float, float | None] | None = None   # mechanical read-back
         self.untrusted = 0          # agreeing read-backs still needed after a contradiction
         self.note = ""
-        self._watch = {"az": _AxisWatch(), "el": _AxisWatch()}
+        self._watch = {"az": AxisWatch(), "el": AxisWatch()}
         self._phase_commanded: Phase | None = None
         # (phase, move index) of a pre-position/park sequence cut short by a reconnect or an
         # all-stop: it resumes at the move under way, not back at the first one (which would
@@ -286,6 +212,8 @@ class TrackCore:
         self._hold_level_deg = self.settings.deadband_deg
         self._park_sent_s: float | None = None
         self._last_wire_az: float | None = None
+        self._resend_due = False
+        self._inconsistent_since_s: float | None = None
 
     # Read-back ---------------------------------------------------------------------------
 
@@ -293,9 +221,30 @@ class TrackCore:
         """Take one read-back; returns "ok", "controller_off" or "contradiction".
 
         Raises :class:`StallError` when a commanded axis has not moved although the motor
-        model says it should have travelled ``stall_travel_deg`` by now.
+        model says it should have travelled ``stall_travel_deg`` by now, and
+        :class:`ReadbackError` when no read-back could be trusted for
+        ``inconsistent_give_up_s``.
         """
+        seen = self._observe(t_s, wire_az_deg, wire_el_deg)
+        if seen != "contradiction":
+            self._inconsistent_since_s = None
+            return seen
+        if self._inconsistent_since_s is None:
+            self._inconsistent_since_s = t_s
+        lasted_s = t_s - self._inconsistent_since_s
+        if lasted_s > self.settings.inconsistent_give_up_s:
+            el = "" if wire_el_deg is None else f" el {wire_el_deg:.0f}"
+            raise ReadbackError(
+                f"controller read-back is inconsistent: for {lasted_s:.0f} s no read-back "
+                f"agreed with the one before or with where the rotator can be after the "
+                f"commands sent (last: az {wire_az_deg:.0f}{el}); the rotator was stopped. "
+                f"Check the position sensors and their cable, and that no other program "
+                f"talks to the controller")
+        return seen
+
+    def _observe(self, t_s: float, wire_az_deg: float, wire_el_deg: float | None) -> str:
         spec = self.spec
+        self._resend_due = False      # decided afresh from this reading
         if wire_az_deg < 0 and (wire_el_deg is None or wire_el_deg < 0):
             # GS-232 reads AZ=-001 EL=-002 when the rotator's control box is off.
             self.note = "controller reports no position (control box off?) - waiting"
@@ -374,19 +323,43 @@ class TrackCore:
                                         moving and self.motor.el.moving(t_s))
 
     def _check_stall(self, t_s: float) -> None:
-        az, el = self.antenna
-        for name, pos in (("azimuth", az), ("elevation", el)):
-            if pos is None:
-                continue
-            watch = self._watch["az" if name == "azimuth" else "el"]
-            stuck_s = watch.check(t_s, pos, self.spec.resolution_deg,
-                                  self.settings.stall_travel_deg)
-            if stuck_s is not None:
-                target = watch.expect.target_deg if watch.expect is not None else float("nan")
-                raise StallError(
-                    f"{name} did not move for {stuck_s:.1f} s although it was commanded from "
-                    f"{watch.ref_pos_deg:.0f} to {target:.0f} deg: the rotator was stopped. "
-                    f"Check the motor, brake, cable and the control box, then restart")
+        """Raise :class:`StallError` for an axis that stayed still although the commands
+        sent since it last moved should have moved it, once the last chance had its time:
+        one copy when the controller is known to have acted on a command (it may have been
+        garbled into another valid one), else ``stall_resends`` copies or new commands.
+        Until then ask for a copy (:attr:`_resend_due`)."""
+        s = self.settings
+        res = self.spec.resolution_deg
+        quota = 1 + s.stall_resends
+        checked = []
+        for name, pos in zip(("azimuth", "elevation"), self.antenna, strict=True):
+            if pos is not None:
+                watch = self._watch["az" if name == "azimuth" else "el"]
+                checked.append((name, watch, watch.check(t_s, pos, res, s.stall_travel_deg)))
+        overdue = []
+        for name, watch, stuck_s in checked:
+            # One line carries both axes: another axis starting on it shows that it arrived.
+            others = tuple(t for w in self._watch.values() if w is not watch
+                           for t in w.ack_sends)
+            # Any of three ways shows the controller had its chance; the first one counts.
+            done = watch.sends_had_their_chance(t_s, quota)
+            can_copy = watch.sends < quota
+            told_t = watch.told_at(others)
+            if told_t is not None and told_t > -math.inf:
+                # The other axis started on a command that asked this one to move too.
+                done = done or watch.had_time_since(t_s, told_t)
+                can_copy = False
+            elif told_t is not None:
+                # This axis ran on a command and stopped short: one more send first, in case
+                # that command was a garbled copy naming another target.
+                later = watch.sends_after(told_t)
+                done = done or (bool(later) and watch.had_time_since(t_s, later[0]))
+                can_copy = can_copy and not later
+            if stuck_s is not None and done:
+                raise stall_error(f"{name} did not move: {watch.observation(t_s).text()}")
+            if can_copy and (stuck_s is not None or watch.motion_overdue(t_s, res)):
+                overdue.append(watch)
+        self._resend_due = self.last_command is not None and bool(overdue)
 
     # Decisions -------------------------------------------------------------------------------
 
@@ -403,6 +376,16 @@ class TrackCore:
 
     def decide(self, t_s: float) -> Command | None:
         """What to send now (None: nothing). Call after :meth:`observe` each cycle."""
+        cmd = self._decide(t_s)
+        if cmd is None and self._resend_due and self.motor is not None and not self.untrusted \
+                and self.phase is not Phase.WAIT and self.phase is not Phase.DONE:
+            # The last command moved nothing so far: it may have been lost on the line. (A
+            # new command, when one is due, is a fresh chance in itself.)
+            last = self.last_command
+            return replace(last, resend=last.resend + 1)
+        return cmd
+
+    def _decide(self, t_s: float) -> Command | None:
         phase = self._phase_at(t_s)
         if phase is not self.phase:
             self.phase = phase
@@ -561,6 +544,15 @@ class TrackCore:
         """Record that ``cmd`` was sent at ``t_s``."""
         if self.motor is None:
             return
+        if cmd.resend:
+            # A copy of the last command: the belief and the plan's progress stay as they
+            # are; only the stall watch learns of the extra chance.
+            for w in self._watch.values():
+                w.resent(t_s)
+            self._resend_due = False
+            self.last_command = cmd
+            self.commands += 1
+            return
         self.motor.command(cmd.az_m_deg, cmd.el_deg, t_s)
         az, el = self.antenna
         self._watch["az"].start(self.motor.az, t_s, az)
@@ -568,6 +560,7 @@ class TrackCore:
             self._watch["el"].start(self.motor.el, t_s, el)
         self.last_command = cmd
         self.commands += 1
+        self._resend_due = False
         phase = {"preposition": Phase.PREPOSITION, "track": Phase.TRACK,
                  "park": Phase.PARK}.get(cmd.reason, self.phase)
         if cmd.reason in ("preposition", "park"):
@@ -722,7 +715,7 @@ class Link:
         wire_az = wire_of(self.spec, cmd.az_m_deg)
         self.ensure().goto(wire_az, cmd.el_deg)
         self.events("command", cmd="goto", az=wire_az, el=cmd.el_deg, reason=cmd.reason,
-                    az_m=cmd.az_m_deg, clamped=cmd.clamped or None)
+                    az_m=cmd.az_m_deg, clamped=cmd.clamped or None, resend=cmd.resend or None)
 
     def stop(self) -> bool:
         """All-stop; True if it reached the controller."""
@@ -755,8 +748,8 @@ def run_pass(core: TrackCore, link: Link, clock: Clock, on_status: Callable[[Sta
              = lambda s: None, events: EventSink = _null_sink,
              should_stop: Callable[[], bool] = lambda: False) -> PassResult:
     """Run one pass to the end (DONE) on ``clock``; all-stop on every exit. Raises
-    :class:`StallError` (after stopping) and re-raises anything else after stopping,
-    KeyboardInterrupt included."""
+    :class:`StallError` or :class:`ReadbackError` (after stopping) and re-raises anything
+    else after stopping, KeyboardInterrupt included."""
     s = core.settings
     link.events = events
     reconnects = 0
@@ -844,6 +837,9 @@ def run_pass(core: TrackCore, link: Link, clock: Clock, on_status: Callable[[Sta
             clock.sleep(max(wait, 0.0))
     except StallError as e:
         events("state", state="stall", note=str(e))
+        raise
+    except ReadbackError as e:
+        events("state", state="readback_inconsistent", note=str(e))
         raise
     finally:
         # Every way out sends all-stop: Ctrl-C, SIGTERM (raised as KeyboardInterrupt), any

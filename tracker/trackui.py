@@ -15,11 +15,13 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import sys
 from datetime import datetime, timezone
 from typing import IO, Any
 
 from tracker.clock import Clock
+from tracker.errors import ConfigError
 from tracker.stream import Phase, Status
 
 
@@ -53,24 +55,83 @@ def _deg(v: float | None, width: int = 5) -> str:
 
 
 class JsonLinesLog:
-    """Append one JSON object per event to ``path``."""
+    """Append one JSON object per event to ``path``.
 
-    def __init__(self, path, clock: Clock):
+    The log serves the pass, never the other way round: a path that cannot be opened is a
+    :class:`~tracker.errors.ConfigError` before anything moves, and a write that fails later
+    (full disk, a file size limit, ``/dev/full``) warns once on ``warn_stream`` and the log
+    stops while tracking goes on. Lines go out whole with one ``os.write`` each, so a failed
+    write leaves no buffered half line behind to fail again at close.
+    """
+
+    def __init__(self, path, clock: Clock, warn_stream: IO[str] | None = None):
         self.clock = clock
-        self._fh: IO[str] = open(path, "a", encoding="utf-8")
+        self.path = str(path)
+        self._warn = warn_stream if warn_stream is not None else sys.stderr
+        self._fd: int | None = open_log_fd(self.path)
 
     def event(self, kind: str, **data: Any) -> None:
+        if self._fd is None:
+            return
         t = self.clock.timestamp()
         rec = {"t": _iso(t), "t_s": round(t, 3), "kind": kind}
         rec.update({k: v for k, v in data.items() if v is not None})
-        self._fh.write(json.dumps(rec, default=str) + "\n")
-        self._fh.flush()
+        line = (json.dumps(rec, default=str) + "\n").encode("utf-8")
+        written = 0
+        try:
+            while written < len(line):
+                written += os.write(self._fd, line[written:])
+        except OSError as e:
+            if written:
+                self._cut_partial_line(written)
+            self._give_up(e)
+
+    def _cut_partial_line(self, written: int) -> None:
+        """Leave only whole lines: a reader must be able to parse every one."""
+        try:
+            os.ftruncate(self._fd, os.lseek(self._fd, 0, os.SEEK_CUR) - written)
+        except OSError:
+            pass   # not a regular file (a device, a pipe): nothing to cut
+
+    def _give_up(self, e: OSError) -> None:
+        self._warn.write(f"tracker: warning: cannot write the log {self.path} "
+                         f"({e.strerror or e}); tracking goes on without it\n")
+        self._warn.flush()
+        self.close()
 
     def status(self, st: Status) -> None:
         return None   # replies and commands already carry the story
 
     def close(self) -> None:
-        self._fh.close()
+        fd, self._fd = self._fd, None
+        if fd is not None:
+            try:
+                os.close(fd)
+            except OSError:
+                pass   # nothing left to save: every line was written (or warned about)
+
+
+def open_log_fd(path: str) -> int:
+    """Open ``path`` for appending (created if missing); a clear ConfigError when it cannot
+    be. Non-blocking open: a FIFO nobody reads is refused instead of hanging the run."""
+    flags = os.O_WRONLY | os.O_APPEND | os.O_CREAT | getattr(os, "O_NONBLOCK", 0)
+    try:
+        fd = os.open(path, flags, 0o644)
+    except IsADirectoryError:
+        raise ConfigError(f"log file {path} is a directory; give a file name, e.g. "
+                          f"{os.path.join(path, 'track.jsonl')}") from None
+    except FileNotFoundError:
+        raise ConfigError(f"log file {path}: folder {os.path.dirname(path) or '.'} does not "
+                          f"exist; create it or choose another path") from None
+    except PermissionError:
+        raise ConfigError(f"log file {path}: permission denied; choose a path you can write "
+                          f"to") from None
+    except OSError as e:
+        raise ConfigError(f"log file {path}: cannot open it for writing "
+                          f"({e.strerror or e})") from None
+    if hasattr(os, "set_blocking"):
+        os.set_blocking(fd, True)
+    return fd
 
 
 class PlainLines:

@@ -12,10 +12,10 @@ The procedure for each table of a :class:`~tracker.steptable.StepProgram` (or a 
    remaining points and sending ``T`` again at the next point's time. An ``N`` reply that
    cannot be read (line noise, a timeout) is asked again, and a bad count is confirmed by a
    second ``N``, before anything is concluded: noise must not cost a resync. ``C2`` must show
-   each axis moving toward the table: :class:`_StallWatch` drives the shared motor model
-   (:func:`tracker.mount.predict_axis`) from each recent read-back through the points due
-   since, and an axis the model says must have moved >= 1 deg that has not moved at all (read
-   twice) is a jam: all-stop and :class:`~tracker.errors.StallError`, within about
+   each axis moving toward the table: :class:`tracker.stall.TableWatch` drives the shared
+   motor model (:func:`tracker.mount.predict_axis`) from each recent read-back through the
+   points due since, and an axis the model says must have moved >= 1 deg that has not moved at
+   all (read twice) is a jam: all-stop and :class:`~tracker.errors.StallError`, within about
    start delay + 1 deg of travel + one poll of the point change.
 
 Every exit path (end, error, Ctrl-C) sends all-stop, except ``detach`` after a successful T
@@ -35,11 +35,11 @@ from tracker.errors import (
     ConfigError,
     ProtocolError,
     RotatorIOError,
-    StallError,
     TrackerError,
 )
-from tracker.mount import AxisMotor, RotatorSpec, predict_axis
+from tracker.mount import RotatorSpec
 from tracker.protocols.gs232 import is_error_reply
+from tracker.stall import STILL_DEG, TableWatch, stall_error
 from tracker.steptable import BITS_PER_BYTE, StepTable
 
 # Reading N at a step boundary may see either side; allow this much clock slack.
@@ -50,28 +50,6 @@ MAX_RESYNCS = 5
 # one poll; only this many polls in a row without a readable N count as a lost controller.
 READ_ATTEMPTS = 3
 UNREADABLE_POLLS = 3
-
-# Stall detection. Read-backs are whole degrees: from a read-back that sits on its table point
-# (the antenna is exactly there) the model must predict >= STALL_MOVE_DEG of travel; from one
-# taken mid-move (up to 0.5 deg off the real position) >= STALL_MOVE_DEG + 0.5. The axis has
-# stalled when it then shows < STALL_STILL_DEG of progress toward the point, read twice (a
-# garbled digit must not stop a pass).
-STALL_MOVE_DEG = 1.0
-STALL_STILL_DEG = 0.5
-STALL_HISTORY_S = 8.0
-# Command times are the host's; the controller may step a little late (clock drift up to the
-# resync slack is measured from N, this covers the poll and the emulator/controller tick).
-STALL_TIMING_MARGIN_S = 0.25
-# Without a RotatorSpec the model assumes a slow rotator (slower than every preset, at 50 Hz
-# too), so a healthy one is never predicted further than it can be; a jam is then caught a
-# little later.
-FALLBACK_RATE_DEG_S = 2.0
-FALLBACK_START_DELAY_S = 0.75
-# ... and, for a table that goes away and comes back (a 1-deg el flicker 2, 3, 2), a FAST
-# one: the antenna may be back already, so a stall must be predicted by both models.
-FALLBACK_FAST_RATE_DEG_S = 10.0
-FALLBACK_FAST_START_DELAY_S = 0.2
-
 
 @dataclass
 class UploadReport:
@@ -114,7 +92,7 @@ class TableRunner:
         self._misses = 0
         self._off_deg: float | None = None
         self._unreadable = 0
-        self._watch = _StallWatch(spec)
+        self._watch = TableWatch(spec)
 
     # Public --------------------------------------------------------------------------------
 
@@ -322,9 +300,8 @@ class TableRunner:
                 axis, msg = stalled
                 self.log(f"stall: {msg}")
                 self._all_stop(quiet=True)
-                raise StallError(f"the antenna is not following the table: the {axis} axis "
-                                 f"{msg}; stopped the rotator. Check the motors, the control "
-                                 "box power and the cabling")
+                raise stall_error(f"the antenna is not following the table: the {axis} "
+                                  f"axis {msg}")
         self._watch.add(t_before, t_after, az, el)
 
         now = self.clock.timestamp()
@@ -340,16 +317,15 @@ class TableRunner:
             off_deg += _outside_by(el, el_pts, self.follow_tol_deg, wrap=False)
         # Outside the span but closing in is a slew still under way (a resumed or resynced
         # table whose point 1 is far from the antenna): not a miss.
-        closing = self._off_deg is not None and off_deg < self._off_deg - STALL_STILL_DEG
+        closing = self._off_deg is not None and off_deg < self._off_deg - STILL_DEG
         self._off_deg = off_deg
         self._misses = self._misses + 1 if off_deg > 0.0 and not closing else 0
         if self._misses >= 2:
             msg = (f"the antenna is not following the table: reads az {az:g}"
                    + ("" if el is None else f" el {el:g}")
-                   + f", commanded az {az_pts.min():g}..{az_pts.max():g}; stopped the rotator."
-                   " Check the motors, the control box power and the cabling")
+                   + f", commanded az {az_pts.min():g}..{az_pts.max():g}")
             self._all_stop(quiet=True)
-            raise StallError(msg)
+            raise stall_error(msg)
 
     # Helpers ------------------------------------------------------------------------------
 
@@ -399,139 +375,3 @@ def resume_schedule(tables: Sequence[StepTable], now_s: float, baud: int = 9600
     return out
 
 
-class _StallWatch:
-    """Is each axis moving toward the table as the shared motor model says it must?
-
-    Keeps the recent C2 read-backs of the active table. For each one (the reference) an
-    :class:`~tracker.mount.AxisMotor` is put at rest on the reference reading and driven by
-    :func:`~tracker.mount.predict_axis` through the point active then and the points due
-    since, at their (late-shifted) command times. Starting from rest adds a start delay the
-    real motor may not need, so a healthy axis is always at least as far along as predicted:
-    if the model has it >= 1 deg further toward the point and the read-back shows no progress,
-    the axis is not turning. Points equal to the previous one, a rotator waiting on a point
-    and start delays all predict no travel, so they never count.
-    """
-
-    def __init__(self, spec: RotatorSpec | None):
-        self.spec = spec
-        self.table: StepTable | None = None
-        self.readings: list[tuple[float, float, float, float | None]] = []
-        self._times = np.zeros(0)
-        self._lag_s = 0.0
-
-    def start(self, table: StepTable, uploaded_t_s: float) -> None:
-        """A (re)uploaded table: point 1 is commanded when the line has landed."""
-        self.table = table
-        self.readings = []
-        self._lag_s = 0.0
-        self._times = table.command_times().astype(float)
-        self._times[0] = max(self._times[0], uploaded_t_s)
-
-    def t_sent(self, t_s: float) -> None:
-        """T went out at ``t_s``: the controller steps from then on (a late T, e.g. after a
-        slow paced upload, shifts every later point)."""
-        if len(self._times) > 1:
-            self._times[1:] += max(0.0, t_s - float(self._times[1]))
-
-    def note_index(self, current: int, t_s: float) -> None:
-        """N said point ``current`` (1-based) at ``t_s``: the next one was not yet due there,
-        so the controller runs at least that late (drift within the resync slack)."""
-        if 0 < current < len(self._times):
-            self._lag_s = max(self._lag_s, t_s - float(self._times[current]))
-
-    def add(self, t_before: float, t_after: float, az: float, el: float | None) -> None:
-        self.readings.append((t_before, t_after, az, el))
-        cut = t_before - STALL_HISTORY_S
-        self.readings = [r for r in self.readings if r[0] >= cut]
-
-    def _axes(self, which: str, position_deg: float, t_s: float) -> list[AxisMotor]:
-        """The slowest and the fastest motor the axis may be (at rest at the reading)."""
-        spec = self.spec
-        if spec is None:
-            models = [(FALLBACK_RATE_DEG_S, FALLBACK_START_DELAY_S),
-                      (FALLBACK_FAST_RATE_DEG_S, FALLBACK_FAST_START_DELAY_S)]
-        else:
-            rate = spec.az_rate_deg_s if which == "az" else (spec.el_rate_deg_s or 1.0)
-            slow = rate
-            if which == "az" and spec.az_speed_rates_deg_s:
-                slow = min(rate, *spec.az_speed_rates_deg_s)   # X1 may be selected
-                rate = max(rate, *spec.az_speed_rates_deg_s)
-            models = [(slow, spec.start_delay_s), (rate, spec.start_delay_s)]
-        return [AxisMotor(-1e9, 1e9, r, d, 1.0, position_deg, t_s) for r, d in models]
-
-    def stalled(self, t_s: float, az: float, el: float | None,
-                t_after_s: float | None = None) -> tuple[str, str] | None:
-        """("az"/"el", what is wrong) if an axis read between ``t_s`` and ``t_after_s`` (the
-        C2 request and its reply) should have moved and has not, else None.
-
-        The controller took the reading somewhere in that span (at a fast SimClock or on a
-        loaded host it can be a second or more), so the model must have the axis at least
-        ``need`` away from the reference at EVERY time in it, on the same side: a 1-deg
-        up-and-back flicker of the table (2, 3, 2) is otherwise mistaken for a jam when the
-        reply comes from after the axis already went back.
-        """
-        table = self.table
-        if table is None or not self.readings:
-            return None
-        t_hi = t_s if t_after_s is None else max(float(t_after_s), t_s)
-        t_eval = np.linspace(t_s, t_hi, 9) if t_hi > t_s else np.array([t_s])
-        base = self._times.copy()
-        base[1:] += self._lag_s
-        axes = [("az", 2, az, np.asarray(table.az_deg, dtype=float))]
-        if table.kind == "W" and el is not None and table.el_deg is not None:
-            axes.append(("el", 3, el, np.asarray(table.el_deg, dtype=float)))
-        for name, col, now_deg, points in axes:
-            for ref in self.readings:
-                t_ref, ref_deg = ref[1], ref[col]
-                if ref_deg is None or t_ref >= t_s:
-                    continue
-                # The controller steps at the host's times or up to the margin later; the
-                # axis is the slow or the fast motor: a stall must show in every case.
-                travels = []
-                for shift in (STALL_TIMING_MARGIN_S, 0.0):
-                    got = self._travel(name, base + shift, points, ref_deg, t_ref, t_hi,
-                                       t_eval)
-                    if got is None:
-                        break
-                    travels.append(got)
-                else:
-                    allt = np.concatenate([t for t, _ in travels])
-                    if np.min(allt) * np.max(allt) <= 0.0:
-                        continue     # some timing has the axis back at (or past) the reading
-                    travel, cmd_last = float(travels[0][0][0]), travels[0][1]
-                    progress = (now_deg - ref_deg) * np.sign(travel)
-                    if progress < STALL_STILL_DEG:
-                        return name, (f"reads {now_deg:g} deg, {t_s - t_ref:.1f} s after it "
-                                      f"read {ref_deg:g}; the motor model has it at "
-                                      f"{ref_deg + travel:.1f} by now (table point "
-                                      f"{cmd_last:g})")
-        return None
-
-    def _travel(self, name: str, times: np.ndarray, points: np.ndarray, ref_deg: float,
-                t_ref: float, t_hi: float, t_eval: np.ndarray
-                ) -> tuple[np.ndarray, float] | None:
-        """Predicted travel from the reading ``ref_deg`` at ``t_ref`` at each ``t_eval``
-        (slow motor first, then fast), and the last point commanded; None when this
-        schedule predicts less than the move needed to tell a stall (or cannot judge)."""
-        i0 = int(np.searchsorted(times, t_ref, side="right")) - 1
-        i1 = int(np.searchsorted(times, t_hi, side="right"))
-        if i0 < 0:          # nothing commanded yet at the reference
-            i0 = 0
-            if i1 == 0:
-                return None
-            cmd_t = times[:i1]
-        else:
-            cmd_t = np.concatenate(([t_ref], times[i0 + 1:i1]))
-        cmd_deg = points[i0:i1] if i1 > i0 else points[i0:i0 + 1]
-        cmd_t = cmd_t[:len(cmd_deg)]
-        if name == "az" and abs(float(cmd_deg[0]) - ref_deg) > 180.0:
-            return None     # an unwind or a different az frame: leave it to the span check
-        exact = abs(float(points[i0]) - ref_deg) < 0.25 and t_ref >= times[i0]
-        need = STALL_MOVE_DEG + (0.0 if exact else 0.5)
-        out = []
-        for axis in self._axes(name, ref_deg, t_ref):
-            travel = predict_axis(axis, cmd_t, cmd_deg, t_eval)[0] - ref_deg
-            if np.min(np.abs(travel)) < need - 1e-6:
-                return None
-            out.append(travel)
-        return np.concatenate(out), float(cmd_deg[-1])

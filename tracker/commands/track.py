@@ -511,6 +511,8 @@ def run(args: argparse.Namespace) -> int:
                               "real rotator runs in real time")
         clock = SystemClock()
     timer = _DemoTime(clock, [a.n for a in ants]) if demo and not virtual else None
+    # Opened before any emulator starts or byte is sent: a bad path ends the run here.
+    log = JsonLinesLog(args.log, clock) if args.log else None
 
     server = None
     if demo:
@@ -568,7 +570,6 @@ def run(args: argparse.Namespace) -> int:
                   f"rotator moves. Use --port to drive one.")
     # Two antennas show as plain lines (prefixed ant1/ant2), on a terminal too.
     tty = sys.stdout.isatty() and not args.plain and not dual
-    log = JsonLinesLog(args.log, clock) if args.log else None
     shared = None
     if dual:
         lock = threading.Lock()
