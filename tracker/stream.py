@@ -71,7 +71,7 @@ class StreamSettings:
     stall_travel_deg: float = 2.0     # expected travel with no motion seen → stall
     # A command that moved nothing is sent again this many times before the axis counts as
     # stalled: line noise loses a W now and then, and a W carries no acknowledgement.
-    stall_resends: int = 2
+    stall_resends: int = 3
     contradiction_deg: float = 20.0   # read-back this far from belief → not trusted
     settle_readings: int = 2          # agreeing read-backs needed after a contradiction
     # Read-back that contradicts itself or the commands for this long (a noisy potentiometer,
@@ -345,13 +345,10 @@ class TrackCore:
             done = watch.sends_had_their_chance(t_s, quota)
             can_copy = watch.sends < quota
             told_t = watch.told_at(others)
-            if told_t is not None and told_t > -math.inf:
-                # The other axis started on a command that asked this one to move too.
-                done = done or watch.had_time_since(t_s, told_t)
-                can_copy = False
-            elif told_t is not None:
-                # This axis ran on a command and stopped short: one more send first, in case
-                # that command was a garbled copy naming another target.
+            if told_t is not None:
+                # The controller acted on a command that asked this axis to move (the other
+                # axis started on it, or this one ran and stopped short): one more send
+                # first, in case line noise garbled this axis's field into another value.
                 later = watch.sends_after(told_t)
                 done = done or (bool(later) and watch.had_time_since(t_s, later[0]))
                 can_copy = can_copy and not later
