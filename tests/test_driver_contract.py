@@ -374,10 +374,11 @@ def test_backend_stop_halts_the_move_and_exit_sends_all_stop(bench):
         assert wait_until(bench.ctrl.moving), bench.rig.lines()
         d.stop()
         assert wait_until(lambda: not bench.ctrl.moving()), bench.rig.lines()
-        held = bench.ctrl.antenna()
+        held, read = bench.ctrl.antenna(), d.position()
         t0 = bench.rig.clock.monotonic()
         assert wait_until(lambda: bench.rig.clock.monotonic() - t0 > 5.0)
         assert bench.ctrl.antenna() == held                       # it stays stopped ...
+        assert d.position() == read                               # ... and reads back so
         assert abs(be.az_of(bench.ctrl) - be.far[0]) > 1.0, held  # ... short of the target
         assert be.stop_line in bench.rig.lines()
         d.goto(*be.target)

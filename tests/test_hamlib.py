@@ -6,14 +6,10 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
-from datetime import datetime
 
 import pytest
-from _gs232_helpers import T0, wait_until
-
-from tracker.clock import SimClock
-from tracker.emulator import Gs232Controller, serve_pty, serve_tcp
-from tracker.mount import preset
+from _gs232_helpers import wait_until
+from _rigs import EmulatedRig
 
 pytestmark = pytest.mark.hamlib
 
@@ -44,13 +40,12 @@ def rotctl(model: str, url: str, *cmds: str) -> str:
 def emulator(request):
     profile, kind = request.param if isinstance(request.param, tuple) else (request.param,
                                                                             "pty")
-    clock = SimClock(datetime.fromisoformat(T0), speed=100.0)
-    ctrl = Gs232Controller(profile, preset("G-5500"), clock)
-    server = serve_pty(ctrl) if kind == "pty" else serve_tcp(ctrl)
+    rig = EmulatedRig(profile, kind, 100.0)
+    server = rig.server
     server.rotctl_path = server.url.removeprefix("socket://")   # rotctl -r host:port
-    yield ctrl, server
-    server.close()
-    assert server.closed and not server.thread.is_alive()
+    yield rig.ctrl, server
+    rig.close()
+    rig.assert_released()
 
 
 def _wire_log(ctrl) -> list[tuple[bytes, bytes]]:

@@ -6,30 +6,27 @@ from __future__ import annotations
 
 import shutil
 import time
-from datetime import datetime
 
 import pytest
-from _gs232_helpers import T0, WAIT_S, wait_until
+from _gs232_helpers import WAIT_S, wait_until
+from _rigs import EmulatedRig
 
 from tracker.cli import main
-from tracker.clock import SimClock
-from tracker.emulator import serve_tcp
-from tracker.emulator.rotorez_controller import make_other_controller
 
 
 @pytest.fixture
 def emulator():
-    servers = []
+    """``emulator(protocol)`` -> (controller, server) on a real TCP socket, leak-checked."""
+    rigs = []
 
     def make(protocol):
-        clock = SimClock(datetime.fromisoformat(T0), speed=200.0)
-        ctrl = make_other_controller(protocol, clock)
-        server = serve_tcp(ctrl)
-        servers.append(server)
-        return ctrl, server
+        rigs.append(EmulatedRig(protocol, "tcp", 200.0))
+        return rigs[-1].ctrl, rigs[-1].server
     yield make
-    for s in servers:
-        s.close()
+    for rig in rigs:
+        rig.close()
+    for rig in rigs:
+        rig.assert_released()
 
 
 def _rot(capsys, url, protocol, *action):

@@ -7,14 +7,10 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
-from datetime import datetime
 
 import pytest
-from _gs232_helpers import T0, advance_until, wait_until
-
-from tracker.clock import SimClock
-from tracker.emulator import serve_pty
-from tracker.emulator.rotorez_controller import RotorEzController
+from _gs232_helpers import advance_until, wait_until
+from _rigs import EmulatedRig
 
 pytestmark = pytest.mark.hamlib
 
@@ -36,12 +32,10 @@ def rotctl(model: str, url: str, *cmds: str, ok: bool = True) -> subprocess.Comp
 
 @pytest.fixture
 def emulator(request):
-    clock = SimClock(datetime.fromisoformat(T0), speed=20.0)
-    ctrl = RotorEzController(request.param, clock=clock)
-    server = serve_pty(ctrl)
-    yield ctrl, server
-    server.close()
-    assert server.closed and not server.thread.is_alive()
+    rig = EmulatedRig(request.param, "pty", 20.0)
+    yield rig.ctrl, rig.server
+    rig.close()
+    rig.assert_released()
 
 
 @pytest.mark.parametrize("emulator", ["rotorez"], indirect=True)
