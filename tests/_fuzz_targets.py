@@ -9,6 +9,7 @@ from, so most inputs are *near-valid* and reach deep into the parsers.
 from __future__ import annotations
 
 import atexit
+import os
 import random
 import shutil
 import tempfile
@@ -17,8 +18,10 @@ from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 
+import numpy as np
+
 from tle.errors import TleError
-from tracker.errors import ConfigError, LimitError, ProtocolError
+from tracker.errors import ConfigError, LimitError, PropagationError, ProtocolError
 
 DATA = Path(__file__).parent / "data"
 T0 = "2026-08-23T12:00:00+00:00"
@@ -276,6 +279,118 @@ def _plan_seed() -> bytes:
     return format_plan_file(prog).encode()
 
 
+def _station():
+    from tracker.station import Station
+
+    return Station("fuzz", 52.0, 4.4, 10.0)
+
+
+def _omm_propagate(data: bytes) -> None:
+    """OMM JSON through to propagation: whatever numbers parse (extremes included) must
+    propagate near the epoch and over a pass search, or be refused with a typed error."""
+    from tle import omm
+    from tracker.passes import find_passes
+    from tracker.targets import SatelliteTarget
+
+    for es in omm.parse_omm_json(_text(data), "<fuzz>")[:2]:
+        target = SatelliteTarget(es)
+        epoch_s = es.epoch.timestamp()
+        track = target.observe(_station(), epoch_s + np.array([0.0, 600.0, 86_400.0]))
+        assert track.el_deg.shape == (3,)
+        find_passes(target, _station(), epoch_s, epoch_s + 3 * 3600.0)
+
+
+def _far_epoch(data: bytes) -> None:
+    """A satellite asked about any time at all (from an ``--at`` text or raw seconds): passes
+    near its epoch, a typed refusal far from it, and never minutes of work."""
+    import struct
+    import time
+
+    from tracker.commands._common import parse_utc
+    from tracker.passes import find_passes
+
+    target = _iss()
+    text = _text(data)
+    try:
+        start_s = parse_utc(text).timestamp()
+    except ConfigError:
+        raw = struct.unpack("<d", data[:8].ljust(8, b"\0"))[0]
+        start_s = target.epoch_s + raw
+    end_s = start_s + 2 * 3600.0
+    t0 = time.perf_counter()
+    try:
+        find_passes(target, _station(), start_s, end_s)
+    except ValueError:  # an empty window (inf, nan, or 2 h lost in rounding): the caller's bug
+        if end_s > start_s:
+            raise
+    assert time.perf_counter() - t0 < 30.0, "a pass search ran for minutes"
+
+
+def _iss():
+    from tle.elements import load_file
+    from tracker.targets import SatelliteTarget
+
+    global _ISS
+    if _ISS is None:
+        es = next(e for e in load_file(DATA / "passes_sats.tle") if e.norad_id == 25544)
+        _ISS = SatelliteTarget(es)
+    return _ISS
+
+
+_ISS = None
+
+# Special files every file reader must refuse at once (never block, never read for ever).
+_SPECIAL = ("fifo", "dev-zero", "dev-null", "directory", "link-to-fifo", "oversized",
+            "regular")
+
+
+def _special_file(data: bytes) -> Path:
+    kind = _SPECIAL[data[0] % len(_SPECIAL)] if data else "regular"
+    base = _TMP / f"special-{kind}"
+    if base.is_symlink() or base.is_file():
+        base.unlink()
+    if kind == "fifo":
+        if not base.exists():
+            os.mkfifo(base)
+    elif kind == "dev-zero":
+        return Path("/dev/zero")
+    elif kind == "dev-null":
+        return Path("/dev/null")
+    elif kind == "directory":
+        base.mkdir(exist_ok=True)
+    elif kind == "link-to-fifo":
+        fifo = _TMP / "special-fifo"
+        if not fifo.exists():
+            os.mkfifo(fifo)
+        base.symlink_to(fifo)
+    elif kind == "oversized":
+        with open(base, "wb") as f:   # sparse: 5 MiB of size, nothing written
+            f.truncate(5 << 20)
+    else:
+        base.write_bytes(data[1:])
+    return base
+
+
+def _file_readers(data: bytes) -> None:
+    """Every reader of a user-named file on FIFOs, devices, directories, links, huge files."""
+    from tle.elements import load_file
+    from tracker.batch import load_stations
+    from tracker.config import load_config
+    from tracker.schedule import parse_priorities
+    from tracker.schedule_file import ScheduleTarget
+    from tracker.station import HorizonMask
+    from tracker.steptable import read_plan_file
+
+    path = _special_file(data)
+    readers = (load_file, HorizonMask.load, load_config, lambda p: parse_priorities([], p),
+               read_plan_file, load_stations, ScheduleTarget.load)
+    for read in readers:
+        try:
+            read(path)
+        except (ConfigError, TleError, LimitError):
+            pass
+
+
 def _fault_spec(data: bytes) -> None:
     from tracker.emulator.faults import parse_fault
 
@@ -348,6 +463,13 @@ TOKENS = [b"\r", b"\n", b" ", b"0", b"9", b"-", b"+", b".", b"e", b"=", b",", b"
           b"\xc3\xa9", b"\t", b"1 ", b"2 ", b"  "]
 
 
+# Numbers at the edges of what parsers accept, and nesting deeper than json recurses.
+NUMBER_TOKENS = [b"1e300", b"-1e300", b"1e-300", b"inf", b"-inf", b"NaN", b"0.0", b"17.9",
+                 b"9999-12-31T00:00:00", b"0001-01-01T00:00:00", b"1900-01-01T00:00:00",
+                 b"2099-12-31T23:59:59", b"4294967296", b"12345678901234567890"]
+NESTING_TOKENS = [b"[" * 5000, b'{"a":' * 3000, b"[{" * 2000]
+
+
 def targets() -> list[Target]:
     sched = _read(DATA / "schedule_sweep.csv") or (
         b"time_utc, az_deg, el_deg\n2026-08-22T18:00:00Z, 10, 20\n"
@@ -378,7 +500,8 @@ def targets() -> list[Target]:
     ts += [
         Target("tle.parse_text", _tle, [_tle_seed()], (TleError,), TOKENS),
         Target("tle.parse_text(skip_bad)", _tle_skip_bad, [_tle_seed()], (TleError,), TOKENS),
-        Target("omm.json", _omm("json"), [_json_seed()], (TleError,), TOKENS),
+        Target("omm.json", _omm("json"), [_json_seed()], (TleError,),
+               [*TOKENS, *NUMBER_TOKENS, *NESTING_TOKENS]),
         Target("omm.csv", _omm("csv"), [b"\n".join(
             _read(DATA / "tle" / "amateur5.csv").splitlines()[:3])],
                (TleError, *KNOWN_ESCAPES.get("omm.csv", ())), TOKENS),
@@ -399,6 +522,14 @@ def targets() -> list[Target]:
                [b"name,lat,lon,alt\nJO22,52.0,4.4,10\nFN42,42.4,-71.1,50\n",
                 b'[[station]]\nname = "JO22"\nlat = 52.0\nlon = 4.4\nalt = 10\n'],
                (), TOKENS),
+        Target("omm.json->propagation", _omm_propagate, [_json_seed()],
+               (TleError, PropagationError), [*TOKENS, *NUMBER_TOKENS, *NESTING_TOKENS]),
+        Target("far epochs", _far_epoch,
+               [b"2026-08-23T00:00Z", b"1900-01-01", b"0001-01-01", b"9999-12-31T23:59Z",
+                b"2028-08-23", b"2024-08-21T12:00Z", b"", b"\x00" * 8],
+               (ConfigError, PropagationError), [*TOKENS, *NUMBER_TOKENS]),
+        Target("file readers on special files", _file_readers,
+               [bytes([i]) + b"0 5\n90 10\n" for i in range(len(_SPECIAL))], (), TOKENS),
         Target("faults.parse_fault", _fault_spec, [b"drop=0.01", b"silent=30@120",
                                                    b"jam=el:30@60", b"drift=-0.5%"],
                (ConfigError,), TOKENS),
