@@ -5,9 +5,6 @@ could block or eat memory on a regression (FIFOs, ``/dev/zero``) run as a subpro
 timeout and, for ``/dev/zero``, a memory limit. A few rows have another documented outcome
 (a UTF-8 BOM config is accepted; ``next`` with no pass in the window exits 1 with one line on
 stdout, as grep does when it finds nothing).
-
-Rows marked ``OTHER`` belong to fixes made elsewhere (downloads, output files, logs); they
-say what they should give and are expected failures until those fixes land.
 """
 
 from __future__ import annotations
@@ -32,7 +29,6 @@ HERE = ["--lat", "52.0", "--lon", "4.4", "--alt", "10"]
 EMU_PORT = "socket://127.0.0.1:1"   # never reached: the argument checks come first
 
 ERROR = "error"     # one stderr line starting "tracker: error:", exit 2
-OTHER = "owned elsewhere (downloads, output files, logs): expected to fail until merged"
 
 
 @dataclass(frozen=True)
@@ -43,7 +39,6 @@ class Case:
     outcome: str = ERROR         # ERROR, "ok" (exit 0), "no-pass" (exit 1, one stdout line)
     subprocess: bool = False     # may block/grow without bound on a regression
     memory_limit: bool = False   # run under RLIMIT_AS
-    owner_note: str = ""         # non-empty: another fix owns it (xfail until merged)
 
 
 def c(id_: str, *argv: str, **kw) -> Case:
@@ -137,26 +132,25 @@ CASES = [
       says="names no port"),
     c("next-no-pass", "next", "ISS", "--tle", SATS, *HERE, "--at", AT, "--days", "0.05",
       "--min-el", "80", outcome="no-pass", says="no pass above 80° in the next 0.05 days"),
-    # -- owned by other fixes: what they should give
+    # -- downloads, output files, logs
     *[c(f"tle-update-timeout-{v}", "tle", "--cache-dir", "{tmp}/cache", "update", "amateur",
-        "--base-url", "http://127.0.0.1:9/", "--timeout", v, says="--timeout",
-        owner_note=OTHER) for v in ("-1", "nan", "inf")],
+        "--base-url", "http://127.0.0.1:9/", "--timeout", v, says="--timeout")
+      for v in ("-1", "nan", "inf")],
     c("tle-update-base-url-garbage", "tle", "--cache-dir", "{tmp}/cache", "update",
-      "amateur", "--base-url", "garbage", owner_note=OTHER),
+      "amateur", "--base-url", "garbage"),
     c("tle-update-file-url", "tle", "--cache-dir", "{tmp}/cache", "update",
-      "file:///etc/passwd", owner_note=OTHER),
+      "file:///etc/passwd"),
     c("steptable-missing-folder", "plan", "ISS", "--tle", SATS, *HERE, "--at", AT,
-      "--steptable", "{tmp}/no/such/dir/p.steps", owner_note=OTHER),
+      "--steptable", "{tmp}/no/such/dir/p.steps"),
     c("steptable-directory", "plan", "ISS", "--tle", SATS, *HERE, "--at", AT,
-      "--steptable", "{tmp}", owner_note=OTHER),
+      "--steptable", "{tmp}"),
     c("emulate-link-missing-folder", "emulate", "--pty", "--link", "{tmp}/no/such/dir/l",
-      "--duration", "0.1", owner_note=OTHER),
-    c("emulate-link-directory", "emulate", "--pty", "--link", "{tmp}", "--duration", "0.1",
-      owner_note=OTHER),
+      "--duration", "0.1"),
+    c("emulate-link-directory", "emulate", "--pty", "--link", "{tmp}", "--duration", "0.1"),
     c("track-log-missing-folder", "track", "ISS", "--tle", SATS, *HERE, "--at", AT,
-      "--log", "{tmp}/no/such/dir/t.log", "--speed", "1000", owner_note=OTHER),
+      "--log", "{tmp}/no/such/dir/t.log", "--speed", "1000"),
     c("track-log-directory", "track", "ISS", "--tle", SATS, *HERE, "--at", AT, "--log",
-      "{tmp}", "--speed", "1000", owner_note=OTHER),
+      "{tmp}", "--speed", "1000"),
 ]
 
 
@@ -217,9 +211,7 @@ def _run_subprocess(argv: list[str], memory_limit: bool) -> tuple[int, str, str]
     return done.returncode, done.stdout, done.stderr
 
 
-@pytest.mark.parametrize("case", [
-    pytest.param(case, id=case.id, marks=[pytest.mark.xfail(reason=case.owner_note)]
-                 if case.owner_note else []) for case in CASES])
+@pytest.mark.parametrize("case", CASES, ids=lambda case: case.id)
 def test_bad_input_gives_one_line_and_exit_2(case: Case, tmp_path, capsys):
     files = _files(tmp_path)
     argv = [a.format(**files) for a in case.argv]
