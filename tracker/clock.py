@@ -155,7 +155,7 @@ class LockstepClock(ManualClock):
     anyway: never a hang. A thread that is not a party (parties counted out) just advances.
     """
 
-    STALL_S = 2.0
+    STALL_S = 10.0
 
     def __init__(self, start: datetime, parties: int = 1):
         super().__init__(start)

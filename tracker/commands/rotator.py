@@ -106,13 +106,18 @@ def run(args: argparse.Namespace) -> int:
         limits = EffectiveLimits.of(spec, station, drv.capabilities)
         with ControllerSession(drv.stop, stop_at_end=False, limits=limits,
                                ignore_limits=args.ignore_limits,
-                               on_stop_failed=_warn_stop_failed) as session:
+                               on_stop_failed=_stop_failed_for(args.action)) as session:
             _act(args, drv, session, spec, station)
     return 0
 
 
-def _warn_stop_failed(why: str) -> None:
-    print(f"tracker: warning: {why}; stop the rotator by hand", file=sys.stderr)
+def _stop_failed_for(action: str):
+    """What to say when the session's all-stop fails. A position query moved nothing, and
+    the error line already says the port is gone: one line is enough there."""
+    def warn(why: str) -> None:
+        if action != "position":
+            print(f"tracker: warning: {why}; stop the rotator by hand", file=sys.stderr)
+    return warn
 
 
 def _act(args: argparse.Namespace, drv, session, spec, station) -> None:
