@@ -25,6 +25,7 @@ from tracker.config import load_config
 from tracker.emulator import serve_pty, serve_tcp
 from tracker.emulator.azaz_controller import AzAzController
 from tracker.emulator.virtual import Bench
+from tracker.stream import StreamSettings
 
 # Two overlapping passes over the default station with the bundled elements:
 # ISS 02:07:45-02:17:04 (az 201 -> 81), UO-11 02:09:07-02:20:15 (az 28 -> 150).
@@ -32,6 +33,7 @@ T1, T2 = "ISS (ZARYA)", "UOSAT 2 (UO-11)"
 AT = "2026-08-23T02:05:15Z"
 SPEED = 25.0      # simulated seconds per real second: modest, for a loaded machine
 DEADBAND = 3.0
+CYCLE_S = StreamSettings().cycle_s    # the read-back cycle the CLI runs at by default
 CONFIG = """
 [rotator.north360]
 preset = "G-400"
@@ -174,10 +176,12 @@ def test_jam_on_antenna_2_stops_both_and_says_which(config, tmp_path, capsys):
     assert recs[-1]["t_s"] < _pass_of(T1, config).los.timestamp()
     assert _cmds(ctrl)[-1] == b"S" and server.bytes_written().endswith(b"S\r")
     assert not ctrl.moving()
-    # both stopped within 3 s of the jam biting (the first move into it), on virtual time
+    # both stopped within 3 s of the jam biting (the first move into it), on virtual time;
+    # the two loops share one port, and which of them asks first at one virtual instant is
+    # up to the thread scheduler: that can put antenna 2's read-back one cycle later.
     t_stop = ctrl.log[-1][0]
     print(f"\nboth stopped {t_stop - ctrl.jammed_at:.2f} s after antenna 2 jammed")
-    assert ctrl.jammed_at is not None and t_stop - ctrl.jammed_at <= 3.0, (
+    assert ctrl.jammed_at is not None and t_stop - ctrl.jammed_at <= 3.0 + CYCLE_S, (
         t_stop - ctrl.jammed_at)
 
 

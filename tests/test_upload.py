@@ -228,8 +228,10 @@ def test_truncated_upload_is_caught_by_n_and_reuploaded():
         finally:
             proxy.close()
         assert proxy.cut == 1
-        assert any("truncated" in r for r in report.resyncs)
-        assert report.tables_sent == 2
+        assert "truncated" in report.resyncs[0], report.resyncs
+        # A real link on a loaded host may also drift a step later on and be resynced once
+        # more; the truncation itself costs exactly one re-upload.
+        assert report.tables_sent == 2 + sum("truncated" not in r for r in report.resyncs[1:])
         # After the resync the controller holds exactly the rest of the pass.
         resent = report.uploads[1]["points"]
         assert resent > 10 and resent < len(prog.tables[0])
