@@ -37,7 +37,7 @@ def test_emulate_and_rotator_goto_moves_the_antenna(where, emulate, capsys):
     assert poll_position(url, capsys, "270 30") == "270 30"
     assert main(["rotator", "--port", url, "park"]) == 0
     assert main(["rotator", "--port", url, "stop"]) == 0
-    assert main(["rotator", "--port", url, "raw", "Q"]) == 0
+    assert main(["rotator", "--port", url, "--ignore-limits", "raw", "Q"]) == 0
     assert capsys.readouterr().out.strip() == repr(b"?>\r\n")
     rc, out, err = p.stop()
     assert rc == 0 and "Traceback" not in err, err

@@ -204,3 +204,21 @@ def test_planning_spec_is_narrowed_to_the_controller():
     g400 = preset("G-400")
     assert EffectiveLimits.of(g400, None, Capabilities(has_elevation=False, az_max_deg=359.0)
                               ).rotator() is g400
+
+
+def test_raw_is_refused_without_the_override(files, controller, capsys):
+    """A raw line may be a move the guard cannot read: it needs the maintenance flag."""
+    ctrl, url = controller
+    rc = _rotator(files, url, "raw", "W400 170")
+    err = capsys.readouterr().err
+    assert rc == 2 and "--ignore-limits" in err and "Traceback" not in err, err
+    assert err.count("\n") == 1
+    assert _lines(ctrl) == []           # refused before the port was opened
+
+
+def test_raw_with_the_override_is_sent_and_warns(files, controller, capsys):
+    ctrl, url = controller
+    assert _rotator(files, url, "--ignore-limits", "raw", "W400 170") == 0
+    err = capsys.readouterr().err
+    assert "NOT checked against the limits" in err, err
+    assert wait_until(lambda: b"W400 170" in _lines(ctrl), 3.0), _lines(ctrl)

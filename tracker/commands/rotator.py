@@ -40,7 +40,8 @@ def register(sub) -> None:
                         "horizon mask there)")
     p.add_argument("--ignore-limits", action="store_true",
                    help="MAINTENANCE ONLY: do not check goto/park against the rotator limits "
-                        "and the horizon mask (the controller's own range still applies)")
+                        "and the horizon mask (the controller's own range still applies); "
+                        "also needed by raw, whose bytes the guard cannot check")
     add_rotator_args(p)
     add_station_args(p)
     act = p.add_subparsers(dest="action", metavar="ACTION", required=True)
@@ -82,6 +83,11 @@ def run(args: argparse.Namespace) -> int:
     if args.action == "raw" and not args.cmd.isascii():
         raise ConfigError(f"raw command {args.cmd!r} is not ASCII; controllers take ASCII "
                           f"command lines such as C2")
+    if args.action == "raw" and not args.ignore_limits:
+        # A raw line may be a move (W400 170) that no limit or mask check sees.
+        raise ConfigError("raw sends a command line unchecked, and it may move the rotator "
+                          "past its limits or below the mask; add --ignore-limits to send it "
+                          "(maintenance), or use goto/park/position")
     if args.action in ("sync", "unsync") and args.protocol.lower() not in AZAZ_PROTOCOLS:
         raise ConfigError(f"{args.action} is a GS-232B-AZ/AZ command; use --protocol "
                           f"gs232b-azaz (got {args.protocol})")
@@ -91,8 +97,8 @@ def run(args: argparse.Namespace) -> int:
                           f"(antenna 2 = antenna 1 + offset, mod 360)")
     spec = rotator_from_args(args)
     station = station_from_args(args, quiet=True)
-    if args.ignore_limits and args.action in ("goto", "park"):
-        print("tracker: warning: --ignore-limits: this move is NOT checked against the "
+    if args.ignore_limits and args.action in ("goto", "park", "raw"):
+        print("tracker: warning: --ignore-limits: this command is NOT checked against the "
               f"limits of rotator {spec.name} or the horizon mask; make sure nothing is in "
               "the way", file=sys.stderr)
     kw = {"timeout_s": args.timeout, "autobaud": args.autobaud,
