@@ -88,7 +88,8 @@ def test_limits_refused_before_sending(rig):
             d.upload_table(0, [1, 2])
         with pytest.raises(LimitError):
             d.set_speed(5)
-        assert len(rig.ctrl.log) == before
+        d.position()                        # answered, so everything sent before it has arrived
+        assert rig.lines()[before:] == [b"C2"], rig.lines()[before:]
 
 
 def test_controller_off_and_jam(rig):
@@ -177,7 +178,8 @@ def test_b_only_commands_refused_on_gs232a(emulated_rig):
             d.set_mode_450(False)
         with pytest.raises(ConfigError, match="GS-232B command"):
             d.toggle_centre()
-        assert len(r.ctrl.log) == before
+        d.position()                        # answered, so everything sent before it has arrived
+        assert r.lines()[before:] == [b"C2"], r.lines()[before:]
         assert d.help(3) == "?>\r\n"          # the A unit has no third help page
 
 
