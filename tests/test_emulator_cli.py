@@ -63,6 +63,19 @@ def test_emulate_ends_cleanly_on_sigterm_and_sighup_even_with_sigint_ignored(emu
     assert "faults: " in out and "jam_events 1" in out   # the summary of a clean end
 
 
+def test_emulate_under_nohup_keeps_running_through_sighup(emulate, capsys):
+    # nohup: SIGHUP inherited as ignored, and it must stay ignored
+    p = emulate("--tcp", "0", preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN))
+    assert "cmds 0" in p.readline()
+    p.proc.send_signal(signal.SIGHUP)
+    assert main(["rotator", "--port", p.url, "position"]) == 0
+    # still serving after the hang-up: its status loop reports the query it answered
+    line = p.readline()
+    assert "cmds 1" in line, (line, p.stop())
+    rc, out, err = p.stop(signal.SIGTERM)
+    assert rc == 0 and err == "", err
+
+
 @pytest.mark.parametrize(("argv", "message"), [
     (["rotator", "--port", "/dev/does-not-exist", "position"], "cannot open port"),
     (["rotator", "--port", "socket://127.0.0.1:1", "--protocol", "nope", "position"],

@@ -48,6 +48,28 @@ STOP_SIGNALS: tuple[int, ...] = tuple(
     getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name))
 
 
+def route_stop_signals(handler: Callable[[int, FrameType | None], object],
+                       signals: tuple[int, ...] = STOP_SIGNALS) -> Callable[[], None]:
+    """Send each of ``signals`` to ``handler``; returns the function that puts the old back.
+
+    A signal the process was started with ignored (``nohup``, a background job of a
+    non-interactive shell) stays ignored: whoever started us asked for that. Off the main
+    thread Python allows no handlers, so nothing is routed there."""
+    if threading.current_thread() is not threading.main_thread():
+        return lambda: None
+    old: dict[int, object] = {}
+    for sig in signals:
+        if signal.getsignal(sig) is signal.SIG_IGN:
+            continue
+        old[sig] = signal.signal(sig, handler)
+
+    def restore() -> None:
+        for sig, previous in old.items():
+            signal.signal(sig, previous)  # type: ignore[arg-type]  # what getsignal gave back
+        old.clear()
+    return restore
+
+
 class Interrupted(KeyboardInterrupt):
     """A stop signal arrived; ``signame`` says which (``SIGINT``, ``SIGTERM``, ``SIGHUP``)."""
 
@@ -216,7 +238,7 @@ class ControllerSession:
         self.stopped = False          # the session's all-stop reached the controller
         self.signal: str | None = None  # the signal that ended the session, if one did
         self._stopping = False
-        self._old: dict[int, object] = {}
+        self._restore_signals: Callable[[], None] = lambda: None
 
     # Moves -----------------------------------------------------------------------------------
 
@@ -236,11 +258,7 @@ class ControllerSession:
         raise Interrupted(signum)
 
     def __enter__(self) -> ControllerSession:
-        if threading.current_thread() is threading.main_thread():
-            for sig in STOP_SIGNALS:
-                if signal.getsignal(sig) is signal.SIG_IGN:
-                    continue   # started ignoring it (nohup, background job): keep ignoring
-                self._old[sig] = signal.signal(sig, self._on_signal)
+        self._restore_signals = route_stop_signals(self._on_signal)
         return self
 
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
@@ -250,9 +268,7 @@ class ControllerSession:
             if exc_type is not None or self.stop_at_end:
                 self._last_stop(failing=exc_type is not None)
         finally:
-            for sig, old in self._old.items():
-                signal.signal(sig, old)
-            self._old.clear()
+            self._restore_signals()
         return False
 
     def _last_stop(self, failing: bool) -> None:

@@ -145,18 +145,12 @@ def _stop_on_signals(stop: threading.Event) -> Callable[[], None]:
     """SIGTERM and SIGHUP end the run like Ctrl-C (port closed, fault summary printed).
 
     Needed because a process started in the background of a non-interactive shell inherits
-    SIGINT as ignored, so a supervisor or a test can only stop it cleanly with these. Returns
-    the function that puts the previous handlers back (nothing to do off the main thread,
-    where Python allows no handlers)."""
-    if threading.current_thread() is not threading.main_thread():
-        return lambda: None
-    wanted = [signal.SIGTERM] + ([signal.SIGHUP] if hasattr(signal, "SIGHUP") else [])
-    old = {sig: signal.signal(sig, lambda _signum, _frame: stop.set()) for sig in wanted}
+    SIGINT as ignored, so a supervisor or a test can only stop it cleanly with these; under
+    ``nohup`` SIGHUP stays ignored."""
+    from tracker.session import STOP_SIGNALS, route_stop_signals
 
-    def restore() -> None:
-        for sig, handler in old.items():
-            signal.signal(sig, handler)
-    return restore
+    wanted = tuple(sig for sig in STOP_SIGNALS if sig != signal.SIGINT)
+    return route_stop_signals(lambda _signum, _frame: stop.set(), wanted)
 
 
 def _check_start_position(spec, az_deg: float | None, el_deg: float | None) -> None:
