@@ -46,6 +46,10 @@ def c(id_: str, *argv: str, **kw) -> Case:
 
 
 CASES = [
+    # -- command lines argparse refuses: the same one line, naming the help to read
+    c("args-bad-float", "next", "ISS (ZARYA)", "--days", "abc", says="(see 'tracker next --help')"),
+    c("args-unknown-command", "nope", says="invalid choice: 'nope'"),
+    c("args-missing", "rotator", "--port", "emu://gs232b", says="required: ACTION"),
     # -- 12: special files: refused at once, never read without bound
     *[c(f"fifo-{flag}", *pre, "{fifo}", *post, says="FIFO", subprocess=True)
       for flag, pre, post in (

@@ -72,7 +72,7 @@ def test_emulate_under_nohup_keeps_running_through_sighup(emulate, capsys):
     # still serving after the hang-up: its status loop reports the query it answered
     line = p.readline()
     assert "cmds 1" in line, (line, p.stop())
-    rc, out, err = p.stop(signal.SIGTERM)
+    rc, _out, err = p.stop(signal.SIGTERM)
     assert rc == 0 and err == "", err
 
 

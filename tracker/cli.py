@@ -13,6 +13,7 @@ import importlib
 import pkgutil
 import sys
 from collections.abc import Sequence
+from typing import NoReturn
 
 import tracker
 import tracker.commands
@@ -21,8 +22,22 @@ from tracker.errors import TrackerError
 EXIT_USAGE = 2
 
 
+class UsageError(Exception):
+    """A command line argparse refused; the message is the one line to print."""
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with the project's error format: one line, and where to read more.
+
+    argparse's own prints the whole usage block first, which buries the line that says what
+    is wrong. Subcommand parsers are made of the same class."""
+
+    def error(self, message: str) -> NoReturn:
+        raise UsageError(f"tracker: error: {message} (see '{self.prog} --help')")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="tracker",
         description="Satellite and celestial pass tracker for GS-232 class antenna rotators.")
     parser.add_argument("--version", action="version", version=f"tracker {tracker.__version__}")
@@ -43,7 +58,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     from tle.errors import TleError
 
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except UsageError as e:
+        print(e, file=sys.stderr)
+        return EXIT_USAGE
     if args.global_config and getattr(args, "config", None) is None:
         args.config = args.global_config
     if not getattr(args, "func", None):
