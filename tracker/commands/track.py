@@ -484,6 +484,7 @@ def run(args: argparse.Namespace) -> int:
     # every loop waits (LockstepClock); every wait is a jump of the clock.
     virtual = args.speed == math.inf or (bool(args.at) and emulated and not demo
                                          and args.speed is None)
+    simulated = simulated or virtual   # --speed max runs on virtual time from now
     if virtual and not emulated:
         raise ConfigError("--speed max needs an emulated controller: the built-in one (no "
                           "--port) or --port emu://PROTOCOL; a real rotator runs in real time")
