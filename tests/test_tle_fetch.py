@@ -122,7 +122,7 @@ def one_line(capsys) -> str:
     return err
 
 
-# Item 8: a group that shrinks ------------------------------------------------------------
+# A group that shrinks: kept unless --force ------------------------------------------------
 
 
 @pytest.mark.parametrize("keep", [48, 1])
@@ -167,7 +167,7 @@ def test_a_small_loss_is_accepted(server, cache, capsys):
     assert store.update_source(store.resolve("amateur")).count == 90
 
 
-# Item 11: one deadline for the whole request, a bounded body ------------------------------
+# One deadline for the whole request, a bounded body ----------------------------------------
 
 
 @pytest.mark.parametrize("how", ["drip-headers", "drip-body"])
