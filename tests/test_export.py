@@ -8,11 +8,11 @@ import json
 import os
 import stat
 from datetime import datetime, timedelta, timezone
-from pathlib import Path
 
 import icalendar
 import numpy as np
 import pytest
+from _paths import REPO
 from sgp4.api import Satrec
 
 from tracker.batch import find_passes_batch
@@ -35,7 +35,7 @@ START = datetime(2026, 8, 22, 13, 45, tzinfo=timezone.utc)
 
 @pytest.fixture(scope="module")
 def table():
-    path = Path(__file__).parent.parent / "tle" / "data" / "amateur.txt"
+    path = REPO / "tle" / "data" / "amateur.txt"
     lines = [x.strip() for x in path.read_text().splitlines() if x.strip()]
     sets = [(lines[i], lines[i + 1], lines[i + 2]) for i in range(0, 30, 3)]
     # A name with every character RFC 5545 escapes, to exercise escaping end to end.
@@ -73,7 +73,7 @@ def test_json_follows_the_documented_schema(records):
                                                                "from": "2026-08-23T00:00:00Z"}]))
     assert doc["schema"] == JSON_SCHEMA_ID
     assert doc["meta"]["source"] == "amateur" and doc["errors"][0]["code"] == 6
-    schema_doc = (Path(__file__).parent.parent / "docs" / "batch-json-schema.md").read_text()
+    schema_doc = (REPO / "docs" / "batch-json-schema.md").read_text()
     for p in doc["passes"]:
         for key, value in p.items():
             assert f"`{key}`" in schema_doc, f"{key} is not documented"

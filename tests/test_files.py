@@ -9,15 +9,14 @@ import stat
 import subprocess
 import sys
 import tempfile
-from pathlib import Path
 
 import pytest
+from _paths import REPO
 
 from tracker.cli import main
 from tracker.errors import ConfigError
 from tracker.files import check_output, write_atomic
 
-REPO = Path(__file__).resolve().parents[1]
 TLE = str(REPO / "tests" / "data" / "steptable_iss.tle")
 AT = ["--at", "2026-08-23T02:00:00Z"]
 WHERE = ["--lat", "52", "--lon", "4.5"]

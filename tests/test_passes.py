@@ -9,10 +9,10 @@ The reference samples skyfield directly (default IAU 2000A nutation, its own tim
 from __future__ import annotations
 
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
+from _paths import DATA
 
 from tle.catalog import Catalog
 from tracker.clock import utc
@@ -21,7 +21,6 @@ from tracker.passes import Pass, compass_point, find_passes
 from tracker.station import HorizonMask, Station
 from tracker.targets import SatelliteTarget
 
-DATA = Path(__file__).parent / "data"
 START = utc(2026, 8, 23, 0, 0)
 END = utc(2026, 8, 24, 0, 0)
 DELFT = Station("delft", 52.0, 4.4, 10.0)

@@ -5,10 +5,10 @@ from __future__ import annotations
 import itertools
 import math
 from functools import lru_cache
-from pathlib import Path
 
 import numpy as np
 import pytest
+from _paths import REPO
 
 from tracker.errors import LimitError
 from tracker.mount import preset
@@ -26,7 +26,7 @@ from tracker.synthpass import synthetic_pass
 STATION = Station("test", 48.0, 11.0, 500.0)
 G5500 = preset("G-5500", 50)
 NORTH_360 = G5500.with_(name="north-360", az_span_deg=360)
-TLE_DIR = Path(__file__).resolve().parents[1] / "tle" / "data"
+TLE_DIR = REPO / "tle" / "data"
 
 
 def assert_safe(plan: MountPlan, station: Station = STATION) -> None:

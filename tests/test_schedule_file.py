@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _paths import DATA
 
 from tracker.celestial import find_rise_set, resolve
 from tracker.errors import ConfigError, TrackerError
@@ -15,7 +16,6 @@ from tracker.schedule_file import ScheduleError, ScheduleTarget, parse_schedule
 from tracker.station import Station
 
 UTC = timezone.utc
-DATA = Path(__file__).parent / "data"
 SWEEP = DATA / "schedule_sweep.csv"
 T18 = datetime(2026, 8, 22, 18, tzinfo=UTC).timestamp()
 STATION = Station("home", 52.0, 5.0, 0.0)

@@ -7,14 +7,13 @@ No tests here. Tracks are computed with skyfield directly from ``tests/data/step
 from __future__ import annotations
 
 from functools import lru_cache
-from pathlib import Path
 
 import numpy as np
+from _paths import DATA
 
 from tracker.skytrack import SkyTrack
 from tracker.station import Station
 
-DATA = Path(__file__).parent / "data"
 STATION = Station("JO22", lat_deg=52.0, lon_deg=4.5, alt_m=10.0)
 
 

@@ -13,14 +13,13 @@ import json
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
+from _paths import DATA
 
 from tracker.cli import main
 from tracker.commands.passes import CSV_COLUMNS, format_duration
 
-DATA = Path(__file__).parent / "data"
 SATS = str(DATA / "passes_sats.tle")
 AT = "2026-08-23T00:00:00Z"
 HERE = ["--lat", "52.0", "--lon", "4.4", "--alt", "10"]

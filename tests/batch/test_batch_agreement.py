@@ -14,14 +14,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _paths import DATA, REPO
 from sgp4.api import Satrec
 from skyfield.api import EarthSatellite, load
 
 from tracker.batch import find_passes_batch
 from tracker.station import Station
 
-DATA = Path(__file__).parent / "data"
-BUNDLED = Path(__file__).parent.parent / "tle" / "data"
+BUNDLED = REPO / "tle" / "data"
 TS = load.timescale(builtin=True)
 
 

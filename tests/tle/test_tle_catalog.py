@@ -7,6 +7,7 @@ from datetime import datetime, timedelta, timezone
 from pathlib import Path
 
 import pytest
+from _paths import DATA
 
 from tle.catalog import Catalog, age_warning
 from tle.checksum import compute_checksum
@@ -14,7 +15,7 @@ from tle.errors import AmbiguousSatelliteError, TleFormatError, TleWarning, Unkn
 from tle.store import TleStore
 from tracker.clock import ManualClock
 
-DATA = Path(__file__).parent / "data" / "tle"
+TLE_DATA = DATA / "tle"
 T0 = datetime(2026, 8, 23, tzinfo=timezone.utc)
 
 
@@ -92,7 +93,7 @@ def _with_epoch(text: str, day: str) -> str:
 
 
 def test_duplicates_keep_the_newest_epoch(tmp_path):
-    text = (DATA / "amateur5.txt").read_text()
+    text = (TLE_DATA / "amateur5.txt").read_text()
     old = tmp_path / "old.txt"
     new = tmp_path / "new.txt"
     old.write_text(_with_epoch(text, "200.00000000"))
@@ -107,8 +108,8 @@ def test_duplicates_keep_the_newest_epoch(tmp_path):
 
 def test_load_skips_bad_sets_with_warnings():
     seen: list[str] = []
-    catalog = Catalog.load([DATA / "bad_checksum.txt", DATA / "truncated_line2.txt",
-                            DATA / "amateur5.json"], on_warning=seen.append)
+    catalog = Catalog.load([TLE_DATA / "bad_checksum.txt", TLE_DATA / "truncated_line2.txt",
+                            TLE_DATA / "amateur5.json"], on_warning=seen.append)
     assert len(seen) == 2 and len(catalog) == 5
     assert not catalog.bundled
 
@@ -116,7 +117,7 @@ def test_load_skips_bad_sets_with_warnings():
 def _only_broken(tmp_path: Path) -> Path:
     """The shifted-column ISS set of shifted_column.txt on its own (lines 4-6)."""
     bad = tmp_path / "only_bad.txt"
-    lines = (DATA / "shifted_column.txt").read_text().splitlines()[3:6]
+    lines = (TLE_DATA / "shifted_column.txt").read_text().splitlines()[3:6]
     bad.write_text("\n".join(lines) + "\n")
     return bad
 
@@ -133,7 +134,7 @@ def test_load_of_only_broken_sets_raises_the_first_fault(tmp_path):
 
 def test_load_without_handler_warns_per_skipped_set():
     with pytest.warns(TleWarning, match="skipped a broken element set") as record:
-        catalog = Catalog.load([DATA / "bad_checksum.txt", DATA / "amateur5.txt"])
+        catalog = Catalog.load([TLE_DATA / "bad_checksum.txt", TLE_DATA / "amateur5.txt"])
     assert len(catalog) == 5 and len(record) == 1
 
 
@@ -148,7 +149,7 @@ def test_broken_cache_falls_back_to_nothing_not_an_error(tmp_path):
 def test_default_prefers_the_cache(tmp_path):
     store = TleStore(cache_dir=tmp_path, clock=ManualClock(T0))
     assert Catalog.default(store).bundled
-    (tmp_path / "mine.txt").write_bytes((DATA / "alpha5.txt").read_bytes())
+    (tmp_path / "mine.txt").write_bytes((TLE_DATA / "alpha5.txt").read_bytes())
     catalog = Catalog.default(store)
     assert not catalog.bundled and len(catalog) == 2
     assert catalog.find("A0000").norad_id == 100000

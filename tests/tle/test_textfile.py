@@ -7,6 +7,7 @@ import os
 import threading
 
 import pytest
+from _paths import DATA
 
 from tle.errors import TleFormatError, UnknownSatelliteError
 from tle.textfile import read_text_file
@@ -77,12 +78,11 @@ def test_a_bom_config_from_notepad_loads(tmp_path):
 
 
 def _iss():
-    from pathlib import Path
 
     from tle.elements import load_file
     from tracker.targets import SatelliteTarget
 
-    data = Path(__file__).parent / "data" / "passes_sats.tle"
+    data = DATA / "passes_sats.tle"
     return SatelliteTarget(next(e for e in load_file(data) if e.norad_id == 25544))
 
 

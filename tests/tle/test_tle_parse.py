@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _paths import DATA
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -19,7 +20,7 @@ from tle.elements import ElementSet, load_file, parse_text, parse_tle_text, snif
 from tle.errors import TleError, TleFormatError, TleWarning
 from tle.layout import LINE1_TEMPLATE, LINE2_TEMPLATE
 
-DATA = Path(__file__).parent / "data" / "tle"
+TLE_DATA = DATA / "tle"
 BUNDLED = Path(str(files("tle").joinpath("data")))
 T0 = datetime(2026, 8, 23, tzinfo=timezone.utc)
 
@@ -30,7 +31,7 @@ def test_bundled_snapshot_parses_completely_with_checksums():
 
 
 def test_fields_of_a_real_set():
-    (iss,) = [es for es in load_file(DATA / "amateur5.txt") if es.norad_id == 25544]
+    (iss,) = [es for es in load_file(TLE_DATA / "amateur5.txt") if es.norad_id == 25544]
     assert iss.name == "ISS (ZARYA)"
     assert iss.intl_designator == "1998-067A"
     assert iss.line_no == 8 and iss.source.endswith("amateur5.txt")
@@ -45,7 +46,7 @@ def test_fields_of_a_real_set():
 
 
 def test_epoch_year_pivot_and_age():
-    (ao7,) = [es for es in load_file(DATA / "amateur5.txt") if es.norad_id == 7530]
+    (ao7,) = [es for es in load_file(TLE_DATA / "amateur5.txt") if es.norad_id == 7530]
     assert ao7.intl_designator == "1974-089B"  # 74 -> 1974, 26 -> 2026
     assert ao7.epoch.year == 2026
     assert ao7.age_days(ao7.epoch + timedelta(days=3)) == pytest.approx(3.0)
@@ -54,15 +55,15 @@ def test_epoch_year_pivot_and_age():
 
 
 def test_messy_layout_lf_blank_lines_zero_names_trailing_blanks_2le():
-    clean = load_file(DATA / "amateur5.txt")
-    messy = load_file(DATA / "messy.txt")
+    clean = load_file(TLE_DATA / "amateur5.txt")
+    messy = load_file(TLE_DATA / "messy.txt")
     assert [(e.line1, e.line2) for e in messy] == [(e.line1, e.line2) for e in clean]
     assert [e.name for e in messy] == ["OSCAR 7 (AO-7)", "14129", "ISS (ZARYA)",
                                        "SAUDISAT 1C (SO-50)", "FUNCUBE-1 (AO-73)"]
 
 
 def test_crlf_and_lf_give_identical_sets():
-    crlf = (DATA / "amateur5.txt").read_bytes()
+    crlf = (TLE_DATA / "amateur5.txt").read_bytes()
     assert b"\r\n" in crlf
     a = parse_tle_text(crlf.decode())
     b = parse_tle_text(crlf.decode().replace("\r\n", "\n"))
@@ -72,14 +73,14 @@ def test_crlf_and_lf_give_identical_sets():
 def test_bad_checksum_names_file_line_and_digits():
     with pytest.raises(TleFormatError, match=re.escape(
             "bad_checksum.txt:5: 'ISS (ZARYA)' line 1: checksum expected 7, found 3")) as info:
-        load_file(DATA / "bad_checksum.txt")
+        load_file(TLE_DATA / "bad_checksum.txt")
     assert info.value.line_no == 5 and info.value.line.startswith("1 25544U")
     assert "\n" not in str(info.value)
 
 
 def test_shifted_column_shows_the_layout():
     with pytest.raises(TleFormatError) as info:
-        load_file(DATA / "shifted_column.txt")
+        load_file(TLE_DATA / "shifted_column.txt")
     message = str(info.value)
     assert re.search(re.escape("shifted_column.txt:5: 'ISS (ZARYA)' line 1: column 24 "
                                "should be '.', found '4'"), message)
@@ -90,28 +91,28 @@ def test_truncated_line2():
     with pytest.raises(TleFormatError, match=re.escape(
             "truncated_line2.txt:6: 'ISS (ZARYA)' line 2: 50 characters long, expected 69 "
             f"(truncated?); line 2 layout: {LINE2_TEMPLATE}")):
-        load_file(DATA / "truncated_line2.txt")
+        load_file(TLE_DATA / "truncated_line2.txt")
 
 
 def test_line1_and_line2_catalogue_numbers_must_match():
     with pytest.raises(TleFormatError, match=re.escape(
             "mismatched_ids.txt:6: 'ISS (ZARYA)' line 2: catalogue number '25545' does not "
             "match line 1's '25544'")):
-        load_file(DATA / "mismatched_ids.txt")
+        load_file(TLE_DATA / "mismatched_ids.txt")
 
 
 @pytest.mark.parametrize("name", ["bad_checksum.txt", "shifted_column.txt",
                                   "truncated_line2.txt", "mismatched_ids.txt"])
 def test_skip_bad_gives_one_warning_per_bad_set(name):
     seen: list[str] = []
-    sets = load_file(DATA / name, skip_bad=True, on_warning=seen.append)
+    sets = load_file(TLE_DATA / name, skip_bad=True, on_warning=seen.append)
     assert [es.norad_id for es in sets] == [7530, 39444]
     assert len(seen) == 1 and f"{name}:" in seen[0] and "ISS (ZARYA)" in seen[0]
 
 
 def test_skip_bad_without_callback_uses_warnings():
     with pytest.warns(TleWarning, match="checksum expected 7, found 3"):
-        sets = load_file(DATA / "bad_checksum.txt", skip_bad=True)
+        sets = load_file(TLE_DATA / "bad_checksum.txt", skip_bad=True)
     assert len(sets) == 2
 
 
@@ -121,7 +122,7 @@ def test_skip_bad_without_callback_uses_warnings():
     (None, "<string>:3: 'ISS (ZARYA)' line 1: is not followed by a line 2"),
 ])
 def test_structure_errors(text, message):
-    lines = (DATA / "amateur5.txt").read_text().splitlines()
+    lines = (TLE_DATA / "amateur5.txt").read_text().splitlines()
     if text is None and "without a line 1" in message:
         text = "\n".join([lines[2], lines[3], lines[4], lines[5]])
     elif text is None:
@@ -136,7 +137,7 @@ def test_empty_text_is_no_sets():
 
 def test_checksum_counts_minus_as_one():
     assert compute_checksum("1 -" + "0" * 66) == 2  # '1' + '-'
-    for line in (DATA / "amateur5.txt").read_text().splitlines():
+    for line in (TLE_DATA / "amateur5.txt").read_text().splitlines():
         if line[:2] in ("1 ", "2 "):
             assert compute_checksum(line) == int(line[68])
 
@@ -162,13 +163,13 @@ def test_alpha5_round_trip(norad_id):
 
 
 def test_alpha5_file_agrees_with_sgp4():
-    low, high = load_file(DATA / "alpha5.txt")
+    low, high = load_file(TLE_DATA / "alpha5.txt")
     assert (low.norad_id, high.norad_id) == (100000, 339999)
     assert low.satrec().satnum == 100000 and high.satrec().satnum == 339999
 
 
 def test_alpha5_letter_i_is_a_layout_error():
-    lines = (DATA / "alpha5.txt").read_text().splitlines()[:3]
+    lines = (TLE_DATA / "alpha5.txt").read_text().splitlines()[:3]
     l1 = lines[1][:2] + "I0000" + lines[1][7:68]
     l2 = lines[2][:2] + "I0000" + lines[2][7:68]
     text = "\n".join([lines[0], l1 + str(compute_checksum(l1)), l2 + str(compute_checksum(l2))])
@@ -179,8 +180,8 @@ def test_alpha5_letter_i_is_a_layout_error():
 
 @pytest.mark.parametrize("suffix", ["json", "csv", "xml"])
 def test_omm_forms_match_the_tle_within_metres(suffix):
-    tle_sets = load_file(DATA / "amateur5.txt")
-    omm_sets = load_file(DATA / f"amateur5.{suffix}")
+    tle_sets = load_file(TLE_DATA / "amateur5.txt")
+    omm_sets = load_file(TLE_DATA / f"amateur5.{suffix}")
     assert [(e.name, e.norad_id, e.intl_designator) for e in omm_sets] == \
         [(e.name, e.norad_id, e.intl_designator) for e in tle_sets]
     jd = np.full(4, 2461275.5)  # 2026-08-23 00:00 UTC
@@ -199,17 +200,17 @@ def test_earth_satellite_keeps_the_name_for_tle_and_omm():
     from skyfield.api import load
 
     ts = load.timescale(builtin=True)
-    for path in (DATA / "amateur5.txt", DATA / "amateur5.json"):
+    for path in (TLE_DATA / "amateur5.txt", TLE_DATA / "amateur5.json"):
         iss = next(es for es in load_file(path) if es.norad_id == 25544)
         sat = iss.earth_satellite(ts)
         assert sat.name == "ISS (ZARYA)" and sat.model.satnum == 25544
 
 
 def test_sniffing():
-    assert sniff_format((DATA / "amateur5.json").read_text()) == "json"
-    assert sniff_format((DATA / "amateur5.csv").read_text()) == "csv"
-    assert sniff_format((DATA / "amateur5.xml").read_text()) == "xml"
-    assert sniff_format((DATA / "amateur5.txt").read_text()) == "tle"
+    assert sniff_format((TLE_DATA / "amateur5.json").read_text()) == "json"
+    assert sniff_format((TLE_DATA / "amateur5.csv").read_text()) == "csv"
+    assert sniff_format((TLE_DATA / "amateur5.xml").read_text()) == "xml"
+    assert sniff_format((TLE_DATA / "amateur5.txt").read_text()) == "tle"
     assert sniff_format("<!DOCTYPE html><html><body>502</body></html>") == "html"
     with pytest.raises(TleFormatError, match="HTML page, not element sets"):
         parse_text("<html><head><title>Error</title></head></html>", source="x")
@@ -218,7 +219,7 @@ def test_sniffing():
 def test_omm_missing_and_bad_fields(tmp_path):
     import json
 
-    records = json.loads((DATA / "amateur5.json").read_text())
+    records = json.loads((TLE_DATA / "amateur5.json").read_text())
     del records[1]["MEAN_MOTION"]
     records[2]["ECCENTRICITY"] = "zero"
     path = tmp_path / "broken.json"
@@ -233,7 +234,7 @@ def test_omm_missing_and_bad_fields(tmp_path):
 
 
 def test_omm_csv_row_numbers_and_bad_xml(tmp_path):
-    rows = (DATA / "amateur5.csv").read_text().splitlines()
+    rows = (TLE_DATA / "amateur5.csv").read_text().splitlines()
     rows[3] = rows[3].replace("2026-08-22T", "22/08/2026 ")
     path = tmp_path / "broken.csv"
     path.write_text("\n".join(rows))
@@ -241,7 +242,7 @@ def test_omm_csv_row_numbers_and_bad_xml(tmp_path):
                                                        "EPOCH should look like")):
         load_file(path)
     xml = tmp_path / "broken.xml"
-    xml.write_text((DATA / "amateur5.xml").read_text()[:700])
+    xml.write_text((TLE_DATA / "amateur5.xml").read_text()[:700])
     with pytest.raises(TleFormatError, match=r"broken\.xml:.*not well-formed XML"):
         load_file(xml)
 
@@ -256,9 +257,9 @@ def test_unreadable_and_binary_files(tmp_path):
 
 
 def test_element_sets_are_hashable_values():
-    a = load_file(DATA / "amateur5.json")
+    a = load_file(TLE_DATA / "amateur5.json")
     assert len(set(a)) == 5
     assert isinstance(a[0], ElementSet)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        assert parse_tle_text((DATA / "amateur5.txt").read_text(), skip_bad=True)
+        assert parse_tle_text((TLE_DATA / "amateur5.txt").read_text(), skip_bad=True)

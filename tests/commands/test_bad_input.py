@@ -18,11 +18,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+from _paths import DATA, REPO
 
 from tracker.cli import main
 
-ROOT = Path(__file__).resolve().parent.parent
-DATA = Path(__file__).parent / "data"
 SATS = str(DATA / "passes_sats.tle")
 AT = "2026-08-23T00:00:00Z"         # a day after the elements' epoch
 HERE = ["--lat", "52.0", "--lon", "4.4", "--alt", "10"]
@@ -204,7 +203,7 @@ def _limit_memory() -> None:  # pragma: no cover - runs in the child
 
 
 def _run_subprocess(argv: list[str], memory_limit: bool) -> tuple[int, str, str]:
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
     try:
         done = subprocess.run([sys.executable, "-m", "tracker", *argv], env=env,
                               capture_output=True, text=True, timeout=120,

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 from datetime import datetime, timedelta, timezone
-from pathlib import Path
 
 import numpy as np
 import pytest
+from _paths import DATA
 from sgp4.api import Satrec
 
 from tracker.batch import find_passes_batch, find_passes_dask
@@ -20,7 +20,7 @@ STATIONS = [Station("Boulder", 40.0, -105.3, 1650.0), Station("Delft", 52.0, 4.3
 
 
 def sets():
-    path = Path(__file__).parent / "data" / "batch_active_sample.txt"
+    path = DATA / "batch_active_sample.txt"
     lines = [x.strip() for x in path.read_text().splitlines() if x.strip()]
     return [(lines[i], lines[i + 1], lines[i + 2]) for i in range(0, len(lines) - 2, 3)]
 

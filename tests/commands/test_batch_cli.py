@@ -9,10 +9,10 @@ import itertools
 import json
 import subprocess
 import sys
-from pathlib import Path
 
 import icalendar
 import pytest
+from _paths import DATA, REPO
 
 from tracker.cli import main
 
@@ -85,7 +85,7 @@ def test_batch_ics_parses(capsys, tmp_path):
 
 def test_batch_tle_file_and_timeline_plot(capsys, tmp_path):
     pytest.importorskip("matplotlib")
-    src = Path(__file__).parent / "data" / "batch_active_sample.txt"
+    src = DATA / "batch_active_sample.txt"
     png = tmp_path / "timeline.png"
     code, out, err = run(capsys, "batch", str(src), "--lat", "40", "--lon", "-105.3",
                          "--at", "2026-03-19T04:51Z", "--days", "0.5", "--plot", str(png))
@@ -183,7 +183,7 @@ def test_dask_missing_is_one_clear_line(tmp_path):
 
 
 def test_json_meta_and_schedule_fields_are_documented(capsys):
-    doc_text = (Path(__file__).parent.parent / "docs" / "batch-json-schema.md").read_text()
+    doc_text = (REPO / "docs" / "batch-json-schema.md").read_text()
     code, out, err = run(capsys, "schedule", "amateur", "--lat", "52", "--lon", "4.37",
                          "--at", AT, "--days", "0.3", "--min-max-el", "20", "--format", "json",
                          "--rotator", "G-5500", "--all")

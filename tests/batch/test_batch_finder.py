@@ -7,13 +7,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _paths import TESTS
 from sgp4.api import Satrec, jday
 
 from tracker.batch import find_passes_batch, load_stations, pass_track
 from tracker.errors import ConfigError
 from tracker.station import HorizonMask, Station
 
-HERE = Path(__file__).parent
 START = datetime(2026, 8, 22, 13, 45, tzinfo=timezone.utc)
 DELFT = Station("Delft", 52.0, 4.37, 10.0)
 QUITO = Station("Quito", -0.2, -78.5, 2850.0, 5.0)
@@ -26,7 +26,7 @@ def read_sets(path: Path):
 
 @pytest.fixture(scope="module")
 def amateur():
-    sets = read_sets(HERE.parent / "tle" / "data" / "amateur.txt")
+    sets = read_sets(TESTS.parent / "tle" / "data" / "amateur.txt")
     return [Satrec.twoline2rv(a, b) for _, a, b in sets], [n for n, _, _ in sets]
 
 
@@ -138,7 +138,7 @@ def test_min_el_and_horizon_mask(amateur):
 
 
 def test_decayed_elements_are_reported_not_fatal(amateur):
-    decayed = read_sets(HERE / "data" / "passes_decayed.tle")
+    decayed = read_sets(TESTS / "data" / "passes_decayed.tle")
     satrecs = [Satrec.twoline2rv(a, b) for _, a, b in decayed] + amateur[0][:5]
     names = [n for n, _, _ in decayed] + amateur[1][:5]
     start = datetime(2026, 8, 22, 12, 0, tzinfo=timezone.utc)
@@ -219,7 +219,7 @@ def test_memory_is_bounded_by_chunking_not_by_catalogue_size():
     rows (and the merge's copies of them), not four times the sample arrays."""
     import tracemalloc
 
-    sets = read_sets(HERE / "data" / "batch_active_sample.txt")
+    sets = read_sets(TESTS / "data" / "batch_active_sample.txt")
     satrecs = [Satrec.twoline2rv(a, b) for _, a, b in sets]
     names = [n for n, _, _ in sets]
     start = datetime(2026, 3, 19, 4, 51, tzinfo=timezone.utc)

@@ -94,7 +94,7 @@ def test_emulate_subprocess_serves_each_protocol(emulate, capsys):
 @pytest.mark.hamlib
 @pytest.mark.skipif(shutil.which("rotctld") is None, reason="Hamlib rotctld not installed")
 def test_rotctld_via_cli(capsys):
-    from test_rotctld import _start_rotctld
+    from _rigs import start_rotctld as _start_rotctld
 
     proc, port = _start_rotctld("-m", "1")
     try:

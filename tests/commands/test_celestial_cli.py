@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import json
 from datetime import datetime, timezone
-from pathlib import Path
 
 import pytest
+from _paths import DATA, REPO
 
 from tracker.celestial import find_rise_set, resolve
 from tracker.cli import main
@@ -16,7 +16,7 @@ pytest.importorskip("skyfield_data")
 pytest.importorskip("tracker.commands.passes")
 
 AT = "2026-08-22T00:00:00Z"
-SWEEP = Path(__file__).parent / "data" / "schedule_sweep.csv"
+SWEEP = DATA / "schedule_sweep.csv"
 
 
 @pytest.fixture
@@ -72,7 +72,7 @@ def test_bad_schedule_file_is_file_line_exit_2(config, capsys, tmp_path):
 
 
 def test_next_moon(config, capsys):
-    if not Path(__file__).parent.parent.joinpath("tracker/commands/next.py").exists():
+    if not REPO.joinpath("tracker/commands/next.py").exists():
         pytest.skip("no next command")
     rc = main(["next", "moon", "--at", AT, "--config", config])
     out = capsys.readouterr().out
@@ -82,7 +82,7 @@ def test_next_moon(config, capsys):
 def test_eme_example_runs_for_a_fixed_night(capsys):
     import runpy
 
-    script = Path(__file__).parent.parent / "examples" / "eme_moon_night.py"
+    script = REPO / "examples" / "eme_moon_night.py"
     module = runpy.run_path(str(script), run_name="eme_example")
     rc = module["main"](["--lat", "52.81", "--lon", "6.40", "--at", "2026-08-22T12:00Z",
                          "--rows", "2"])

@@ -19,12 +19,12 @@ from pathlib import Path
 
 import pytest
 from _gs232_helpers import wait_until
+from _paths import REPO
 
 from tracker.clock import SimClock, SystemClock
 from tracker.config import load_config
 from tracker.emulator import Gs232Controller, serve_tcp
 
-ROOT = Path(__file__).resolve().parents[1]
 SIGNALS = [signal.SIGINT, signal.SIGTERM, signal.SIGHUP]
 PHASE_TIMEOUT_S = 90.0      # generous: the machine may be loaded
 EXIT_TIMEOUT_S = 30.0
@@ -54,7 +54,7 @@ class Child:
 
     def __init__(self, argv: list[str], config: Path):
         env = dict(os.environ, TRACKER_CONFIG=str(config),
-                   PYTHONPATH=os.pathsep.join(p for p in (str(ROOT),
+                   PYTHONPATH=os.pathsep.join(p for p in (str(REPO),
                                                           os.environ.get("PYTHONPATH")) if p))
         self.proc = subprocess.Popen([sys.executable, "-m", "tracker", *argv],
                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
@@ -246,7 +246,8 @@ def test_track_through_rotctld_plans_inside_its_elevation_limit(tmp_path):
     that the default G-5500 (0-180) would follow as a keyhole over the top is planned inside
     0..90 instead (it used to plan el 0-180 and abort before AOS on the first move above 90).
     SIGTERM then ends the run the Ctrl-C way."""
-    from test_rotctld import ROTCTLD, _start_rotctld
+    from _rigs import ROTCTLD
+    from _rigs import start_rotctld as _start_rotctld
 
     if ROTCTLD is None:
         pytest.skip("Hamlib rotctld not installed")

@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 import re
-from pathlib import Path
 
 import pytest
+from _paths import DATA
 from test_tle_store import FakeCelestrak
 
 from tracker.cli import main
 
-DATA = Path(__file__).parent / "data" / "tle"
+TLE_DATA = DATA / "tle"
 AT = "2026-08-25T00:00Z"
 
 
@@ -107,17 +107,17 @@ def test_show_unknown_and_ambiguous(cache, capsys):
 
 
 def test_show_from_a_file_skips_bad_sets(cache, capsys):
-    assert main(["tle", "show", "AO-73", "--tle", str(DATA / "bad_checksum.txt"),
+    assert main(["tle", "show", "AO-73", "--tle", str(TLE_DATA / "bad_checksum.txt"),
                  "--at", AT]) == 0
     captured = capsys.readouterr()
     assert "FUNCUBE-1 (AO-73)" in captured.out
     assert captured.err.count("checksum expected 7, found 3") == 1
-    assert main(["tle", "show", "ISS", "--tle", str(DATA / "bad_checksum.txt")]) == 2
+    assert main(["tle", "show", "ISS", "--tle", str(TLE_DATA / "bad_checksum.txt")]) == 2
     assert "no satellite 'ISS'" in one_line_error(capsys)
 
 
 def test_show_omm_file(cache, capsys):
-    assert main(["tle", "show", "25544", "--tle", str(DATA / "amateur5.xml"), "--at", AT]) == 0
+    assert main(["tle", "show", "25544", "--tle", str(TLE_DATA / "amateur5.xml"), "--at", AT]) == 0
     out = capsys.readouterr().out
     assert "MEAN_MOTION        15.49570248" in out and "amateur5.xml:3" in out
 

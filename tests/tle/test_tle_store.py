@@ -9,16 +9,16 @@ import time
 import urllib.parse
 from datetime import datetime, timezone
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
-from pathlib import Path
 
 import pytest
+from _paths import DATA
 
 from tle.catalog import Catalog
 from tle.errors import TleFetchError
 from tle.store import TleStore, default_cache_dir, resolve_source
 from tracker.clock import ManualClock
 
-DATA = Path(__file__).parent / "data" / "tle"
+TLE_DATA = DATA / "tle"
 T0 = datetime(2026, 8, 23, 12, tzinfo=timezone.utc)
 LAST_MODIFIED = "Sat, 22 Aug 2026 16:00:00 GMT"
 HTML = b"<!DOCTYPE html><html><head><title>503</title></head><body>busy</body></html>"
@@ -30,7 +30,7 @@ class FakeCelestrak:
     def __init__(self):
         self.behaviour: dict[str, str] = {}
         self.requests: list[tuple[str, dict[str, str]]] = []
-        self.body = (DATA / "amateur5.txt").read_bytes()
+        self.body = (TLE_DATA / "amateur5.txt").read_bytes()
         fake = self
 
         class Handler(BaseHTTPRequestHandler):
@@ -73,7 +73,7 @@ class FakeCelestrak:
         elif how == "cut-clean":  # a body cut mid-set, with a matching length
             body = body[:-40]
         elif how == "json":
-            body = (DATA / "amateur5.json").read_bytes()
+            body = (TLE_DATA / "amateur5.json").read_bytes()
         h.send_response(status)
         h.send_header("Content-Type", "text/plain")
         h.send_header("Content-Length", str(length if length is not None else len(body)))

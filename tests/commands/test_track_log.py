@@ -11,6 +11,7 @@ import sys
 from datetime import datetime, timezone
 
 import pytest
+from _paths import REPO
 
 from tracker.cli import main
 from tracker.clock import ManualClock, SimClock
@@ -20,7 +21,6 @@ from tracker.mount import preset
 from tracker.trackui import JsonLinesLog
 
 AT = "2026-08-23T02:05:00Z"      # a pass of ISS over the default station (AOS ~02:07:45)
-REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def _config(folder) -> str:
@@ -101,7 +101,7 @@ def test_unwritable_log_path_is_one_line_and_nothing_moves(emulator, tmp_path, c
 
 
 def _run_demo_pass(log: str, tmp_path, preexec=None) -> subprocess.CompletedProcess:
-    env = dict(os.environ, TRACKER_CONFIG=_config(tmp_path), PYTHONPATH=REPO)
+    env = dict(os.environ, TRACKER_CONFIG=_config(tmp_path), PYTHONPATH=str(REPO))
     return subprocess.run(
         [sys.executable, "-m", "tracker", "track", "ISS (ZARYA)", "--at", AT, "--speed", "150",
          "--plain", "--log", log],
