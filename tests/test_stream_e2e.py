@@ -27,7 +27,11 @@ from tracker.station import HorizonMask, Station
 from tracker.stream import Link, StreamSettings, TrackCore, run_pass
 
 SPEC = preset("G-5500", 50)
-SPEED = 50.0
+# Real I/O runs the emulator and the loop on a SimClock tied to wall time, so scheduling
+# jitter becomes simulated lag in proportion to the speed: slower than the old 50x, and a
+# margin, so a machine with both cores busy stays inside the bound.
+SPEED = 20.0
+REAL_IO_SLACK_DEG = 2.0
 DEADBAND = 3.0
 
 
@@ -102,10 +106,9 @@ def test_pass_completes_within_plan_prediction_plus_deadband(transport):
     assert res.completed
     err = np.array([e for _t, e in b.errors])
     assert len(err) > 100
-    # measured at the emulator's antenna (float), against the true target direction; real
-    # I/O on a fast SimClock turns scheduling jitter into simulated lag (1 deg allowed),
-    # virtual time has none
-    slack = 0.0 if transport == "emu" else 1.0
+    # measured at the emulator's antenna (float), against the true target direction; virtual
+    # time has no scheduling jitter, so no slack
+    slack = 0.0 if transport == "emu" else REAL_IO_SLACK_DEG
     assert err.max() <= b.plan.max_error_deg + DEADBAND + slack, err.max()
     gotos = [d for _t, k, d in b.events if k == "command" and d.get("cmd") == "goto"]
     assert res.commands == len(gotos) and 5 <= res.commands <= 120
