@@ -1,6 +1,6 @@
-"""Line noise is not a stall, and erratic read-back ends the run (issue: a lost W was never
-re-sent, so 2 % of noise on the line stopped every pass with a false "stall"; well-formed
-but random read-back kept `tracker track` waiting for ever).
+"""Line noise is not a stall, and erratic read-back ends the run (a lost W must be
+re-sent, or 2 % of noise on the line stops every pass with a false "stall"; well-formed
+but random read-back must not keep `tracker track` waiting for ever).
 
 On virtual time through the GS-232B emulator behind ``emu://`` (the bench of
 test_faults_stream.py): the noise is drawn from a seed, so every run sees the same bytes
