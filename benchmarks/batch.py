@@ -1,7 +1,7 @@
-"""Benchmark of the batch pass finder (issue 8). Prints figures; asserts nothing.
+"""Benchmark of the batch pass finder. Prints figures; asserts nothing.
 
-Data: CelesTrak's active catalogue of 2026-03-19 (../shared/tle/active.txt, 14,710 objects),
-window 2026-03-19 04:51 UTC + 7 days (see ../shared/tle/SOURCES.md), station Delft.
+Data: CelesTrak's active catalogue of 2026-03-19 (14,710 objects; not in the repository, give it
+with ``--tle PATH``), window 2026-03-19 04:51 UTC + 7 days, station Delft.
 
 Measured in one run, so every ratio compares figures taken under the same machine load.
 Every timing is printed as wall time and as CPU time (this process plus its worker

@@ -1,9 +1,9 @@
 """Parse speed of the validating TLE parser against a bare sgp4 baseline (same run).
 
-Usage: python benchmarks/bench_tle_parse.py [FILE]  (default ../shared/tle/active.txt or the
-bundled snapshot). Prints the median of 5 runs of: tle.elements.parse_tle_text (layout,
-checksums, Alpha-5, id match, epoch) and the baseline sgp4 Satrec.twoline2rv on the same line
-pairs (no validation), plus the ratio.
+Usage: python benchmarks/bench_tle_parse.py [FILE]  (default: a copy of CelesTrak's active
+catalogue beside the checkout if there is one, else the bundled snapshot). Prints the median
+of 5 runs of: tle.elements.parse_tle_text (layout, checksums, Alpha-5, id match, epoch) and
+the baseline sgp4 Satrec.twoline2rv on the same line pairs (no validation), plus the ratio.
 """
 
 from __future__ import annotations

@@ -9,7 +9,7 @@ simulated rotator (THE motor model, tracker.mount, G-5500 at 50 Hz rates), start
   planner's path (overlap / flip / keyhole chosen per pass), mask-safe pre-position, deadband
   with the aim point chosen by :func:`tracker.aim.choose_aim`, read-back (integer degrees)
   every 0.5 s cycle.
-* ``gpredict``: ANCHORS.md 3.2: 1 s cycle, 5 deg threshold per axis between the current target
+* ``gpredict``: gtk-rot-ctrl.c: 1 s cycle, 5 deg threshold per axis between the current target
   and the read-back, lead = the furthest future point within the threshold (bisection), flip
   only when el max is 180 (``maxel >= 180``), no overlap, targets clamped.
 
@@ -68,7 +68,7 @@ def fly_stream(track, spec, station, deadband_deg: float, cycle_s: float = 0.5):
 
 def fly_gpredict(track, spec, station, threshold_deg: float = 5.0, cycle_s: float = 1.0,
                  t_start: float | None = None):
-    """Gpredict's rot_ctrl_timeout_cb loop (ANCHORS.md 3.2) on the Gpredict path rule."""
+    """Gpredict's rot_ctrl_timeout_cb loop (gtk-rot-ctrl.c) on the Gpredict path rule."""
     plan = gpredict_plan(track, spec, station, current=(spec.park_az_deg, spec.park_el_deg))
     path = AimPath.from_plan(plan, spec, track)
     aos_s, los_s = pass_window(track, station)
@@ -223,7 +223,8 @@ def compare(suite, spec, deadbands: list[float]) -> tuple[dict, list[str], np.nd
 
 
 def print_results(res: dict, names: list[str], followable: np.ndarray) -> None:
-    """The side-by-side table and the issue's three targets, per stream deadband."""
+    """The side-by-side table and, per stream deadband, the three targets: no lost seconds on
+    followable passes, max error <= 3 deg on >= 99 % of passes, motor starts vs Gpredict's."""
     n = len(followable)
     labels = [
         ("passes", lambda r: f"{n}"),

@@ -4,9 +4,9 @@
     python examples/eme_moon_night.py --lat -33.87 --lon 151.21 --rotator G-5400B --min-el 5
 
 Without ``--at`` it uses the current time. "Tonight" is the next Moon pass that is up at or
-after that time (searched over 36 h). The planner summary is printed when
-``tracker.planner`` is available, and the GS-232B step table (one ``W`` point every 60 s)
-when ``tracker.steptable`` is: the Moon at 60 s steps fits one 1900-pair table.
+after that time (searched over 36 h). Then the planner's summary for the rotator and the
+GS-232B step table (one ``W`` point every 60 s): the Moon at 60 s steps fits one 1900-pair
+table. Everything comes from :mod:`tracker.api`.
 """
 
 from __future__ import annotations
@@ -17,10 +17,19 @@ from datetime import datetime, timedelta, timezone
 
 import numpy as np
 
-from tracker.celestial import event_labels, find_rise_set, resolve
-from tracker.clock import ManualClock, SystemClock
-from tracker.errors import TrackerError
-from tracker.station import Station
+from tracker.api import (
+    ManualClock,
+    MountPath,
+    Station,
+    SystemClock,
+    TrackerError,
+    compile_program,
+    event_labels,
+    find_rise_set,
+    plan_pass,
+    preset,
+    resolve_target,
+)
 
 STEP_S = 60.0
 TABLE_PAIRS = 1900  # GS-232A/B long-form W table limit
@@ -59,7 +68,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _session(args, now: datetime) -> int:
     station = Station("station", args.lat, args.lon, args.alt, args.min_el)
-    moon = resolve("moon")
+    moon = resolve_target("moon")
     passes = find_rise_set(moon, station, now, now + timedelta(hours=36))
     if not passes:
         print(f"The Moon does not rise above {args.min_el:g}° at {args.lat}, {args.lon} in the "
@@ -98,12 +107,6 @@ def _path_loss_span_db(range_km: np.ndarray) -> float:
 
 
 def _plan(track, station: Station, rotator: str) -> None:
-    try:
-        from tracker.mount import preset
-        from tracker.planner import plan_pass
-    except ImportError:
-        print("Plan: tracker.planner not available in this version")
-        return
     spec = preset(rotator)
     plan = plan_pass(track, spec, station)
     s = plan.summary()
@@ -115,12 +118,6 @@ def _plan(track, station: Station, rotator: str) -> None:
 
 
 def _step_table(plan, track, spec, station: Station) -> None:
-    # The step-table compiler belongs to another issue; use it when this version has it.
-    try:
-        from tracker.steptable import MountPath, compile_program
-    except ImportError:
-        print("Step table: tracker.steptable not available in this version")
-        return
     path = MountPath.from_plan(plan, track, spec)
     program = compile_program(path, spec, "gs232b", interval_s=int(STEP_S), station=station)
     print(f"Step table: {program.summary()}")

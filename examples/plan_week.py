@@ -19,13 +19,21 @@ import sys
 from datetime import datetime, timedelta, timezone
 from pathlib import Path
 
-from tle.catalog import Catalog
-from tracker.batch import find_passes_batch, plan_summaries, satrecs_of
-from tracker.export import pass_records, to_csv, to_ics
-from tracker.files import write_atomic
-from tracker.mount import preset
-from tracker.schedule import build_schedule, parse_priorities
-from tracker.station import Station
+from tracker.api import (
+    Catalog,
+    ConfigError,
+    Station,
+    build_schedule,
+    find_passes_batch,
+    parse_priorities,
+    pass_records,
+    plan_summaries,
+    preset,
+    satrecs_of,
+    to_csv,
+    to_ics,
+    write_atomic,
+)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -79,8 +87,6 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    from tracker.errors import ConfigError
-
     try:
         sys.exit(main())
     except ConfigError as e:  # e.g. an earlier run's files without --force

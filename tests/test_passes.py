@@ -1,6 +1,6 @@
 """Pass prediction against a brute-force reference on real elements (tests/data/passes_sats.tle:
 ISS, NOAA 20 and AO-10 from the bundled 2026-08 snapshot; ES'HAIL 2 GEO; YAMAL 300K and
-USA 170 from ../shared/tle/mirror-2026-05-30/geo.tle).
+USA 170 from a CelesTrak GEO group of 2026-05-30).
 
 The reference samples skyfield directly (default IAU 2000A nutation, its own times) every
 0.1 s around each event, and scans the whole window every 10 s to prove no pass is missed.

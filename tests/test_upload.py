@@ -320,7 +320,7 @@ def _stop_time_after(rig, t_from: float) -> float | None:
 
 @pytest.mark.parametrize("axis", ["az", "el"])
 def test_jam_is_stopped_within_3_s_by_the_motor_model(axis):
-    # Issue 10: all-stop within 3 s of a jam. The el axis moves 0-1 deg per 2 s point here,
+    # Required: all-stop within 3 s of a jam. The el axis moves 0-1 deg per 2 s point here,
     # so only the motor model (not the span of recent points) can see it stop in time.
     _, prog = compile_mid(half_s=60.0, interval_s=2)
     table = prog.tables[0]

@@ -281,7 +281,7 @@ def choose_aim(path: AimPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t0_
 
 def gpredict_aim(path: AimPath, t0_s: float, threshold_deg: float, cycle_s: float,
                  quantise=None) -> tuple[float, float]:
-    """Gpredict's lead (ANCHORS §3.2): the furthest future path point whose az and el are each
+    """Gpredict's lead (its gtk-rot-ctrl.c): the furthest future path point whose az and el are each
     within ``threshold_deg`` of the current target, found by bisection down to ``cycle/4``.
 
     Slew time is ignored, as in Gpredict; returns mechanical ``(az, el)``.

@@ -1,6 +1,6 @@
 """Rotator model: the mechanical frame, rotator specs and presets, and the one motor model.
 
-Frames (see DESIGN.md): the planner works in the *mechanical* frame ``m`` in
+Frames (docs/architecture.md): the planner works in the *mechanical* frame ``m`` in
 ``[0, az_span_deg]`` counted clockwise from the CCW stop at ``stop_bearing_deg``; the true
 bearing is ``(m + stop_bearing_deg) mod 360``. Elevation above 90 means over the top (flip).
 
@@ -136,7 +136,7 @@ def _rate(seconds: float, degrees: float) -> float:
 # this repository, so measure your own rotator (time a full turn) and override the rate in
 # [rotator.NAME] when it matters.
 # The 360 deg spans of the G-400 and G-5400B/G-5600B follow the GS-232B manual, which has
-# them set to 360 deg mode (P36) at installation (../shared/seeds/000_*, 'P36').
+# them set to 360 deg mode (P36) at installation.
 # AC motors turn in proportion to mains frequency: at 50 Hz they take 6/5 as long.
 
 

@@ -7,7 +7,7 @@ samples, quantised to the command resolution, clamped to the limits and the mask
 through THE motor model (:func:`tracker.mount.predict_axis`) and scored by the great-circle
 angle between boresight and target. The best one becomes the :class:`MountPlan`.
 
-Candidates (see ANCHORS.md section 3 for why each exists):
+Candidates (the stop-avoiding and zenith strategies trackers use, all scored alike):
 
 * ``normal`` / ``overlap``: the unwrapped mechanical azimuth shifted by k*360 so the whole
   pass fits the span. On a 450 deg rotator a shift that uses mechanical 360-450 is reported as
@@ -584,7 +584,7 @@ def gpredict_plan(track: SkyTrack, spec: RotatorSpec, station: Station,
                   current: tuple[float, float] | None = None, *,
                   threshold_deg: float = LOST_THRESHOLD_DEG, lead_s: float | None = None,
                   park: bool = False) -> MountPlan:
-    """The Gpredict rule (ANCHORS.md 3.2), as a baseline for the benchmark.
+    """The Gpredict rule (its gtk-rot-ctrl.c), as a baseline for the benchmark.
 
     The pass is "flipped" when its azimuth trace, wrapped into the 360 deg window that starts
     at the stop, jumps by more than 180 deg; a flipped pass uses (az + 180, 180 - el) only if

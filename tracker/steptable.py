@@ -1,6 +1,6 @@
 """Step tables: compile a mount path into GS-232 long-form ``W``/``M`` tables, encode, chain.
 
-Semantics modelled exactly as the manuals describe them (PROTOCOLS.md §4):
+Semantics modelled exactly as the manuals describe them (docs/protocols.md, Step tables):
 
 * the long-form ``Wsss aaa eee ...`` / ``Msss aaa ...`` line stores the list and turns the
   rotator to point 1 at once, then waits;
@@ -88,7 +88,7 @@ PROFILES: dict[str, TableProfile] = {
     "gs232b": TableProfile("gs232b"),
     # K3NG FEATURE_TIMED_BUFFER: 20 entries, 50-byte line buffer without a bounds check,
     # W appends (M clears), W azimuth 0-360 only, real period sss+1, N returns the count only,
-    # the list is cleared after the last point (PROTOCOLS.md §4.2).
+    # the list is cleared after the last point (docs/protocols.md, K3NG).
     "k3ng": TableProfile("k3ng", max_w_pairs=20, max_m_angles=20, max_line_chars=50,
                          lines_append=True, period_extra_s=1, w_az_max_deg=360,
                          clears_at_end=True, n_reports_index=False),
@@ -379,7 +379,7 @@ def wire_az(spec: RotatorSpec, m_deg):
     """Mechanical azimuth to the controller's wire degrees.
 
     A controller that maps a south-centred scale itself takes true bearings; every other
-    one takes the mechanical angle (GS-232B 450° mode sends ``m``), see DESIGN.md Frames.
+    one takes the mechanical angle (GS-232B 450° mode sends ``m``), see docs/architecture.md.
     """
     m = np.asarray(m_deg, dtype=float)
     if spec.controller_maps_south:

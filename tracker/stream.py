@@ -124,7 +124,7 @@ class Status:
 
 
 def wire_of(spec: RotatorSpec, az_m_deg: float) -> float:
-    """Mechanical azimuth → what the controller takes on the wire (DESIGN.md, Frames)."""
+    """Mechanical azimuth → what the controller takes on the wire (docs/architecture.md, Frames)."""
     if spec.controller_maps_south:
         return float(spec.bearing_of(az_m_deg))
     return float(az_m_deg)

@@ -1,9 +1,9 @@
 """The batch finder against skyfield's ``find_events`` on real elements.
 
-Contract (issue 8): no pass missed whose max elevation is >= the minimum + 0.1 deg, and
+Contract: no pass missed whose max elevation is >= the minimum + 0.1 deg, and
 AOS/TCA/LOS within 1 s. Elements: the bundled amateur group (epochs 2026-08-22) and 322
 objects of CelesTrak's active catalogue of 2026-03-19 (every 60th object plus deep-space,
-GEO and highly eccentric ones), copied into tests/data from ../shared/tle/active.txt.
+GEO and highly eccentric ones), copied into tests/data/batch_active_sample.txt.
 """
 
 from __future__ import annotations

@@ -20,7 +20,7 @@ from tracker.protocols.base import Capabilities
 from tracker.session import EffectiveLimits, driver_limits
 from tracker.station import HorizonMask, Station
 
-# The issue's case: a G-5500 configured for 360 deg azimuth and 0-90 elevation.
+# A G-5500 configured for 360 deg azimuth and 0-90 elevation.
 CONFIG = """
 [rotator.safe]
 preset = "G-5500"

@@ -12,7 +12,7 @@ from tracker.protocols.rotorez import encode_bearing, parse_ai_reply  # register
 
 
 def test_codec_rounding_and_limits_match_hamlib():
-    # Hamlib 4.5.4 (Appendix A): 180.6 -> 181, 180.5 -> 180, 181.5 -> 182, 359.5/360 -> 000
+    # Hamlib 4.5.4 rotctl, captured: 180.6 -> 181, 180.5 -> 180, 181.5 -> 182, 359.5/360 -> 000
     assert [encode_bearing(v) for v in (180.6, 180.5, 181.5, 359.5, 360, 0)] == \
         [b"181", b"180", b"182", b"000", b"000", b"000"]
     for bad in (-0.1, 360.1, float("nan"), "x"):

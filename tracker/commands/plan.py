@@ -4,7 +4,7 @@ Prints the chosen mode and the reason, every candidate's figures side by side, t
 pre-position move and time, the predicted max/mean pointing error, lost seconds, travel and
 motor starts. ``--plot FILE.png|svg`` draws the sky plot (extra ``plot``).
 
-More outputs of the same plan (issue 5 adds ``--steptable FILE``) register in
+More outputs of the same plan (such as ``--steptable FILE``) register in
 :data:`OUTPUTS`: ``(flag, metavar, help, writer(plan, station, value, args))``.
 """
 
@@ -175,7 +175,7 @@ def format_plan(plan, station_name: str) -> str:
 
 
 def _write_steptable(plan, station, value: str, args: argparse.Namespace) -> None:
-    from tracker.commands.upload import write_steptable_for_plan  # issue 5
+    from tracker.commands.upload import write_steptable_for_plan
 
     write_steptable_for_plan(plan, station, value, args)
 

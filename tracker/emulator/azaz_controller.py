@@ -1,5 +1,5 @@
-"""Virtual GS-232B-AZ/AZ dual-azimuth controller (VE2DX proposal v2.0.0, seed 001;
-PROTOCOLS.md §7).
+"""Virtual GS-232B-AZ/AZ dual-azimuth controller (VE2DX proposal v2.0.0;
+docs/protocols.md).
 
 Built on :class:`Gs232Controller`: azimuth 2 *is* the GS-232B elevation channel (the
 proposal reuses command set 2 for it), so it lives in the motor model's second axis with

@@ -5,7 +5,7 @@ One :class:`Gs232Controller` is one box (one antenna, one memory); each connecti
 from an injected Clock: stepping tables and motor motion are evaluated at exact clock times, so
 a SimClock with ``speed`` > 1 replays a pass quickly and a ManualClock makes tests exact.
 
-Where the manuals are silent (PROTOCOLS.md §4.1, §10) the choices are: after the last table
+Where the manuals are silent (docs/protocols.md, Step tables) the choices are: after the last table
 point the antenna stays there (``end_behaviour``), S stops stepping, a short M/W stops stepping
 but keeps the list, N answers with the current point while a list is loaded.
 """
@@ -30,7 +30,7 @@ from tracker.protocols.gs232 import (
     get_profile,
 )
 
-# What a GS-232B reads while the rotator's own control box is switched off (PROTOCOLS §3.2).
+# What a GS-232B reads while the rotator's own control box is switched off (captured on real units).
 OFF_AZ, OFF_EL = -1, -2
 FULL_SCALE_INTERVAL_S = 0.5
 
@@ -396,8 +396,8 @@ class Gs232Controller:
             return self._err()
         if head == "W" and p.k3ng_messages and self.table is not None \
                 and not self.table.running:
-            # K3NG firmware: long-form W does not clear the list, it appends (PROTOCOLS.md
-            # §4.2), so a 20-pair table arrives as several <= 50-char lines.
+            # K3NG firmware: long-form W does not clear the list, it appends (docs/protocols.md,
+            # K3NG), so a 20-pair table arrives as several <= 50-char lines.
             points = self.table.points + points
             if len(points) > p.max_table_pairs:
                 self.table = None
@@ -444,7 +444,7 @@ class Session:
         if controller.profile.lf_is_command:
             self._framer = LineFramer(b"\r\n", max_line=opts.max_line)
         else:
-            # Real GS-232B: LF is not a terminator and is ignored (PROTOCOLS §0.1).
+            # Real GS-232B: LF is not a terminator and is ignored (docs/protocols.md).
             self._framer = LineFramer(b"\r", ignore=b"\n", max_line=opts.max_line)
         self.state = _SessionState(connected=not opts.autobaud)
         self._epoch = controller.power_epoch

@@ -1,4 +1,4 @@
-"""Help screens (H, H2, H3) as the manuals print them (GS-232B seed 000, GS-232 seed 004).
+"""Help screens (H, H2, H3) as the GS-232B and the GS-23/GS-232 manuals print them.
 
 The GS-232B text is the manual's OCR cleaned up by hand (spelling fixed, layout kept); the
 Kenpro V1.2 text is verbatim from its manual.

@@ -5,7 +5,7 @@ terminator and the ``AI1;`` reply has no terminator either. Served by ``serve_pt
 ``serve_tcp`` like any controller (they only need ``open_session()`` returning an object
 with ``feed(bytes) -> bytes`` and ``poll() -> bytes``).
 
-Behaviour (PROTOCOLS.md §8): case-sensitive; ``AP1ddd\\r`` sets and goes (Rotor-EZ only),
+Behaviour (docs/protocols.md): case-sensitive; ``AP1ddd\\r`` sets and goes (Rotor-EZ only),
 ``AP1ddd;`` sets, ``AM1;`` goes, ``AI1;`` → ``;ddd`` (0-359), ``;`` stops (Rotor-EZ),
 ``AS1;`` stops (DCU-1); option bytes ``E e O o S s J j`` switch endpoint / overshoot /
 unstick / jam protection; ``V`` answers the banner. LF is ignored.

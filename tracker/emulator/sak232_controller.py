@@ -1,4 +1,4 @@
-"""Virtual Zelpro SAK-232 controller (the only source is the seed Quick User's Guide).
+"""Virtual Zelpro SAK-232 controller (the only source is Zelpro's Quick User's Guide).
 
 What the guide says, and the emulator does: 9600 8N1, no handshake; a command is one capital
 letter, parameters separated by spaces, ended by ENTER. ``A aaa`` moves to azimuth 0-359

@@ -40,7 +40,7 @@ def _lazy_factory(module: str, attr: str) -> DriverFactory:
     return open_lazily
 
 
-# The other seed controllers and Hamlib's rotctld (issue 7), imported on first use.
+# The other controller families and Hamlib's rotctld, imported on first use.
 for _name, _module, _attr in (("rotorez", "rotorez", "open_rotorez"),
                               ("dcu1", "rotorez", "open_dcu1"),
                               ("sak232", "sak232", "open_sak232"),

@@ -1,4 +1,4 @@
-"""GS-232B-AZ/AZ (dual azimuth, VE2DX proposal; PROTOCOLS.md §7) driver.
+"""GS-232B-AZ/AZ (dual azimuth, VE2DX proposal; docs/protocols.md) driver.
 
 Two azimuth-only antennas behind one GS-232B-class interface: azimuth 2 uses the elevation
 channel (``C2`` → ``AZ=aaaEL=bbb``, ``B``, ``U``/``D``/``E``) plus ``MBxxx``/``XBn``, and

@@ -3,7 +3,7 @@
 A driver wraps an already-open, port-like object (anything with ``read``, ``write``,
 ``reset_input_buffer``, ``timeout``; see :func:`tracker.transport.open_port`). Positions are
 *wire degrees*: what the controller reports and accepts in its current mode; turning
-mechanical or true bearings into wire degrees is the caller's job (see DESIGN.md, Frames).
+mechanical or true bearings into wire degrees is the caller's job (see docs/architecture.md).
 """
 
 from __future__ import annotations

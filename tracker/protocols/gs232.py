@@ -2,7 +2,7 @@
 
 The codec (``encode_*`` / ``parse_*`` / ``format_*``) is shared by the driver and the emulator,
 so what one sends the other understands by construction. Byte-level facts and their sources
-are in ``shared/reference/PROTOCOLS.md``; the profile table is in DESIGN.md.
+are in ``docs/protocols.md``; the dialects are :data:`PROFILES` below.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Idiom Press Rotor-EZ / RotorCard and Hy-Gain DCU-1: driver, codec and shared byte I/O.
 
-Wire facts (PROTOCOLS.md §8, Appendix A): 4800 8N1, letters case-sensitive, bearings three
+Wire facts (docs/protocols.md): 4800 8N1, letters case-sensitive, bearings three
 zero-padded digits. ``AP1ddd\\r`` sets and goes; ``AP1ddd;`` only sets and ``AM1;`` executes
 it; ``AI1;`` answers exactly ``;ddd`` with no terminator; ``;`` stops (Rotor-EZ), ``AS1;``
 stops (DCU-1). Single bytes ``E e O o S s J j`` switch options, ``V`` asks the version. A real
@@ -187,7 +187,7 @@ def open_loop_estimate(clock: Clock, spec: RotatorSpec | None, rate_deg_s: float
     park position as the assumed start), else from the explicit values."""
     if spec is None:
         return OpenLoopAz(clock, rate_deg_s, start_delay_s, start_az_deg, stop_bearing_deg)
-    # The wire carries true bearings only when the controller maps them (DESIGN.md, Frames);
+    # The wire carries true bearings only when the controller maps them (docs/architecture.md);
     # otherwise it carries mechanical degrees, whose "stop bearing" is 0.
     if spec.controller_maps_south:
         park, stop = float(spec.bearing_of(spec.park_az_deg)), spec.stop_bearing_deg

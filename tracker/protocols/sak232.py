@@ -1,4 +1,4 @@
-"""Zelpro SAK-232 driver (seed 003, PROTOCOLS.md §9).
+"""Zelpro SAK-232 driver (Zelpro's Quick User's Guide; docs/protocols.md).
 
 9600 8N1, no handshake; commands are one capital letter, space-separated parameters and
 CR: ``A aaa`` (0-359, no padding), ``R ±ddd``, ``O aaa``, ``K``, ``P pp ddd``, ``S``. The
