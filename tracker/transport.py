@@ -142,12 +142,3 @@ def io_clock(port) -> Clock:
     clock = getattr(port, "clock", None)
     return clock if isinstance(clock, Clock) else _REAL_TIME
 
-
-def emu_clock(url: str) -> Clock | None:
-    """The clock of the emulator bench an ``emu://NAME`` URL names (None for anything else):
-    code that opens such a port later runs its own timing on that clock."""
-    if not is_emulated(url):
-        return None
-    from tracker.emulator.virtual import clock_of
-
-    return clock_of(url)

@@ -82,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
     opts = EmulatorOptions(strict_acks=args.strict_acks, one_space=args.one_space,
                            readback_360=args.readback_360, end_behaviour=args.end,
                            autobaud=args.autobaud)
-    from tracker.emulator.rotorez_controller import OTHER_PROTOCOLS, make_other_controller
+    from tracker.emulator.factory import OTHER_PROTOCOLS, make_other_controller
 
     if args.protocol.lower() in OTHER_PROTOCOLS:
         # rotorez, dcu1, sak232, gs232b-azaz: azimuth-only; their own default rotator

@@ -39,7 +39,7 @@ from tracker.commands._common import (
     target_from_args,
 )
 from tracker.errors import ConfigError, TargetError, TrackerError
-from tracker.transport import emu_clock, is_emulated
+from tracker.transport import is_emulated
 
 DEMO_SECONDS = 60.0        # a whole demo pass in about this much wall time
 STALE_ELEMENTS_DAYS = 14.0  # older elements: the demo replays a pass near their epoch
@@ -489,8 +489,10 @@ def run(args: argparse.Namespace) -> int:
                           "--port) or --port emu://PROTOCOL; a real rotator runs in real time")
     if virtual:
         earliest = min(a.first.aos for a in ants)
+        from tracker.emulator.virtual import clock_of
+
         # an emu:// bench made by the caller brings its own clock; else a new one
-        clock = emu_clock(port) if port else None
+        clock = clock_of(port) if port and is_emulated(port) else None
         clock = clock or LockstepClock(max(start, earliest - timedelta(seconds=150))
                                        if demo else start, parties=len(ants))
     elif simulated:
@@ -525,7 +527,7 @@ def run(args: argparse.Namespace) -> int:
 
             controller = AzAzController(specs[0], specs[1], clock)
         elif emulator:
-            from tracker.emulator.rotorez_controller import make_other_controller
+            from tracker.emulator.factory import make_other_controller
 
             controller = make_other_controller(emulator, clock, spec)
         else:

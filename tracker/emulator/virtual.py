@@ -213,8 +213,8 @@ def make_controller(protocol: str, clock: Clock, rotator: str | None = None, mai
                     autobaud: bool = False):
     """The emulator for ``protocol`` on ``clock`` (``rotator``: a preset name; None: the
     protocol's default rotator)."""
+    from tracker.emulator.factory import OTHER_PROTOCOLS, make_other_controller
     from tracker.emulator.gs232_controller import EmulatorOptions, Gs232Controller
-    from tracker.emulator.rotorez_controller import OTHER_PROTOCOLS, make_other_controller
     from tracker.mount import preset
     from tracker.protocols.gs232 import PROFILES
 
