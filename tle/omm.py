@@ -17,7 +17,7 @@ from datetime import datetime, timezone
 from typing import Any
 from xml.etree.ElementTree import ParseError
 
-from tle.elements import ElementSet, WarningHandler
+from tle.element_set import ElementSet, WarningHandler
 from tle.errors import TleError, TleFormatError, TleWarning
 
 REQUIRED_FIELDS = (
