@@ -39,7 +39,6 @@ LOST_THRESHOLD_DEG = 5.0  # half the beamwidth of a typical satellite yagi
 KEYHOLE_MIN_EL_DEG = 60.0
 KEYHOLE_CAPS_DEG = (0.0, 15.0, 40.0, 70.0)
 PREPOSITION_MARGIN_S = 10.0
-MODES = ("normal", "overlap", "flip", "keyhole", "unwind")
 
 
 @dataclass(frozen=True)

@@ -266,10 +266,9 @@ def moving_axis(template: AxisMotor, position_deg: float, target_deg: float, t_s
 # Read-backs are whole degrees: from a read-back that sits on its table point
 # (the antenna is exactly there) the model must predict >= STALL_MOVE_DEG of travel; from one
 # taken mid-move (up to 0.5 deg off the real position) >= STALL_MOVE_DEG + 0.5. The axis has
-# stalled when it then shows < STALL_STILL_DEG of progress toward the point, read twice (a
+# stalled when it then shows < STILL_DEG of progress toward the point, read twice (a
 # garbled digit must not stop a pass).
 STALL_MOVE_DEG = 1.0
-STALL_STILL_DEG = STILL_DEG
 STALL_HISTORY_S = 8.0
 # Command times are the host's; the controller may step a little late (clock drift up to the
 # resync slack is measured from N, this covers the poll and the emulator/controller tick).
@@ -386,7 +385,7 @@ class TableWatch:
                         continue     # some timing has the axis back at (or past) the reading
                     travel, cmd_last = float(travels[0][0][0]), travels[0][1]
                     progress = (now_deg - ref_deg) * np.sign(travel)
-                    if progress < STALL_STILL_DEG:
+                    if progress < STILL_DEG:
                         return name, (f"reads {now_deg:g} deg, {t_s - t_ref:.1f} s after it "
                                       f"read {ref_deg:g}; the motor model has it at "
                                       f"{ref_deg + travel:.1f} by now (table point "

@@ -271,11 +271,6 @@ def attach(url: str, clock: Clock | None = None) -> _Link:
     return bench.open()
 
 
-def bench_of(port) -> Bench | None:
-    """The bench behind an open ``emu://`` port (None for any other port)."""
-    return getattr(port, "bench", None) if getattr(port, "_link", None) is not None else None
-
-
 def clock_of(url: str) -> Clock | None:
     """The clock of the :class:`Bench` ``url`` names (None: not a bench, e.g. a profile)."""
     with _REG_LOCK:

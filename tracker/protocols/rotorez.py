@@ -43,7 +43,6 @@ except ImportError:  # Windows
 
 BAUDRATE = 4800
 BANNER = b"C2000 IDIOM V1.4S "
-POWER_ON_BYTE = b"\xe0"
 OPTION_BYTES = {"endpoint": (b"E", b"e"), "overshoot": (b"O", b"o"),
                 "unstick": (b"S", b"s"), "jam": (b"J", b"j")}
 _AI_RE = re.compile(rb";(\d{3})")
