@@ -54,7 +54,8 @@ class RotatorSpec:
     def has_elevation(self) -> bool:
         return self.el_max_deg is not None
 
-    def validate(self) -> None:
+    # One guard per field, each with its own message.
+    def validate(self) -> None:  # noqa: C901
         def bad(key: str, value, allowed: str) -> ConfigError:
             return ConfigError(f"rotator {self.name!r}: {key} = {value!r} is invalid; "
                                f"allowed: {allowed}")

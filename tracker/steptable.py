@@ -446,25 +446,33 @@ def compile_program(path: MountPath, spec: RotatorSpec, profile: TableProfile | 
                               f"{INTERVAL_MIN_S}-{INTERVAL_MAX_S} whole seconds")
         return _compile_at(path, int(interval_s), **common)
     if max_error_deg is not None:
-        if not (max_error_deg > 0):
-            raise ConfigError(f"max error {max_error_deg} deg is invalid; give a value > 0")
-        best: StepProgram | None = None
-        for sss in _interval_candidates(duration, extra):
-            prog = _compile_at(path, sss, **common)
-            if prog.prediction.max_error_deg <= max_error_deg:
-                return prog
-            if best is None or prog.prediction.max_error_deg < best.prediction.max_error_deg:
-                best = prog
-        assert best is not None
-        raise LimitError(f"no interval keeps the predicted error within {max_error_deg:g} "
-                         f"deg; the best is {best.prediction.max_error_deg:.2f} deg at "
-                         f"interval {best.interval_s} s. Raise --max-error or give "
-                         f"--interval")
+        return _compile_within(path, max_error_deg, _interval_candidates(duration, extra),
+                               common)
     cap = profile.max_points(kind)
     for sss in range(INTERVAL_MIN_S, INTERVAL_MAX_S + 1):
         if _n_points(duration, sss + extra) <= cap:
             return _compile_at(path, sss, **common)
     return _compile_at(path, INTERVAL_MAX_S, **common)
+
+
+def _compile_within(path: MountPath, max_error_deg: float, candidates: list[int],
+                    common: dict) -> StepProgram:
+    """The first of ``candidates`` (largest first) whose predicted error is within
+    ``max_error_deg``; LimitError naming the best one when none is."""
+    if not (max_error_deg > 0):
+        raise ConfigError(f"max error {max_error_deg} deg is invalid; give a value > 0")
+    best: StepProgram | None = None
+    for sss in candidates:
+        prog = _compile_at(path, sss, **common)
+        if prog.prediction.max_error_deg <= max_error_deg:
+            return prog
+        if best is None or prog.prediction.max_error_deg < best.prediction.max_error_deg:
+            best = prog
+    assert best is not None
+    raise LimitError(f"no interval keeps the predicted error within {max_error_deg:g} "
+                     f"deg; the best is {best.prediction.max_error_deg:.2f} deg at "
+                     f"interval {best.interval_s} s. Raise --max-error or give "
+                     f"--interval")
 
 
 def _interval_candidates(duration_s: float, extra: int) -> list[int]:

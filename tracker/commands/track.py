@@ -425,7 +425,8 @@ class _AntennaOut:
         return None
 
 
-def run(args: argparse.Namespace) -> int:
+# The command's whole flow; its logic is to move into the library, and gets split then.
+def run(args: argparse.Namespace) -> int:  # noqa: C901
     from tracker.protocols import open_driver
     from tracker.session import ControllerSession, driver_limits
     from tracker.stream import Link
@@ -655,7 +656,8 @@ def _speed_arg(text: str) -> float:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number or 'max'") from None
 
 
-def _run_both(ants: list[_Antenna], shared: _SharedAzAz, station, clock, passes: int,
+# Two-antenna flow of the track command; split with run() when it moves into the library.
+def _run_both(ants: list[_Antenna], shared: _SharedAzAz, station, clock, passes: int,  # noqa: C901
               timer: _DemoTime | None, out) -> None:
     """Both antennas at once, one thread each on the shared interface. A stall, an error or
     Ctrl-C/SIGTERM on either stops both (``S``) and ends the run; every way out ends
