@@ -151,8 +151,10 @@ class AxisWatch:
     def _moved(self, t_s: float, readback_deg: float, seen: bool) -> None:
         """Motion ``seen`` (else the axis is at its target, having asked for no travel or
         come back unseen): restart the expectation from here."""
-        self.expect = moving_axis(self.expect, readback_deg, self.expect.target_deg, t_s,
-                                  self.expect.moving(t_s))
+        expect = self.expect
+        assert expect is not None, "only called while an expectation runs"
+        self.expect = moving_axis(expect, readback_deg, expect.target_deg, t_s,
+                                  expect.moving(t_s))
         self.ref_t_s, self.ref_pos_deg = t_s, readback_deg
         self.seg_t_s, self.carried_deg = t_s, 0.0
         self.still_since_s = None
@@ -218,6 +220,7 @@ class AxisWatch:
         """From rest, a healthy axis shows motion on whole-degree read-back this long after
         it was told to move (acted on when sent)."""
         e = self.expect
+        assert e is not None, "only called while an expectation runs"
         return e.start_delay_s + e.resolution_deg / e.rate_deg_s
 
     def motion_overdue(self, t_s: float, resolution_deg: float) -> bool:
@@ -225,7 +228,7 @@ class AxisWatch:
         now: the first sign of a lost command (or a jam)."""
         if self.expect is None or self.ref_t_s is None:
             return False
-        since = self.last_send_t_s if self.send_times else self.ref_t_s
+        since = self.send_times[-1] if self.send_times else self.ref_t_s
         expected = self.carried_deg + self._segment_deg(t_s)
         return t_s > since and expected >= resolution_deg - 1e-9
 
