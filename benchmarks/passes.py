@@ -99,7 +99,9 @@ def coarse_count(sat, station, t0: float, t1: float) -> int:
     return int(np.count_nonzero(up[1:] & ~up[:-1]))
 
 
-def bench_accuracy(n_sats: int, days: float) -> None:
+# A benchmark's measuring loop: one piece, so each number it prints reads against the
+# code that takes it.
+def bench_accuracy(n_sats: int, days: float) -> None:  # noqa: C901
     from tle.catalog import Catalog
     from tracker.clock import utc
     from tracker.passes import find_passes

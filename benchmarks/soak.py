@@ -75,7 +75,9 @@ def fault_plan(rng: random.Random, hours: float, per_hour: float) -> list[str]:
     return specs
 
 
-def main(argv: list[str] | None = None) -> int:
+# The soak script end to end (arguments, rig, simulated day, report); a script, read
+# top to bottom.
+def main(argv: list[str] | None = None) -> int:  # noqa: C901
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--hours", type=float, default=24.0, help="simulated hours (default 24)")
     ap.add_argument("--speed", type=float, default=300.0, help="simulation speed factor")

@@ -140,7 +140,7 @@ _ALIVE = {"rotorez": (b"AI1;", b";"), "dcu1": (b"AI1;", b""), "sak232": (b"C\r",
 
 
 def other_emulator_target(protocol: str) -> Callable[[bytes], None]:
-    from tracker.emulator.rotorez_controller import make_other_controller
+    from tracker.emulator.factory import make_other_controller
 
     def run(data: bytes) -> None:
         clock = _clock()

@@ -73,7 +73,8 @@ class RawPeer:
         self.thread = threading.Thread(target=self._run, daemon=True)
         self.thread.start()
 
-    def _run(self) -> None:
+    # One I/O loop for both the socket and the pty fake, so the two behave alike.
+    def _run(self) -> None:  # noqa: C901
         if self._listen is not None:
             self._listen.settimeout(0.05)
             conn = None

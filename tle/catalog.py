@@ -202,22 +202,25 @@ class Catalog:
             "give the full name or the NORAD id",
             tuple(es.name for es in matches))
 
+    def _find_number(self, text: str) -> ElementSet:
+        # A number is a NORAD id: never a piece of some name like "TIANQI-1 (1)".
+        if int(text) in self._by_id:
+            return self._by_id[int(text)]
+        named = [es for es in self if es.name == text]
+        if len(named) == 1:
+            return named[0]
+        where = "the bundled snapshot" if self.bundled else "the catalogue"
+        raise UnknownSatelliteError(
+            f"no satellite with NORAD id {int(text)} in {where} ({len(self)} sets); check "
+            "the number, or `tracker tle update` to fetch more groups")
+
     def find(self, query: str) -> ElementSet:
         """One set by NORAD id, designator, name (exact, any case, part, unique substring)."""
         text = query.strip()
         if not text:
             raise UnknownSatelliteError("empty satellite name; give a name or a NORAD id")
         if text.isdigit():
-            # A number is a NORAD id: never a piece of some name like "TIANQI-1 (1)".
-            if int(text) in self._by_id:
-                return self._by_id[int(text)]
-            named = [es for es in self if es.name == text]
-            if len(named) == 1:
-                return named[0]
-            where = "the bundled snapshot" if self.bundled else "the catalogue"
-            raise UnknownSatelliteError(
-                f"no satellite with NORAD id {int(text)} in {where} ({len(self)} sets); check "
-                "the number, or `tracker tle update` to fetch more groups")
+            return self._find_number(text)
         if _ALPHA5.match(text.upper()):
             found = self._by_id.get(alpha5_to_int(text.upper()))
             if found:

@@ -1,4 +1,5 @@
-"""Element sets: the ``ElementSet`` value, the TLE/3LE parser and the format-sniffing loader.
+"""Element sets: the TLE/3LE parser and the format-sniffing loader (``ElementSet`` itself is
+in :mod:`tle.element_set`, shared with the OMM parser, and re-exported here).
 
 ``parse_tle_text`` reads 2-line and 3-line sets (LF or CRLF, blank lines, trailing blanks, a
 leading ``0 `` on name lines), checks the column layout, both checksums, Alpha-5 catalogue
@@ -11,79 +12,18 @@ from __future__ import annotations
 
 import re
 import warnings
-from collections.abc import Callable, Iterator, Mapping
-from dataclasses import dataclass, field
+from collections.abc import Iterator
 from datetime import datetime, timedelta, timezone
 from pathlib import Path
-from typing import Any
 
+from tle import omm
 from tle.alpha5 import alpha5_to_int
 from tle.checksum import compute_checksum
+from tle.element_set import ElementSet, WarningHandler
 from tle.errors import TleError, TleFormatError, TleWarning
 from tle.layout import TEMPLATES, TLE_LINE_LENGTH, layout_fault
 
-WarningHandler = Callable[[str], None]
-
 _INTL_RE = re.compile(r"^(\d\d)(\d{3})([A-Z]{1,3})$")
-
-
-@dataclass(frozen=True)
-class ElementSet:
-    """One satellite's mean elements, from a TLE (``line1``/``line2``) or an OMM record (``omm``).
-
-    ``source`` is the file or URL it came from and ``line_no`` the line (TLE line 1, CSV row) or
-    record number (JSON, XML) there, so any later problem can point back at it.
-    """
-
-    name: str
-    norad_id: int
-    intl_designator: str
-    epoch: datetime
-    line1: str | None
-    line2: str | None
-    source: str = "<string>"
-    line_no: int = 0
-    omm: Mapping[str, Any] | None = field(default=None, compare=False, hash=False, repr=False)
-
-    @property
-    def group(self) -> str:
-        """The source's file stem ("amateur" for .../amateur.txt): the catalogue group."""
-        return Path(self.source).stem if self.source and not self.source.startswith("<") else ""
-
-    @property
-    def mean_motion_rev_day(self) -> float:
-        """Revolutions per day (SGP4 for > 6.4, SDP4 deep space below)."""
-        if self.line2 is not None:
-            return float(self.line2[52:63])
-        return float(self.omm["MEAN_MOTION"])  # type: ignore[index]
-
-    def satrec(self):
-        """A fresh ``sgp4.api.Satrec`` (from the lines, or ``sgp4.omm.initialize`` for OMM)."""
-        from sgp4.api import Satrec
-
-        if self.line1 is not None and self.line2 is not None:
-            return Satrec.twoline2rv(self.line1, self.line2)
-        from sgp4 import omm
-
-        sat = Satrec()
-        omm.initialize(sat, self.omm)
-        return sat
-
-    def earth_satellite(self, ts):
-        """A skyfield ``EarthSatellite`` on timescale ``ts``, keeping this set's name."""
-        from skyfield.api import EarthSatellite
-
-        if self.line1 is not None and self.line2 is not None:
-            return EarthSatellite(self.line1, self.line2, self.name, ts)
-        sat = EarthSatellite.from_satrec(self.satrec(), ts)
-        sat.name = self.name
-        return sat
-
-    def age_days(self, now: datetime) -> float:
-        """Days from the epoch to ``now`` (an aware datetime); negative for future epochs."""
-        if now.tzinfo is None:
-            raise TleError("age_days needs an aware datetime (UTC), got a naive one")
-        return (now - self.epoch).total_seconds() / 86400.0
 
 
 def format_intl_designator(raw: str) -> str:
@@ -248,8 +188,6 @@ def parse_text(text: str, source: str = "<string>", skip_bad: bool = False,
             source=source)
     if kind == "tle":
         return parse_tle_text(text, source, skip_bad, on_warning)
-    from tle import omm
-
     parser = {"json": omm.parse_omm_json, "csv": omm.parse_omm_csv, "xml": omm.parse_omm_xml}
     return parser[kind](text, source, skip_bad, on_warning)
 

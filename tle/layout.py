@@ -66,11 +66,3 @@ def layout_fault(line: str, line_number: int) -> str | None:
             return f"column {index + 1} should be {description}, found {got!r}"
     return None
 
-
-def aligned_view(line: str, line_number: int, column: int | None = None) -> str:
-    """Three lines: the template, the given line under it, and a caret under ``column``."""
-    template = TEMPLATES[line_number]
-    rows = [f"expected: {template}", f"found:    {line}"]
-    if column:
-        rows.append(" " * (9 + column) + "^")
-    return "\n".join(rows)

@@ -17,7 +17,7 @@ from datetime import datetime, timezone
 from typing import Any
 from xml.etree.ElementTree import ParseError
 
-from tle.elements import ElementSet, WarningHandler
+from tle.element_set import ElementSet, WarningHandler
 from tle.errors import TleError, TleFormatError, TleWarning
 
 REQUIRED_FIELDS = (
@@ -49,6 +49,23 @@ def _normalise_epoch(text: str) -> str:
     return text
 
 
+def _check_numbers(fields: Mapping[str, str],
+                   fault: Callable[[str], TleFormatError]) -> None:
+    """Every float field a finite number and every int field a whole number, else ``fault``."""
+    for key in _FLOAT_FIELDS:
+        try:
+            value = float(fields[key])
+        except ValueError:
+            raise fault(f"{key} should be a number, found {fields[key]!r}") from None
+        if not math.isfinite(value):
+            raise fault(f"{key} should be a finite number, found {fields[key]!r}")
+    for key in _INT_FIELDS:
+        try:
+            int(fields[key])
+        except ValueError:
+            raise fault(f"{key} should be a whole number, found {fields[key]!r}") from None
+
+
 def omm_to_element_set(record: Mapping[str, Any], source: str = "<string>",
                        record_no: int = 0, where: str = "record") -> ElementSet:
     """Check one OMM record and wrap it as an ``ElementSet`` (``line1``/``line2`` None)."""
@@ -67,18 +84,7 @@ def omm_to_element_set(record: Mapping[str, Any], source: str = "<string>",
         if not fields.get(key):
             fields[key] = default
     fields["EPOCH"] = _normalise_epoch(fields["EPOCH"])
-    for key in _FLOAT_FIELDS:
-        try:
-            value = float(fields[key])
-        except ValueError:
-            raise fault(f"{key} should be a number, found {fields[key]!r}") from None
-        if not math.isfinite(value):
-            raise fault(f"{key} should be a finite number, found {fields[key]!r}")
-    for key in _INT_FIELDS:
-        try:
-            int(fields[key])
-        except ValueError:
-            raise fault(f"{key} should be a whole number, found {fields[key]!r}") from None
+    _check_numbers(fields, fault)
     try:
         epoch = datetime.strptime(fields["EPOCH"], "%Y-%m-%dT%H:%M:%S.%f")
     except ValueError:

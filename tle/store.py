@@ -307,6 +307,16 @@ def _cache_write_error(path: Path, e: OSError) -> TleError:
                     "$TRACKER_CACHE_DIR); cached copy kept")
 
 
+class _RealTime:
+    """The default clock: real time. ``tle`` sits below ``tracker`` and cannot use
+    ``tracker.clock.SystemClock``; the store only needs ``timestamp()``, and callers with a
+    simulated timeline pass their own clock."""
+
+    @staticmethod
+    def timestamp() -> float:
+        return time.time()
+
+
 class TleStore:
     """A directory of downloaded element files plus their metadata."""
 
@@ -315,11 +325,7 @@ class TleStore:
                  timeout_s: float = DEFAULT_TIMEOUT_S, min_interval_s: float = MIN_INTERVAL_S):
         self.cache_dir = Path(cache_dir) if cache_dir is not None else default_cache_dir()
         self.fetch = fetch or urllib_fetch
-        if clock is None:
-            from tracker.clock import SystemClock
-
-            clock = SystemClock()
-        self.clock = clock
+        self.clock = clock if clock is not None else _RealTime()
         self.base_url = (base_url or os.environ.get("TRACKER_CELESTRAK_URL")
                          or DEFAULT_BASE_URL)
         if not (isinstance(timeout_s, (int, float)) and math.isfinite(timeout_s)

@@ -27,12 +27,18 @@ minimises the maximum error until the next expected command, for the fewest moto
 from __future__ import annotations
 
 import copy
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from tracker.mount import AxisMotor, RotatorSpec
-from tracker.skytrack import azel_to_enu
+from tracker.skytrack import SkyTrack, azel_to_enu
+
+if TYPE_CHECKING:  # pragma: no cover - typing only
+    from tracker.planner import MountPlan
 
 # What one command costs besides its motor starts, in starts: the bytes and the read-back
 # disturbance of a command that starts nothing (a retarget of a running motor).
@@ -53,14 +59,16 @@ class AimPath:
     sky_enu: np.ndarray | None = None
 
     @classmethod
-    def from_arrays(cls, t_s, az_m_deg, el_deg, spec: RotatorSpec) -> AimPath:
+    def from_arrays(cls, t_s: ArrayLike, az_m_deg: ArrayLike, el_deg: ArrayLike | None,
+                    spec: RotatorSpec) -> AimPath:
         t = np.asarray(t_s, dtype=float)
         az = np.asarray(az_m_deg, dtype=float)
         el = np.zeros_like(t) if el_deg is None else np.asarray(el_deg, dtype=float)
         return cls(t, az, el, float(spec.stop_bearing_deg))
 
     @classmethod
-    def from_plan(cls, plan, spec: RotatorSpec, track=None) -> AimPath:
+    def from_plan(cls, plan: MountPlan, spec: RotatorSpec,
+                  track: SkyTrack | None = None) -> AimPath:
         """The path to follow from a :class:`tracker.planner.MountPlan`.
 
         The plan's commands are quantised and already led by ``plan.lead_s``; the aim policy
@@ -104,11 +112,11 @@ class AimPath:
     def end_s(self) -> float:
         return float(self.t_s[-1])
 
-    def at(self, t_s) -> tuple[np.ndarray, np.ndarray]:
+    def at(self, t_s: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Mechanical az and el at ``t_s`` (linear: the mechanical frame has no wrap)."""
         return (np.interp(t_s, self.t_s, self.az_m_deg), np.interp(t_s, self.t_s, self.el_deg))
 
-    def direction(self, t_s) -> np.ndarray:
+    def direction(self, t_s: float | np.ndarray) -> np.ndarray:
         """Where the path points (east-north-up unit vectors), shape ``(..., 3)``."""
         if self.sky_enu is None:
             az, el = self.at(t_s)
@@ -118,7 +126,8 @@ class AimPath:
         return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
-def pointing_enu(az_m_deg, el_deg, stop_bearing_deg: float = 0.0) -> np.ndarray:
+def pointing_enu(az_m_deg: ArrayLike, el_deg: ArrayLike,
+                 stop_bearing_deg: float = 0.0) -> np.ndarray:
     """Boresight unit vectors of a mount at mechanical az / el (el > 90 points over the top)."""
     bearing = np.mod(np.asarray(az_m_deg, dtype=float) + stop_bearing_deg, 360.0)
     return azel_to_enu(bearing, el_deg)
@@ -145,7 +154,8 @@ class Aim:
     starts: int = 0          # motor starts the command causes (0, 1 or 2)
 
 
-def _predict(axis: AxisMotor, target_deg: float, t0_s: float, ts: np.ndarray):
+def _predict(axis: AxisMotor, target_deg: float, t0_s: float,
+             ts: np.ndarray) -> tuple[np.ndarray, float, int]:
     """``(positions over ts, arrival time, 1 if the motor starts else 0)`` if ``target_deg``
     is commanded at ``t0_s`` (on a copy: ``axis`` is not changed)."""
     a = copy.copy(axis)
@@ -156,7 +166,7 @@ def _predict(axis: AxisMotor, target_deg: float, t0_s: float, ts: np.ndarray):
 
 
 def predicted_error(path: AimPath, az_axis: AxisMotor, el_axis: AxisMotor | None,
-                    t0_s: float, ts) -> np.ndarray:
+                    t0_s: float, ts: ArrayLike) -> np.ndarray:
     """Error (deg) over ``ts`` if nothing new is commanded: the motors finish what they do."""
     ts = np.asarray(ts, dtype=float)
     az = az_axis.position(ts)
@@ -280,7 +290,8 @@ def choose_aim(path: AimPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t0_
 
 
 def gpredict_aim(path: AimPath, t0_s: float, threshold_deg: float, cycle_s: float,
-                 quantise=None) -> tuple[float, float]:
+                 quantise: Callable[[float, float], tuple[float, float]] | None = None
+                 ) -> tuple[float, float]:
     """Gpredict's lead (its gtk-rot-ctrl.c): the furthest future path point whose az and el are each
     within ``threshold_deg`` of the current target, found by bisection down to ``cycle/4``.
 
@@ -297,7 +308,8 @@ def gpredict_aim(path: AimPath, t0_s: float, threshold_deg: float, cycle_s: floa
             lo = mid
         else:
             hi = mid
-    az, el = path.at(t0_s + lo)
+    az_end, el_end = path.at(t0_s + lo)
+    aim = float(az_end), float(el_end)
     if quantise is not None:
-        az, el = quantise(az, el)
-    return float(az), float(el)
+        aim = quantise(*aim)
+    return float(aim[0]), float(aim[1])

@@ -17,7 +17,7 @@ off keeps results reproducible and matches what rotator users compare against (P
 ``pressure=0``). Rise/set is therefore the centre of the body crossing the geometric horizon
 (plus the station's minimum elevation and mask), not the upper limb.
 
-Importing this module registers :func:`resolve` in :data:`tracker.targets.RESOLVERS`.
+:func:`resolve` is the first of :data:`tracker.targets.RESOLVERS`.
 """
 
 from __future__ import annotations
@@ -28,9 +28,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tracker.errors import TargetError
+from tracker.event_labels import event_labels
 from tracker.skytrack import SkyTrack, enu_to_azel
 from tracker.station import Station
-from tracker.targets import event_labels
 
 # DE421 segment names for each body we accept.
 SOLAR_SYSTEM: dict[str, tuple[str, str]] = {
@@ -285,7 +285,7 @@ def parse_radec(spec: str) -> FixedTarget:
 def resolve(name: str):
     """The celestial or schedule Target for ``name``, or None if the name is not one of ours.
 
-    Registered in :data:`tracker.targets.RESOLVERS`. Raises TargetError / ConfigError only
+    One of :data:`tracker.targets.RESOLVERS`. Raises TargetError / ConfigError only
     when the name is clearly meant for us (``radec:``, ``schedule:``, ``*.csv``) but is
     malformed or the file is missing/bad.
     """
@@ -314,15 +314,6 @@ def resolve(name: str):
                            ra_hours=src.ra_hours, dec_deg=src.dec_deg)
     return None
 
-
-def _register() -> None:
-    from tracker.targets import RESOLVERS
-
-    if resolve not in RESOLVERS:
-        RESOLVERS.append(resolve)
-
-
-_register()
 
 __all__ = ["RADIO_SOURCES", "FixedTarget", "RadioSource", "SolarSystemTarget",
            "event_labels", "known_names", "parse_radec", "resolve"]

@@ -1,4 +1,5 @@
-"""Clocks: the only place the project reads the time of day or sleeps.
+"""Clocks: the only place the project reads the time of day or sleeps (apart from the
+real-time default of ``tle.store``, which cannot import ``tracker``).
 
 Library code takes a :class:`Clock` and never calls ``time.time()`` or
 ``datetime.now()``. :class:`SystemClock` is real time; :class:`SimClock` runs a simulated

@@ -13,8 +13,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from tracker.errors import ConfigError
 
@@ -54,8 +56,25 @@ class RotatorSpec:
     def has_elevation(self) -> bool:
         return self.el_max_deg is not None
 
-    def validate(self) -> None:
-        def bad(key: str, value, allowed: str) -> ConfigError:
+    # validate() makes el_max_deg and el_rate_deg_s both set whenever the rotator has
+    # elevation; these give them as plain floats to code that has checked has_elevation.
+    @property
+    def el_top_deg(self) -> float:
+        """``el_max_deg`` of a rotator with elevation."""
+        if self.el_max_deg is None:
+            raise ValueError(f"rotator {self.name!r} has no elevation axis")
+        return self.el_max_deg
+
+    @property
+    def el_rate(self) -> float:
+        """``el_rate_deg_s`` of a rotator with elevation."""
+        if self.el_rate_deg_s is None:
+            raise ValueError(f"rotator {self.name!r} has no elevation axis")
+        return self.el_rate_deg_s
+
+    # One guard per field, each with its own message.
+    def validate(self) -> None:  # noqa: C901
+        def bad(key: str, value: object, allowed: str) -> ConfigError:
             return ConfigError(f"rotator {self.name!r}: {key} = {value!r} is invalid; "
                                f"allowed: {allowed}")
 
@@ -80,7 +99,7 @@ class RotatorSpec:
             if isinstance(r, bool) or not isinstance(r, (int, float)) or not (
                     r > 0 and math.isfinite(r)):
                 raise bad(f"az_speed_rates_deg_s[{i}]", r, "finite numbers > 0")
-        if self.has_elevation:
+        if self.el_max_deg is not None:
             if not (0.0 <= self.el_min_deg < self.el_max_deg <= 180.0):
                 raise bad("el_min_deg/el_max_deg", (self.el_min_deg, self.el_max_deg),
                           "0 <= el_min_deg < el_max_deg <= 180")
@@ -95,11 +114,12 @@ class RotatorSpec:
             raise bad("deadband_deg", self.deadband_deg, "0 to 30 degrees")
         if not (0.0 <= self.park_az_deg <= self.az_span_deg):
             raise bad("park_az_deg", self.park_az_deg, f"0 to az_span_deg ({self.az_span_deg})")
-        if self.has_elevation and not (self.el_min_deg <= self.park_el_deg <= self.el_max_deg):
+        if self.el_max_deg is not None and not (
+                self.el_min_deg <= self.park_el_deg <= self.el_max_deg):
             raise bad("park_el_deg", self.park_el_deg,
                       f"el_min_deg to el_max_deg ({self.el_min_deg}-{self.el_max_deg})")
 
-    def with_(self, **changes) -> RotatorSpec:
+    def with_(self, **changes: Any) -> RotatorSpec:
         return replace(self, **changes)
 
     # Frames ---------------------------------------------------------------------------------
@@ -118,7 +138,7 @@ class RotatorSpec:
         return [m for m in (m0, m0 + 360.0) if m <= self.az_span_deg + 1e-9]
 
     def axis_limits(self) -> tuple[tuple[float, float], tuple[float, float] | None]:
-        el = (self.el_min_deg, self.el_max_deg) if self.has_elevation else None
+        el = (self.el_min_deg, self.el_max_deg) if self.el_max_deg is not None else None
         return (0.0, self.az_span_deg), el
 
 
@@ -261,8 +281,8 @@ class AxisMotor:
         if self.jammed:
             return np.full(t.shape, self._p0) if t.ndim else float(self._p0)
         dist = self._target - self._p0
-        travelled = np.clip((t - self._t0 - self._delay) * self.rate_deg_s, 0.0, abs(dist))
-        pos = self._p0 + math.copysign(1.0, dist) * travelled
+        moved = np.clip((t - self._t0 - self._delay) * self.rate_deg_s, 0.0, abs(dist))
+        pos = self._p0 + math.copysign(1.0, dist) * moved
         return pos if t.ndim else float(pos)
 
     def direction(self, t_s: float) -> int:
@@ -332,7 +352,7 @@ class MotorModel:
                             spec.park_az_deg if az_deg is None else az_deg, t_s)
         self.el: AxisMotor | None = None
         if el_lim is not None:
-            self.el = AxisMotor(el_lim[0], el_lim[1], spec.el_rate_deg_s, spec.start_delay_s,
+            self.el = AxisMotor(el_lim[0], el_lim[1], spec.el_rate, spec.start_delay_s,
                                 spec.resolution_deg,
                                 spec.park_el_deg if el_deg is None else el_deg, t_s)
 
@@ -356,7 +376,8 @@ class MotorModel:
         return self.az.moving(t_s) or (self.el is not None and self.el.moving(t_s))
 
 
-def simulate_commands(axis: AxisMotor, cmd_t_s, cmd_deg, t_eval_s) -> np.ndarray:
+def simulate_commands(axis: AxisMotor, cmd_t_s: ArrayLike, cmd_deg: ArrayLike,
+                      t_eval_s: ArrayLike) -> np.ndarray:
     """Positions of ``axis`` at ``t_eval_s`` when it receives ``cmd_deg`` at ``cmd_t_s``.
 
     Loops over commands (tens to hundreds per pass), vectorised over the evaluation samples
@@ -380,7 +401,8 @@ def simulate_commands(axis: AxisMotor, cmd_t_s, cmd_deg, t_eval_s) -> np.ndarray
     return out
 
 
-def predict_axis(axis: AxisMotor, cmd_t_s, cmd_deg, t_eval_s) -> tuple[np.ndarray, int]:
+def predict_axis(axis: AxisMotor, cmd_t_s: ArrayLike, cmd_deg: ArrayLike,
+                 t_eval_s: ArrayLike) -> tuple[np.ndarray, int]:
     """Fast, exact :func:`simulate_commands` for a dense command stream; also counts starts.
 
     Returns ``(positions at t_eval_s, motor starts)``. ``axis`` must be at rest at its

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from datetime import datetime, timezone
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from tracker.errors import LimitError
 from tracker.mount import AxisMotor, RotatorSpec, predict_axis
@@ -39,7 +40,6 @@ LOST_THRESHOLD_DEG = 5.0  # half the beamwidth of a typical satellite yagi
 KEYHOLE_MIN_EL_DEG = 60.0
 KEYHOLE_CAPS_DEG = (0.0, 15.0, 40.0, 70.0)
 PREPOSITION_MARGIN_S = 10.0
-MODES = ("normal", "overlap", "flip", "keyhole", "unwind")
 
 
 @dataclass(frozen=True)
@@ -150,7 +150,8 @@ class MountPlan:
 # Geometry helpers --------------------------------------------------------------------------
 
 
-def pointing_error_deg(spec: RotatorSpec, m_az_deg, el_deg, target_az_deg, target_el_deg):
+def pointing_error_deg(spec: RotatorSpec, m_az_deg: ArrayLike, el_deg: ArrayLike,
+                       target_az_deg: ArrayLike, target_el_deg: ArrayLike) -> np.ndarray:
     """Angle between where a mount at (mechanical az, el) points and a target (bearing, el).
 
     Great-circle angle for az/el rotators (el > 90 points over the top); for azimuth-only
@@ -163,7 +164,8 @@ def pointing_error_deg(spec: RotatorSpec, m_az_deg, el_deg, target_az_deg, targe
     return angular_separation_deg(bearing, el_deg, target_az_deg, target_el_deg)
 
 
-def boresight_horizon_ok(spec: RotatorSpec, station: Station, m_az_deg, el_deg,
+def boresight_horizon_ok(spec: RotatorSpec, station: Station, m_az_deg: ArrayLike,
+                         el_deg: ArrayLike,
                          tol_deg: float = 1e-6) -> np.ndarray:
     """True where a mount position points at or above the station's horizon mask."""
     m = np.asarray(m_az_deg, dtype=float)
@@ -185,7 +187,7 @@ def park_position(spec: RotatorSpec, station: Station) -> tuple[float, float]:
         floor = float(station.horizon_at(spec.bearing_of(spec.park_az_deg)))
         park_el = max(park_el, math.ceil(floor / spec.resolution_deg - 1e-9)
                       * spec.resolution_deg)
-        park_el = min(park_el, spec.el_max_deg)
+        park_el = min(park_el, spec.el_top_deg)
     return float(spec.park_az_deg), float(park_el)
 
 
@@ -308,7 +310,7 @@ def _evaluate(ctx: _Ctx, mode: str, m: np.ndarray, e: np.ndarray, fits: bool,
                         spec.resolution_deg, qa[0], t[0] - 1.0)
     ant_az, starts = predict_axis(az_axis, cmd_t, qa[change], t)
     if spec.has_elevation:
-        el_axis = AxisMotor(spec.el_min_deg, spec.el_max_deg, spec.el_rate_deg_s,
+        el_axis = AxisMotor(spec.el_min_deg, spec.el_top_deg, spec.el_rate,
                             spec.start_delay_s, spec.resolution_deg, qe[0], t[0] - 1.0)
         ant_el, el_starts = predict_axis(el_axis, cmd_t, qe[change], t)
         starts += el_starts
@@ -361,7 +363,7 @@ def _shift_variants(ctx: _Ctx, m_raw: np.ndarray, e: np.ndarray, flip: bool,
         note = (f"{prefix}mech az {m_vis.min():.0f}..{m_vis.max():.0f}"
                 + ("" if fits else f", clamped at the stops (needs "
                    f"{m_vis.max() - m_vis.min():.0f} deg from mech {m_vis.min():.0f})"))
-        if flip and spec.el_max_deg < 180.0 - 1e-9:
+        if flip and spec.el_top_deg < 180.0 - 1e-9:
             clipped = float(np.max(e[ia:ib + 1]) - spec.el_max_deg)
             if clipped > 0:
                 note += f", el clamped at {spec.el_max_deg:g} (up to {clipped:.1f} deg short)"
@@ -461,10 +463,10 @@ def _safe_moves(spec: RotatorSpec, station: Station, start: tuple[float, float],
     hz = math.ceil(hz / res - 1e-9) * res
     moves: list[Move] = []
     t = t0_s
-    el_rate, az_rate, delay = spec.el_rate_deg_s, spec.az_rate_deg_s, spec.start_delay_s
+    el_rate, az_rate, delay = spec.el_rate, spec.az_rate_deg_s, spec.start_delay_s
     if abs(m1 - m0) > 1e-9:
         e_mid = 90.0 if e0 > 90.0 else max(e0, hz)
-        e_mid = min(max(e_mid, spec.el_min_deg), spec.el_max_deg)
+        e_mid = min(max(e_mid, spec.el_min_deg), spec.el_top_deg)
         if abs(e_mid - e0) > 1e-9:
             moves.append(Move(t, m0, e_mid))
             t += delay + abs(e_mid - e0) / el_rate
@@ -560,7 +562,7 @@ def plan_pass(track: SkyTrack, spec: RotatorSpec, station: Station,
     az, el = track.az_deg, track.el_deg
     res_deg = spec.resolution_deg
     results = _shifted_candidates(ctx, az, el, flip=False)
-    can_flip = spec.has_elevation and spec.el_max_deg > 90.0
+    can_flip = spec.has_elevation and spec.el_top_deg > 90.0
     if can_flip:
         results += _shifted_candidates(ctx, np.mod(az + 180.0, 360.0), 180.0 - el, flip=True)
     max_el = float(np.max(el[ctx.ia:ctx.ib + 1]))
@@ -597,7 +599,7 @@ def gpredict_plan(track: SkyTrack, spec: RotatorSpec, station: Station,
     m = np.asarray(spec.mech_of(track.az_deg))
     flipped = bool(np.any(np.abs(np.diff(m[ia:ib + 1])) > 180.0))
     el = track.el_deg
-    if flipped and spec.has_elevation and spec.el_max_deg >= 180.0:
+    if flipped and spec.has_elevation and spec.el_top_deg >= 180.0:
         m = np.asarray(spec.mech_of(np.mod(track.az_deg + 180.0, 360.0)))
         el = 180.0 - el
         mode = "flip"

@@ -81,6 +81,22 @@ def priority_of(name: str, priorities: dict[str, int], default: int) -> int:
     return priorities.get(name.strip().lower(), default)
 
 
+def _rivals(chosen: list[int], usable: np.ndarray, aos: np.ndarray, los: np.ndarray,
+            max_slew: float) -> dict[int, int]:
+    """Each pass not chosen -> the first chosen pass it clashes with (-1: none, or unusable)."""
+    skipped: dict[int, int] = {}
+    chosen_set = set(chosen)
+    for i in range(len(aos)):
+        if i in chosen_set:
+            continue
+        if not usable[i]:
+            skipped[i] = -1
+            continue
+        rivals = [c for c in chosen if aos[c] < los[i] + max_slew and los[c] + max_slew > aos[i]]
+        skipped[i] = rivals[0] if rivals else -1
+    return skipped
+
+
 def build_schedule(records: list[dict], spec: RotatorSpec, priorities: dict[str, int],
                    default_priority: int = 1, settle_s: float = 0.0) -> Schedule:
     """Best set of non-conflicting passes for one rotator (records of one station).
@@ -136,15 +152,6 @@ def build_schedule(records: list[dict], spec: RotatorSpec, priorities: dict[str,
         chosen.append(j)
         j = int(parent[j])
     chosen.sort(key=lambda i: aos[i])
-    skipped: dict[int, int] = {}
-    chosen_set = set(chosen)
-    for i in range(n):
-        if i in chosen_set:
-            continue
-        if not usable[i]:
-            skipped[i] = -1
-            continue
-        rivals = [c for c in chosen if aos[c] < los[i] + max_slew and los[c] + max_slew > aos[i]]
-        skipped[i] = rivals[0] if rivals else -1
+    skipped = _rivals(chosen, usable, aos, los, max_slew)
     total = int(sum(records[i]["priority"] for i in chosen))
     return Schedule(chosen, skipped, total)

@@ -61,7 +61,8 @@ def _is_number(text: str) -> bool:
     return True
 
 
-def parse_schedule(text: str, source: str = "<schedule>"
+# A line parser: one guard per rule of the file format, each with its own message.
+def parse_schedule(text: str, source: str = "<schedule>"  # noqa: C901
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """``(t_s, az_deg, el_deg or None)`` from schedule text; ScheduleError on bad lines."""
     times: list[float] = []

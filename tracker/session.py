@@ -34,7 +34,7 @@ import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from types import FrameType, TracebackType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, Literal, TypeAlias
 
 from tracker.errors import LimitError, RotatorIOError, TrackerError
 
@@ -42,6 +42,9 @@ if TYPE_CHECKING:  # pragma: no cover - typing only
     from tracker.mount import RotatorSpec
     from tracker.protocols.base import Capabilities
     from tracker.station import Station
+
+# What signal.signal() returns and takes back: a handler, SIG_DFL/SIG_IGN, or None.
+_Handler: TypeAlias = "Callable[[int, FrameType | None], Any] | int | signal.Handlers | None"
 
 # The signals that end a session the way Ctrl-C does (SIGHUP does not exist on Windows).
 STOP_SIGNALS: tuple[int, ...] = tuple(
@@ -57,7 +60,7 @@ def route_stop_signals(handler: Callable[[int, FrameType | None], object],
     thread Python allows no handlers, so nothing is routed there."""
     if threading.current_thread() is not threading.main_thread():
         return lambda: None
-    old: dict[int, object] = {}
+    old: dict[int, _Handler] = {}
     for sig in signals:
         if signal.getsignal(sig) is signal.SIG_IGN:
             continue
@@ -65,7 +68,7 @@ def route_stop_signals(handler: Callable[[int, FrameType | None], object],
 
     def restore() -> None:
         for sig, previous in old.items():
-            signal.signal(sig, previous)  # type: ignore[arg-type]  # what getsignal gave back
+            signal.signal(sig, previous)
         old.clear()
     return restore
 
@@ -122,7 +125,7 @@ class EffectiveLimits:
         wire_max = wire_az_max_deg(spec)
         notes: list[str] = []
         el_range = (float(spec.el_min_deg), float(spec.el_max_deg)) \
-            if spec.has_elevation else None
+            if spec.el_max_deg is not None else None
         if capabilities is not None:
             if capabilities.az_max_deg < wire_max:
                 wire_max = float(capabilities.az_max_deg)
@@ -155,7 +158,7 @@ class EffectiveLimits:
             changes["az_span_deg"] = self.az_mech_max_deg
             changes["park_az_deg"] = min(spec.park_az_deg, self.az_mech_max_deg)
         if spec.has_elevation and self.el_range_deg is not None \
-                and self.el_range_deg[1] < spec.el_max_deg:
+                and self.el_range_deg[1] < spec.el_top_deg:
             changes["el_max_deg"] = self.el_range_deg[1]
             changes["park_el_deg"] = min(spec.park_el_deg, self.el_range_deg[1])
         return spec.with_(**changes) if changes else spec
@@ -262,7 +265,7 @@ class ControllerSession:
         return self
 
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
-                 tb: TracebackType | None) -> bool:
+                 tb: TracebackType | None) -> Literal[False]:
         self._stopping = True
         try:
             if exc_type is not None or self.stop_at_end:

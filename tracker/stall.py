@@ -151,8 +151,10 @@ class AxisWatch:
     def _moved(self, t_s: float, readback_deg: float, seen: bool) -> None:
         """Motion ``seen`` (else the axis is at its target, having asked for no travel or
         come back unseen): restart the expectation from here."""
-        self.expect = moving_axis(self.expect, readback_deg, self.expect.target_deg, t_s,
-                                  self.expect.moving(t_s))
+        expect = self.expect
+        assert expect is not None, "only called while an expectation runs"
+        self.expect = moving_axis(expect, readback_deg, expect.target_deg, t_s,
+                                  expect.moving(t_s))
         self.ref_t_s, self.ref_pos_deg = t_s, readback_deg
         self.seg_t_s, self.carried_deg = t_s, 0.0
         self.still_since_s = None
@@ -218,6 +220,7 @@ class AxisWatch:
         """From rest, a healthy axis shows motion on whole-degree read-back this long after
         it was told to move (acted on when sent)."""
         e = self.expect
+        assert e is not None, "only called while an expectation runs"
         return e.start_delay_s + e.resolution_deg / e.rate_deg_s
 
     def motion_overdue(self, t_s: float, resolution_deg: float) -> bool:
@@ -225,7 +228,7 @@ class AxisWatch:
         now: the first sign of a lost command (or a jam)."""
         if self.expect is None or self.ref_t_s is None:
             return False
-        since = self.last_send_t_s if self.send_times else self.ref_t_s
+        since = self.send_times[-1] if self.send_times else self.ref_t_s
         expected = self.carried_deg + self._segment_deg(t_s)
         return t_s > since and expected >= resolution_deg - 1e-9
 
@@ -266,10 +269,9 @@ def moving_axis(template: AxisMotor, position_deg: float, target_deg: float, t_s
 # Read-backs are whole degrees: from a read-back that sits on its table point
 # (the antenna is exactly there) the model must predict >= STALL_MOVE_DEG of travel; from one
 # taken mid-move (up to 0.5 deg off the real position) >= STALL_MOVE_DEG + 0.5. The axis has
-# stalled when it then shows < STALL_STILL_DEG of progress toward the point, read twice (a
+# stalled when it then shows < STILL_DEG of progress toward the point, read twice (a
 # garbled digit must not stop a pass).
 STALL_MOVE_DEG = 1.0
-STALL_STILL_DEG = STILL_DEG
 STALL_HISTORY_S = 8.0
 # Command times are the host's; the controller may step a little late (clock drift up to the
 # resync slack is measured from N, this covers the poll and the emulator/controller tick).
@@ -386,7 +388,7 @@ class TableWatch:
                         continue     # some timing has the axis back at (or past) the reading
                     travel, cmd_last = float(travels[0][0][0]), travels[0][1]
                     progress = (now_deg - ref_deg) * np.sign(travel)
-                    if progress < STALL_STILL_DEG:
+                    if progress < STILL_DEG:
                         return name, (f"reads {now_deg:g} deg, {t_s - t_ref:.1f} s after it "
                                       f"read {ref_deg:g}; the motor model has it at "
                                       f"{ref_deg + travel:.1f} by now (table point "

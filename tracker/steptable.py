@@ -26,14 +26,18 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from tle.textfile import read_text_file
 from tracker.errors import ConfigError, LimitError
 from tracker.mount import AxisMotor, MotorModel, RotatorSpec
-from tracker.skytrack import azel_to_enu
+from tracker.skytrack import SkyTrack, azel_to_enu
+
+if TYPE_CHECKING:  # pragma: no cover - typing only
+    from tracker.station import Station
 
 INTERVAL_MIN_S = 1
 INTERVAL_MAX_S = 999
@@ -140,7 +144,7 @@ class MountPath:
     meta: dict = field(default_factory=dict, compare=False)
 
     @classmethod
-    def from_plan(cls, plan: PlanLike, track, spec: RotatorSpec) -> MountPath:
+    def from_plan(cls, plan: PlanLike, track: SkyTrack, spec: RotatorSpec) -> MountPath:
         """From a planner MountPlan and the SkyTrack it was planned for."""
         t = np.asarray(plan.t_s, dtype=float)
         taz, tel = track.direction_at(t)
@@ -149,7 +153,7 @@ class MountPath:
                    getattr(track, "name", ""), dict(getattr(track, "meta", {}) or {}))
 
     @classmethod
-    def from_track(cls, track, spec: RotatorSpec) -> MountPath:
+    def from_track(cls, track: SkyTrack, spec: RotatorSpec) -> MountPath:
         """The plain unwrapped path (no flip): for tests and when no planner is at hand.
 
         The unwrapped mechanical azimuth is shifted by whole turns so it fits the span if it
@@ -175,13 +179,13 @@ class MountPath:
                    np.asarray(track.el_deg, dtype=float), getattr(track, "name", ""),
                    dict(getattr(track, "meta", {}) or {}))
 
-    def mount_at(self, t_s) -> tuple[np.ndarray, np.ndarray | None]:
+    def mount_at(self, t_s: ArrayLike) -> tuple[np.ndarray, np.ndarray | None]:
         t = np.asarray(t_s, dtype=float)
         az = np.interp(t, self.t_s, self.az_deg)
         el = None if self.el_deg is None else np.interp(t, self.t_s, self.el_deg)
         return az, el
 
-    def target_enu(self, t_s) -> np.ndarray:
+    def target_enu(self, t_s: ArrayLike) -> np.ndarray:
         """Unit vectors of the target at ``t_s`` (interpolated on the sphere, wrap-safe)."""
         v = azel_to_enu(self.target_az_deg, self.target_el_deg)
         t = np.asarray(t_s, dtype=float)
@@ -217,6 +221,7 @@ class StepTable:
     @property
     def points(self) -> list[tuple[int, int]] | list[int]:
         if self.kind == "W":
+            assert self.el_deg is not None, "a W table has elevations"
             return [(int(a), int(e)) for a, e in zip(self.az_deg, self.el_deg, strict=True)]
         return [int(a) for a in self.az_deg]
 
@@ -273,11 +278,13 @@ class StepTable:
                        upload_t_s=t_s, arrive_t_s=arrive, start_t_s=float(times[i0 + 1]))
 
 
-def _encode_lines(kind: str, interval_s: int, az, el, per_line: int) -> list[str]:
+def _encode_lines(kind: str, interval_s: int, az: Sequence[float] | np.ndarray,
+                  el: Sequence[float] | np.ndarray | None, per_line: int) -> list[str]:
     az = [int(a) for a in az]
     lines = []
     for lo in range(0, len(az), per_line):
         if kind == "W":
+            assert el is not None, "a W table has elevations"
             body = "".join(f" {a:03d} {int(e):03d}"
                            for a, e in zip(az[lo:lo + per_line], el[lo:lo + per_line],
                                            strict=True))
@@ -375,7 +382,7 @@ class StepProgram:
                 f"{p.motor_starts} motor starts")
 
 
-def wire_az(spec: RotatorSpec, m_deg):
+def wire_az(spec: RotatorSpec, m_deg: ArrayLike) -> np.ndarray:
     """Mechanical azimuth to the controller's wire degrees.
 
     A controller that maps a south-centred scale itself takes true bearings; every other
@@ -387,7 +394,7 @@ def wire_az(spec: RotatorSpec, m_deg):
     return m
 
 
-def check_tables_fit(tables: Sequence[StepTable], spec: RotatorSpec, station,
+def check_tables_fit(tables: Sequence[StepTable], spec: RotatorSpec, station: Station,
                      source: str = "the plan") -> None:
     """Refuse (LimitError) tables with a point outside ``spec``'s travel or below the
     station's horizon mask: a plan file may have been made for another rotator or station."""
@@ -400,7 +407,7 @@ def check_tables_fit(tables: Sequence[StepTable], spec: RotatorSpec, station,
         bad = m > spec.az_span_deg + 1e-9
         why = f"beyond {spec.name}'s {spec.az_span_deg:g} deg azimuth travel"
         if el is not None and spec.has_elevation:
-            el_bad = (el < spec.el_min_deg - 1e-9) | (el > spec.el_max_deg + 1e-9)
+            el_bad = (el < spec.el_min_deg - 1e-9) | (el > spec.el_top_deg + 1e-9)
             if el_bad.any() and not bad.any():
                 bad, why = el_bad, (f"outside {spec.name}'s elevation range "
                                     f"{spec.el_min_deg:g}-{spec.el_max_deg:g} deg")
@@ -418,7 +425,8 @@ def check_tables_fit(tables: Sequence[StepTable], spec: RotatorSpec, station,
 def compile_program(path: MountPath, spec: RotatorSpec, profile: TableProfile | str, *,
                     interval_s: int | None = None, max_error_deg: float | None = None,
                     start_az_deg: float | None = None, start_el_deg: float | None = None,
-                    station=None, baud: int = 9600, meta: dict | None = None) -> StepProgram:
+                    station: Station | None = None, baud: int = 9600,
+                    meta: dict | None = None) -> StepProgram:
     """Compile ``path`` into chained-as-needed tables.
 
     ``interval_s`` is the ``sss`` sent (K3NG steps every ``sss + 1`` s). With
@@ -438,33 +446,42 @@ def compile_program(path: MountPath, spec: RotatorSpec, profile: TableProfile | 
         raise ConfigError("give either an interval or a max error, not both")
     extra = profile.period_extra_s
     duration = float(path.t_s[-1] - path.t_s[0])
-    common = dict(spec=spec, profile=profile, kind=kind, start_az_deg=start_az_deg,
-                  start_el_deg=start_el_deg, station=station, baud=baud, meta=meta or {})
+    common: dict[str, Any] = dict(
+        spec=spec, profile=profile, kind=kind, start_az_deg=start_az_deg,
+        start_el_deg=start_el_deg, station=station, baud=baud, meta=meta or {})
     if interval_s is not None:
         if not (INTERVAL_MIN_S <= int(interval_s) <= INTERVAL_MAX_S):
             raise ConfigError(f"interval {interval_s} s is invalid; allowed: "
                               f"{INTERVAL_MIN_S}-{INTERVAL_MAX_S} whole seconds")
         return _compile_at(path, int(interval_s), **common)
     if max_error_deg is not None:
-        if not (max_error_deg > 0):
-            raise ConfigError(f"max error {max_error_deg} deg is invalid; give a value > 0")
-        best: StepProgram | None = None
-        for sss in _interval_candidates(duration, extra):
-            prog = _compile_at(path, sss, **common)
-            if prog.prediction.max_error_deg <= max_error_deg:
-                return prog
-            if best is None or prog.prediction.max_error_deg < best.prediction.max_error_deg:
-                best = prog
-        assert best is not None
-        raise LimitError(f"no interval keeps the predicted error within {max_error_deg:g} "
-                         f"deg; the best is {best.prediction.max_error_deg:.2f} deg at "
-                         f"interval {best.interval_s} s. Raise --max-error or give "
-                         f"--interval")
+        return _compile_within(path, max_error_deg, _interval_candidates(duration, extra),
+                               common)
     cap = profile.max_points(kind)
     for sss in range(INTERVAL_MIN_S, INTERVAL_MAX_S + 1):
         if _n_points(duration, sss + extra) <= cap:
             return _compile_at(path, sss, **common)
     return _compile_at(path, INTERVAL_MAX_S, **common)
+
+
+def _compile_within(path: MountPath, max_error_deg: float, candidates: list[int],
+                    common: dict) -> StepProgram:
+    """The first of ``candidates`` (largest first) whose predicted error is within
+    ``max_error_deg``; LimitError naming the best one when none is."""
+    if not (max_error_deg > 0):
+        raise ConfigError(f"max error {max_error_deg} deg is invalid; give a value > 0")
+    best: StepProgram | None = None
+    for sss in candidates:
+        prog = _compile_at(path, sss, **common)
+        if prog.prediction.max_error_deg <= max_error_deg:
+            return prog
+        if best is None or prog.prediction.max_error_deg < best.prediction.max_error_deg:
+            best = prog
+    assert best is not None
+    raise LimitError(f"no interval keeps the predicted error within {max_error_deg:g} "
+                     f"deg; the best is {best.prediction.max_error_deg:.2f} deg at "
+                     f"interval {best.interval_s} s. Raise --max-error or give "
+                     f"--interval")
 
 
 def _interval_candidates(duration_s: float, extra: int) -> list[int]:
@@ -481,8 +498,8 @@ def _n_points(duration_s: float, period_s: float) -> int:
 
 
 def _compile_at(path: MountPath, sss: int, *, spec: RotatorSpec, profile: TableProfile,
-                kind: str, start_az_deg, start_el_deg, station, baud: int,
-                meta: dict) -> StepProgram:
+                kind: str, start_az_deg: float | None, start_el_deg: float | None,
+                station: Station | None, baud: int, meta: dict) -> StepProgram:
     period = float(profile.period_s(sss))
     t0, t1 = float(path.t_s[0]), float(path.t_s[-1])
     n = _n_points(t1 - t0, period)
@@ -532,7 +549,7 @@ def _preposition_s(spec: RotatorSpec, az_m: float, el: float | None,
     slew = spec.start_delay_s + abs(az_m - az0) / spec.az_rate_deg_s
     if el is not None and spec.has_elevation:
         el0 = spec.park_el_deg if start_el_deg is None else start_el_deg
-        slew = max(slew, spec.start_delay_s + abs(el - el0) / spec.el_rate_deg_s)
+        slew = max(slew, spec.start_delay_s + abs(el - el0) / spec.el_rate)
     return slew
 
 
@@ -543,7 +560,8 @@ _FRACTIONS = np.array([0.3, 0.5, 0.65, 0.8, 0.95])
 
 
 def _choose_points(path: MountPath, spec: RotatorSpec, profile: TableProfile, kind: str,
-                   cmd_t: np.ndarray, win0: np.ndarray, win1: np.ndarray, station):
+                   cmd_t: np.ndarray, win0: np.ndarray, win1: np.ndarray,
+                   station: Station | None) -> tuple[np.ndarray, np.ndarray | None]:
     n = len(cmd_t)
     span = max(float(np.max(win1 - win0)), 1e-3)
     ns = int(np.clip(math.ceil(span / min(1.0, span / 4.0)) + 1, 3, 61))
@@ -556,7 +574,9 @@ def _choose_points(path: MountPath, spec: RotatorSpec, profile: TableProfile, ki
     az_lo, az_hi = 0.0, float(min(spec.az_span_deg, _mech_limit(spec, profile, kind)))
     az_c = _candidates(az_f, az_lo, az_hi)                                # (n, ca)
     if kind == "W":
-        el_hi = float(min(spec.el_max_deg, profile.el_max_deg))
+        # compile_program refuses a W table for a path without elevations
+        assert el_f is not None and path.el_deg is not None
+        el_hi = float(min(spec.el_top_deg, profile.el_max_deg))
         el_c = _candidates(el_f, math.ceil(spec.el_min_deg), math.floor(el_hi))
     else:
         el_c = None
@@ -565,7 +585,7 @@ def _choose_points(path: MountPath, spec: RotatorSpec, profile: TableProfile, ki
     # uses the pass-1 choices, so each window sees the slew it will really get.
     prev_az = np.rint(np.interp(np.r_[cmd_t[0], cmd_t[:-1]], path.t_s, path.az_deg))
     prev_el = None
-    if kind == "W":
+    if kind == "W" and path.el_deg is not None:
         prev_el = np.rint(np.interp(np.r_[cmd_t[0], cmd_t[:-1]], path.t_s, path.el_deg))
     for _ in range(2):
         az_pick, el_pick = _score_blocks(spec, kind, cmd_t, ts, target, az_c, el_c, prev_az,
@@ -592,8 +612,10 @@ def _candidates(values: np.ndarray, lo: float, hi: float) -> np.ndarray:
     return np.clip(c, lo, hi)
 
 
-def _score_blocks(spec, kind, cmd_t, ts, target, az_c, el_c, prev_az, prev_el,
-                  block: int = 256):
+def _score_blocks(spec: RotatorSpec, kind: str, cmd_t: np.ndarray, ts: np.ndarray,
+                  target: np.ndarray, az_c: np.ndarray, el_c: np.ndarray | None,
+                  prev_az: np.ndarray, prev_el: np.ndarray | None,
+                  block: int = 256) -> tuple[np.ndarray, np.ndarray | None]:
     """:func:`_score` over blocks of windows, to bound memory on 1900-point tables."""
     az_out, el_out = [], []
     for lo in range(0, len(cmd_t), block):
@@ -644,7 +666,8 @@ def _slew(prev, target, dt, rate, delay):
     return prev + np.sign(dist) * travelled
 
 
-def _above_mask(spec: RotatorSpec, station, az_m, el):
+def _above_mask(spec: RotatorSpec, station: Station, az_m: np.ndarray,
+                el: np.ndarray) -> np.ndarray:
     """Raise (or for a flipped mount lower) elevations so no point is below the mask."""
     bearing = np.asarray(spec.bearing_of(az_m))
     el = el.copy()
@@ -659,8 +682,10 @@ def _above_mask(spec: RotatorSpec, station, az_m, el):
 # Prediction with THE motor model ---------------------------------------------------------
 
 
-def predict(path: MountPath, spec: RotatorSpec, cmd_t_s, az_m, el, start_az_deg=None,
-            start_el_deg=None, step_s: float = 0.25) -> Prediction:
+def predict(path: MountPath, spec: RotatorSpec, cmd_t_s: ArrayLike,
+            az_m: Sequence[float] | np.ndarray, el: Sequence[float] | np.ndarray | None,
+            start_az_deg: float | None = None, start_el_deg: float | None = None,
+            step_s: float = 0.25) -> Prediction:
     """Drive :class:`tracker.mount.MotorModel` through the schedule; error vs the target.
 
     ``az_m`` is mechanical. Samples cover the pass (first to last path time).
@@ -680,7 +705,8 @@ def predict(path: MountPath, spec: RotatorSpec, cmd_t_s, az_m, el, start_az_deg=
                       el_pos)
 
 
-def drive_axis(axis: AxisMotor, cmd_t_s, cmd_deg, t_eval_s) -> tuple[np.ndarray, int]:
+def drive_axis(axis: AxisMotor, cmd_t_s: ArrayLike, cmd_deg: Sequence[float] | np.ndarray,
+               t_eval_s: ArrayLike) -> tuple[np.ndarray, int]:
     """Like :func:`tracker.mount.simulate_commands`, also counting motor starts.
 
     A start is a command that sets a resting (or reversing) axis moving: the relay closes.
@@ -705,8 +731,8 @@ def drive_axis(axis: AxisMotor, cmd_t_s, cmd_deg, t_eval_s) -> tuple[np.ndarray,
     return out, starts
 
 
-def pointing_error_deg(spec: RotatorSpec, path: MountPath, t_s, ant_az_m,
-                       ant_el=None) -> np.ndarray:
+def pointing_error_deg(spec: RotatorSpec, path: MountPath, t_s: ArrayLike,
+                       ant_az_m: ArrayLike, ant_el: ArrayLike | None = None) -> np.ndarray:
     """Angle between the antenna (mechanical az, mount el) and the target at ``t_s``.
 
     Azimuth-only rotators: the azimuth difference (their elevation is fixed by hand).
@@ -890,7 +916,8 @@ def tables_from_points(kind: str, interval_s: int, points: Sequence, profile: Ta
 # From a pass -----------------------------------------------------------------------------
 
 
-def compile_pass(track, spec: RotatorSpec, station, profile: TableProfile | str, *,
+def compile_pass(track: SkyTrack, spec: RotatorSpec, station: Station,
+                 profile: TableProfile | str, *,
                  current: tuple[float, float] | None = None, interval_s: int | None = None,
                  max_error_deg: float | None = None, baud: int = 9600,
                  meta: dict | None = None) -> StepProgram:

@@ -242,7 +242,9 @@ class TrackCore:
                 f"talks to the controller")
         return seen
 
-    def _observe(self, t_s: float, wire_az_deg: float, wire_el_deg: float | None) -> str:
+    # Read-back interpretation: the order of its checks is the behaviour (controller off,
+    # early arrival, untrusted, contradiction), kept in one place to read in that order.
+    def _observe(self, t_s: float, wire_az_deg: float, wire_el_deg: float | None) -> str:  # noqa: C901
         spec = self.spec
         self._resend_due = False      # decided afresh from this reading
         if wire_az_deg < 0 and (wire_el_deg is None or wire_el_deg < 0):
@@ -382,7 +384,8 @@ class TrackCore:
             return replace(last, resend=last.resend + 1)
         return cmd
 
-    def _decide(self, t_s: float) -> Command | None:
+    # The per-cycle decision by phase; the phases share the cycle's state.
+    def _decide(self, t_s: float) -> Command | None:  # noqa: C901
         phase = self._phase_at(t_s)
         if phase is not self.phase:
             self.phase = phase
@@ -741,7 +744,9 @@ class PassResult:
     completed: bool = True
 
 
-def run_pass(core: TrackCore, link: Link, clock: Clock, on_status: Callable[[Status], None]
+# The streaming loop with its recovery paths (timeouts, garbled replies,
+# reconnects, stop); they share the loop's counters and the all-stop on every exit.
+def run_pass(core: TrackCore, link: Link, clock: Clock, on_status: Callable[[Status], None]  # noqa: C901
              = lambda s: None, events: EventSink = _null_sink,
              should_stop: Callable[[], bool] = lambda: False) -> PassResult:
     """Run one pass to the end (DONE) on ``clock``; all-stop on every exit. Raises

@@ -2,7 +2,7 @@
 
 A target turns UTC times into a :class:`~tracker.skytrack.SkyTrack` as seen from a station.
 Satellites come from the element catalogue (:class:`SatelliteTarget`); the Sun, Moon, planets,
-fixed radio sources and az/el schedule files are added by :mod:`tracker.celestial` through
+fixed radio sources and az/el schedule files come from :mod:`tracker.celestial`, the first of
 :data:`RESOLVERS`. :func:`resolve_target` tries the resolvers first, then the catalogue.
 """
 
@@ -15,7 +15,9 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from tracker import celestial
 from tracker.errors import ConfigError, PropagationError
+from tracker.event_labels import event_labels as event_labels  # re-exported for commands
 from tracker.skytrack import SkyTrack
 from tracker.station import Station
 
@@ -29,22 +31,9 @@ class Target(Protocol):
         """Az/el (and range, range rate, sunlit where meaningful) at UTC POSIX seconds."""
 
 
-# What the three events of a pass are called, by target kind: satellites have AOS/TCA/LOS,
-# the Sun, Moon, planets and radio sources rise, transit and set.
-EVENT_LABELS: dict[str, tuple[str, str, str]] = {
-    "satellite": ("AOS", "TCA", "LOS"),
-    "schedule": ("start", "max el", "end"),
-}
-
-
-def event_labels(kind: str) -> tuple[str, str, str]:
-    """Labels for the start, highest point and end of a pass of a target of ``kind``."""
-    return EVENT_LABELS.get(kind, ("rise", "transit", "set"))
-
-
 # Resolvers are tried in order before the satellite catalogue; each returns a Target for a
-# name it knows, or None. tracker.celestial registers itself here.
-RESOLVERS: list[Callable[[str], Target | None]] = []
+# name it knows, or None.
+RESOLVERS: list[Callable[[str], Target | None]] = [celestial.resolve]
 
 _SUNLIT_NOTE_SHOWN = False
 
@@ -207,21 +196,6 @@ class SatelliteTarget:
         return np.mod(np.atleast_1d(az.degrees), 360.0), el_deg
 
 
-def _load_builtin_resolvers() -> None:
-    """Import the modules that register resolvers (Sun, Moon, radio sources, schedules)."""
-    import importlib
-
-    for module in BUILTIN_RESOLVER_MODULES:
-        try:
-            importlib.import_module(module)
-        except ModuleNotFoundError as e:
-            if e.name != module:  # a real missing dependency inside it: say so
-                raise
-
-
-BUILTIN_RESOLVER_MODULES = ("tracker.celestial",)
-
-
 def _catalog_find(catalog: Any, query: str):
     return catalog.find(query)
 
@@ -236,7 +210,6 @@ def resolve_target(query: str, catalog: Any = None) -> Target:
     text = query.strip()
     if not text:
         raise ConfigError("empty target name; give a satellite name, NORAD id or e.g. 'Sun'")
-    import tracker.celestial  # noqa: F401  (registers Sun/Moon/planets/radio/schedule names)
     for resolver in RESOLVERS:
         target = resolver(text)
         if target is not None:

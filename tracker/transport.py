@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import socket
 import urllib.parse
+from typing import Any, TypeAlias
 
 import serial
 
@@ -58,6 +59,10 @@ def check_url(url: str) -> None:
     if not 1 <= port <= 65535:
         raise ConfigError(f"{url!r}: port {port} is not a TCP port (1-65535); write {example}")
 
+# A pyserial port, or a port-like test double (read, write, flush, close, in_waiting,
+# reset_input_buffer, timeout). pyserial ships no type information, so this is Any.
+Port: TypeAlias = Any
+
 HANDLERS_PACKAGE = "tracker.serial_handlers"
 if HANDLERS_PACKAGE not in serial.protocol_handler_packages:
     serial.protocol_handler_packages.append(HANDLERS_PACKAGE)
@@ -72,7 +77,7 @@ def is_emulated(url: str) -> bool:
 
 def open_port(url: str, baudrate: int = 9600, timeout_s: float = 1.0,
               write_timeout_s: float | None = 2.0, rtscts: bool = False,
-              clock: Clock | None = None, **kwargs):
+              clock: Clock | None = None, **kwargs: Any) -> Port:
     """Open ``url`` with :func:`serial.serial_for_url`; raises :class:`RotatorIOError`, or
     :class:`ConfigError` for a malformed network URL or an impossible baud rate.
 
@@ -94,7 +99,7 @@ def open_port(url: str, baudrate: int = 9600, timeout_s: float = 1.0,
     return port
 
 
-def _close_without_linger(port) -> None:
+def _close_without_linger(port: Port) -> None:
     """Make a ``socket://`` port's ``close()`` return at once.
 
     pyserial's socket handler sleeps 0.3 s after closing "in case of quick reconnects"; the
@@ -120,7 +125,7 @@ def _close_without_linger(port) -> None:
     port.close = close
 
 
-def _no_delay(port) -> None:
+def _no_delay(port: Port) -> None:
     """Turn off Nagle on a network port (socket://, rfc2217://).
 
     A set command such as ``W`` gets no reply, so the peer delays its ACK; with Nagle on, the
@@ -136,18 +141,9 @@ def _no_delay(port) -> None:
         pass    # not a TCP socket; nothing to tune
 
 
-def io_clock(port) -> Clock:
+def io_clock(port: Port) -> Clock:
     """The clock a port's reads and writes take time on: the emulator's clock for
     ``emu://``, real time for every other port (and for port-like test doubles)."""
     clock = getattr(port, "clock", None)
     return clock if isinstance(clock, Clock) else _REAL_TIME
 
-
-def emu_clock(url: str) -> Clock | None:
-    """The clock of the emulator bench an ``emu://NAME`` URL names (None for anything else):
-    code that opens such a port later runs its own timing on that clock."""
-    if not is_emulated(url):
-        return None
-    from tracker.emulator.virtual import clock_of
-
-    return clock_of(url)

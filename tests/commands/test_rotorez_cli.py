@@ -94,9 +94,9 @@ def test_emulate_subprocess_serves_each_protocol(emulate, capsys):
 @pytest.mark.hamlib
 @pytest.mark.skipif(shutil.which("rotctld") is None, reason="Hamlib rotctld not installed")
 def test_rotctld_via_cli(capsys):
-    from _rigs import start_rotctld as _start_rotctld
+    from _rigs import start_rotctld
 
-    proc, port = _start_rotctld("-m", "1")
+    proc, port = start_rotctld("-m", "1")
     try:
         assert _rot(capsys, f"127.0.0.1:{port}", "rotctld", "position") == (0, "0 0", "")
         assert _rot(capsys, f"rotctld://127.0.0.1:{port}", "rotctld", "goto", "5", "5")[0] == 0

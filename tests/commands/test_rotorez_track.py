@@ -13,7 +13,7 @@ import pytest
 from _stream_fakes import T0, arc_pass
 from _virtual import manual_clock, virtual_rig
 
-from tracker.emulator.rotorez_controller import make_other_controller
+from tracker.emulator.factory import make_other_controller
 from tracker.mount import preset
 from tracker.planner import plan_pass
 from tracker.protocols import open_driver

@@ -247,13 +247,13 @@ def test_track_through_rotctld_plans_inside_its_elevation_limit(tmp_path):
     0..90 instead (it used to plan el 0-180 and abort before AOS on the first move above 90).
     SIGTERM then ends the run the Ctrl-C way."""
     from _rigs import ROTCTLD
-    from _rigs import start_rotctld as _start_rotctld
+    from _rigs import start_rotctld
 
     if ROTCTLD is None:
         pytest.skip("Hamlib rotctld not installed")
     empty = tmp_path / "empty.toml"
     empty.write_text("")
-    proc, port = _start_rotctld("-m", "1")
+    proc, port = start_rotctld("-m", "1")
     # ISS 05:19:52-05:30:43, max el 86.5: the G-5500 plan is a keyhole sweep el 0-180.
     child = Child(["track", "ISS (ZARYA)", "--protocol", "rotctld", "--port",
                    f"127.0.0.1:{port}", "--at", "2026-08-23T05:17:00Z", "--speed", "5",

@@ -15,7 +15,7 @@ from _gs232_helpers import T0, RawPeer, wait_until
 
 from tracker.clock import SimClock
 from tracker.emulator import Gs232Controller, serve_pty, serve_tcp
-from tracker.emulator.rotorez_controller import make_other_controller
+from tracker.emulator.factory import make_other_controller
 from tracker.errors import LimitError, PortLostError, ProtocolError, RotatorTimeout
 from tracker.protocols import open_driver
 

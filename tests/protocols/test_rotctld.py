@@ -69,12 +69,11 @@ if ROTCTLD is None and os.environ.get("CI", "").lower() == "true":
 needs_hamlib = pytest.mark.skipif(ROTCTLD is None, reason="Hamlib rotctld not installed")
 
 
-_start_rotctld = start_rotctld     # the name other test modules import
 
 
 @pytest.fixture
 def dummy():
-    proc, port = _start_rotctld("-m", "1")
+    proc, port = start_rotctld("-m", "1")
     yield port
     proc.terminate()
     proc.wait(5)
@@ -111,7 +110,7 @@ def test_three_party_chain_to_the_gs232b_emulator():
     clock = SimClock(datetime.fromisoformat(T0), speed=20.0)
     ctrl = Gs232Controller("gs232b", preset("G-5500"), clock)
     server = serve_pty(ctrl)
-    proc, port = _start_rotctld("-m", "603", "-r", server.url)
+    proc, port = start_rotctld("-m", "603", "-r", server.url)
     try:
         with open_driver(f"rotctld://127.0.0.1:{port}", "rotctld", timeout_s=5) as drv:
             drv.goto(180, 45)
@@ -141,7 +140,7 @@ def test_three_party_chain_to_the_gs232b_emulator():
 def test_daemon_gone_is_reported_not_hung():
     from tracker.errors import RotatorIOError
 
-    proc, port = _start_rotctld("-m", "1")
+    proc, port = start_rotctld("-m", "1")
     try:
         drv = open_driver(f"127.0.0.1:{port}", "rotctld", timeout_s=0.5)
         assert drv.position() == (0.0, 0.0)
@@ -169,7 +168,7 @@ def test_tracker_track_through_rotctld_to_the_gs232b_emulator(tmp_path, capsys, 
     clock = SimClock(datetime.fromisoformat("2026-08-23T02:06:05+00:00"), speed=speed)
     ctrl = Gs232Controller("gs232b", preset("G-5500"), clock)
     server = serve_pty(ctrl)
-    proc, port = _start_rotctld("-m", "603", "-r", server.url)
+    proc, port = start_rotctld("-m", "603", "-r", server.url)
     cfg = tmp_path / "empty.toml"
     cfg.write_text("")
     monkeypatch.setenv("TRACKER_CONFIG", str(cfg))

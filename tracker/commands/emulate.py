@@ -58,15 +58,10 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def run(args: argparse.Namespace) -> int:
+def _check_args(args: argparse.Namespace) -> None:
     import math
-    import time
 
-    from tracker.clock import SimClock, SystemClock
-    from tracker.emulator import EmulatorOptions, Gs232Controller, serve_pty, serve_tcp
-    from tracker.emulator.faults import FaultPlan, install
     from tracker.errors import ConfigError
-    from tracker.mount import preset
 
     if not (math.isfinite(args.speed) and args.speed > 0):
         raise ConfigError(f"--speed {args.speed} is invalid; use a finite number > 0")
@@ -76,13 +71,43 @@ def run(args: argparse.Namespace) -> int:
     if args.tcp is not None and not 0 <= args.tcp <= 65535:
         raise ConfigError(f"--tcp {args.tcp} is invalid; use a TCP port 1..65535 (0 = any "
                           f"free port)")
+
+
+def _serve(ctrl, args: argparse.Namespace, needs_reopen: bool):
+    """Serve ``ctrl`` on the TCP port or the pty the arguments ask for."""
+    from tracker.emulator import serve_pty, serve_tcp
+    from tracker.errors import ConfigError
+
+    if args.tcp is not None:
+        try:
+            return serve_tcp(ctrl, args.tcp, args.bind)
+        except OSError as e:
+            raise ConfigError(f"cannot listen on {args.bind}:{args.tcp}: {e}; choose another "
+                              f"--tcp port") from e
+    link = args.link
+    if link is None and needs_reopen:
+        import os
+        import tempfile
+        link = os.path.join(tempfile.mkdtemp(prefix="tracker-emu-"), "ttyEMU0")
+    return serve_pty(ctrl, link=link)
+
+
+def run(args: argparse.Namespace) -> int:
+    import time
+
+    from tracker.clock import SimClock, SystemClock
+    from tracker.emulator import EmulatorOptions, Gs232Controller
+    from tracker.emulator.faults import FaultPlan, install
+    from tracker.mount import preset
+
+    _check_args(args)
     plan = FaultPlan.parse(args.fault, args.fault_seed)
     spec = preset(args.rotator, args.mains)
     clock = SimClock(SystemClock().now(), speed=args.speed)
     opts = EmulatorOptions(strict_acks=args.strict_acks, one_space=args.one_space,
                            readback_360=args.readback_360, end_behaviour=args.end,
                            autobaud=args.autobaud)
-    from tracker.emulator.rotorez_controller import OTHER_PROTOCOLS, make_other_controller
+    from tracker.emulator.factory import OTHER_PROTOCOLS, make_other_controller
 
     if args.protocol.lower() in OTHER_PROTOCOLS:
         # rotorez, dcu1, sak232, gs232b-azaz: azimuth-only; their own default rotator
@@ -94,19 +119,7 @@ def run(args: argparse.Namespace) -> int:
         ctrl = Gs232Controller(args.protocol, spec, clock, opts, az_deg=args.az,
                                el_deg=args.el)
     injector = install(ctrl, plan) if plan.specs else None
-    if args.tcp is not None:
-        try:
-            server = serve_tcp(ctrl, args.tcp, args.bind)
-        except OSError as e:
-            raise ConfigError(f"cannot listen on {args.bind}:{args.tcp}: {e}; choose another "
-                              f"--tcp port") from e
-    else:
-        link = args.link
-        if link is None and plan.needs_reopen:
-            import os
-            import tempfile
-            link = os.path.join(tempfile.mkdtemp(prefix="tracker-emu-"), "ttyEMU0")
-        server = serve_pty(ctrl, link=link)
+    server = _serve(ctrl, args, plan.needs_reopen)
     # handlers first: whoever reads the port line may signal at once
     stop = threading.Event()
     restore = _stop_on_signals(stop)

@@ -39,7 +39,7 @@ from tracker.commands._common import (
     target_from_args,
 )
 from tracker.errors import ConfigError, TargetError, TrackerError
-from tracker.transport import emu_clock, is_emulated
+from tracker.transport import is_emulated
 
 DEMO_SECONDS = 60.0        # a whole demo pass in about this much wall time
 STALE_ELEMENTS_DAYS = 14.0  # older elements: the demo replays a pass near their epoch
@@ -425,7 +425,8 @@ class _AntennaOut:
         return None
 
 
-def run(args: argparse.Namespace) -> int:
+# The command's whole flow; its logic is to move into the library, and gets split then.
+def run(args: argparse.Namespace) -> int:  # noqa: C901
     from tracker.protocols import open_driver
     from tracker.session import ControllerSession, driver_limits
     from tracker.stream import Link
@@ -490,8 +491,10 @@ def run(args: argparse.Namespace) -> int:
                           "--port) or --port emu://PROTOCOL; a real rotator runs in real time")
     if virtual:
         earliest = min(a.first.aos for a in ants)
+        from tracker.emulator.virtual import clock_of
+
         # an emu:// bench made by the caller brings its own clock; else a new one
-        clock = emu_clock(port) if port else None
+        clock = clock_of(port) if port and is_emulated(port) else None
         clock = clock or LockstepClock(max(start, earliest - timedelta(seconds=150))
                                        if demo else start, parties=len(ants))
     elif simulated:
@@ -526,7 +529,7 @@ def run(args: argparse.Namespace) -> int:
 
             controller = AzAzController(specs[0], specs[1], clock)
         elif emulator:
-            from tracker.emulator.rotorez_controller import make_other_controller
+            from tracker.emulator.factory import make_other_controller
 
             controller = make_other_controller(emulator, clock, spec)
         else:
@@ -654,7 +657,8 @@ def _speed_arg(text: str) -> float:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number or 'max'") from None
 
 
-def _run_both(ants: list[_Antenna], shared: _SharedAzAz, station, clock, passes: int,
+# Two-antenna flow of the track command; split with run() when it moves into the library.
+def _run_both(ants: list[_Antenna], shared: _SharedAzAz, station, clock, passes: int,  # noqa: C901
               timer: _DemoTime | None, out) -> None:
     """Both antennas at once, one thread each on the shared interface. A stall, an error or
     Ctrl-C/SIGTERM on either stops both (``S``) and ends the run; every way out ends

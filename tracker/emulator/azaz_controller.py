@@ -98,7 +98,8 @@ class AzAzController(Gs232Controller):
 
     # Interpreter -----------------------------------------------------------------------------
 
-    def _dispatch(self, raw: bytes, st: _SessionState, t: float) -> bytes:
+    # Protocol dispatch: one branch per command of the wire protocol.
+    def _dispatch(self, raw: bytes, st: _SessionState, t: float) -> bytes:  # noqa: C901
         try:
             line = raw.decode("ascii").strip().upper()
         except UnicodeDecodeError:

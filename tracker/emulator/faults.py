@@ -89,7 +89,8 @@ def _number(text: str, s: str, what: str, lo: float = 0.0, hi: float = float("in
     return v
 
 
-def parse_fault(text: str) -> FaultSpec:
+# One guard per part of the --fault syntax, each with its own message.
+def parse_fault(text: str) -> FaultSpec:  # noqa: C901
     """Parse one ``--fault`` argument; raises :class:`ConfigError` naming what is wrong."""
     raw = str(text).strip()
     m = _SPEC_RE.match(raw.lower().replace(" ", ""))

@@ -263,7 +263,8 @@ class Gs232Controller:
     def _data(self, payload: bytes) -> bytes:
         return payload + self.profile.reply_eol
 
-    def _dispatch(self, raw: bytes, st: _SessionState, t: float) -> bytes:
+    # Protocol dispatch: one branch per command of the wire protocol.
+    def _dispatch(self, raw: bytes, st: _SessionState, t: float) -> bytes:  # noqa: C901
         p = self.profile
         if len(raw) > p.max_line_chars:
             return self._err()

@@ -258,25 +258,3 @@ class RotorEzController(ByteController):
         tgt = "---" if self.target_bearing is None else f"{self.target_bearing:03d}"
         return f"{super().status_line()}  target {tgt}  options {opts}"
 
-
-# Factory for `tracker emulate --protocol ...` ---------------------------------------------------
-
-OTHER_PROTOCOLS = ("rotorez", "dcu1", "sak232", "gs232b-azaz")
-
-
-def make_other_controller(protocol: str, clock: Clock, spec: RotatorSpec | None = None,
-                          az_deg: float | None = None):
-    """The emulator for a non-GS-232 ``protocol`` (one of :data:`OTHER_PROTOCOLS`) with its
-    own default rotator unless ``spec`` is given (used azimuth-only)."""
-    name = protocol.lower()
-    if name in ("rotorez", "dcu1"):
-        return RotorEzController(name, spec, clock, az_deg=az_deg)  # type: ignore[arg-type]
-    if name == "sak232":
-        from tracker.emulator.sak232_controller import Sak232Controller
-
-        return Sak232Controller(spec, clock, az_deg=az_deg)
-    if name == "gs232b-azaz":
-        from tracker.emulator.azaz_controller import AzAzController
-
-        return AzAzController(spec, None, clock, az_deg=az_deg)
-    raise ValueError(f"{protocol!r} is not one of {', '.join(OTHER_PROTOCOLS)}")

@@ -122,7 +122,8 @@ class Sak232Controller(ByteController):
                 st.buf.clear()
         return bytes(out)
 
-    def _command(self, raw: bytes) -> bytes:
+    # Protocol dispatch: one branch per command of the wire protocol.
+    def _command(self, raw: bytes) -> bytes:  # noqa: C901
         t = self._now()
         self._advance(t)
         o = self.options

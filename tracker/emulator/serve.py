@@ -121,27 +121,8 @@ class _Server:
                     self._on_accept()
                     continue
                 conn: _Conn = key.data
-                if conn not in self._conns:
-                    continue
-                if events & selectors.EVENT_READ:
-                    try:
-                        data = conn.read()
-                    except BlockingIOError:
-                        data = None
-                    except OSError:
-                        data = b""
-                    if data == b"":
-                        self._on_eof(conn)
-                        continue
-                    if data:
-                        try:
-                            conn.out += self._feed(conn, data)
-                        except Exception as e:
-                            # A bug in a responder must not kill the emulator: record it,
-                            # drop that connection, keep serving (leak/fuzz tests check it).
-                            self.errors.append(f"{type(e).__name__}: {e}")
-                            self._on_eof(conn)
-                            continue
+                if conn in self._conns and events & selectors.EVENT_READ:
+                    self._read(conn)
             with self._lock:
                 pending, self._pending = self._pending, []
             for fn in pending:
@@ -154,6 +135,26 @@ class _Server:
                 self._flush_out(conn)
         for conn in list(self._conns):
             self._drop_conn(conn)
+
+    def _read(self, conn: _Conn) -> None:
+        """Feed what ``conn`` has to the controller; drop it at EOF or on a responder bug."""
+        try:
+            data = conn.read()
+        except BlockingIOError:
+            data = None
+        except OSError:
+            data = b""
+        if data == b"":
+            self._on_eof(conn)
+            return
+        if data:
+            try:
+                conn.out += self._feed(conn, data)
+            except Exception as e:
+                # A bug in a responder must not kill the emulator: record it,
+                # drop that connection, keep serving (leak/fuzz tests check it).
+                self.errors.append(f"{type(e).__name__}: {e}")
+                self._on_eof(conn)
 
     def _poll_s(self) -> float:
         """Select timeout: POLL_S, shorter when a delayed reply is due sooner (real s)."""

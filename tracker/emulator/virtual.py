@@ -213,8 +213,8 @@ def make_controller(protocol: str, clock: Clock, rotator: str | None = None, mai
                     autobaud: bool = False):
     """The emulator for ``protocol`` on ``clock`` (``rotator``: a preset name; None: the
     protocol's default rotator)."""
+    from tracker.emulator.factory import OTHER_PROTOCOLS, make_other_controller
     from tracker.emulator.gs232_controller import EmulatorOptions, Gs232Controller
-    from tracker.emulator.rotorez_controller import OTHER_PROTOCOLS, make_other_controller
     from tracker.mount import preset
     from tracker.protocols.gs232 import PROFILES
 
@@ -269,11 +269,6 @@ def attach(url: str, clock: Clock | None = None) -> _Link:
     if bench is None or bench.clock is not clock:
         bench = _bench_from_url(url, clock)
     return bench.open()
-
-
-def bench_of(port) -> Bench | None:
-    """The bench behind an open ``emu://`` port (None for any other port)."""
-    return getattr(port, "bench", None) if getattr(port, "_link", None) is not None else None
 
 
 def clock_of(url: str) -> Clock | None:

@@ -8,6 +8,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 from tracker.errors import ConfigError
 from tracker.protocols.base import Capabilities, RotatorDriver
@@ -21,7 +22,7 @@ def register_driver(name: str, factory: DriverFactory) -> None:
 
 
 def _gs232_factory(profile: str) -> DriverFactory:
-    def open_gs232(url: str, **kw) -> RotatorDriver:
+    def open_gs232(url: str, **kw: Any) -> RotatorDriver:
         from tracker.protocols.gs232 import Gs232Driver
 
         return Gs232Driver.from_url(url, profile, **kw)
@@ -33,7 +34,7 @@ for _name in ("gs232a", "gs23", "gs232b", "gs232b-manual", "k3ng"):
 
 
 def _lazy_factory(module: str, attr: str) -> DriverFactory:
-    def open_lazily(url: str, **kw) -> RotatorDriver:
+    def open_lazily(url: str, **kw: Any) -> RotatorDriver:
         import importlib
 
         return getattr(importlib.import_module(f"tracker.protocols.{module}"), attr)(url, **kw)
@@ -50,7 +51,7 @@ for _name, _module, _attr in (("rotorez", "rotorez", "open_rotorez"),
     register_driver(_name, _lazy_factory(_module, _attr))
 
 
-def open_driver(url: str, protocol: str = "gs232b", **kw) -> RotatorDriver:
+def open_driver(url: str, protocol: str = "gs232b", **kw: Any) -> RotatorDriver:
     """Open ``url`` (``/dev/ttyUSB0``, ``socket://host:port``, ...) with ``protocol``'s driver.
     Keyword arguments go to the driver (``baudrate``, ``timeout_s``, ``has_elevation``, ...)."""
     factory = DRIVERS.get(protocol.lower())

@@ -22,8 +22,10 @@ gives the azimuth-2 view directly (closing it closes the port), for ``tracker tr
 
 from __future__ import annotations
 
-from typing import Literal
+from collections.abc import Sequence
+from typing import Any, Literal
 
+from tracker.clock import Clock
 from tracker.errors import LimitError
 from tracker.protocols.base import Capabilities, Direction, RotatorDriver
 from tracker.protocols.gs232 import (
@@ -33,6 +35,7 @@ from tracker.protocols.gs232 import (
     fmt3,
     parse_table_status,
 )
+from tracker.transport import Port
 
 AZAZ_PROFILE = Gs232Profile(
     name="gs232b-azaz", family="b", c2_separator=b"", set_ack=b"", b_commands=True,
@@ -45,8 +48,8 @@ AXIS_CAPS = Capabilities(has_elevation=False, has_step_tables=True,
 
 
 class AzAzDriver(RotatorDriver):
-    def __init__(self, port, *, timeout_s: float = 1.0, retries: int = 2,
-                 az_max_deg: float = 360.0, clock=None, **_generic):
+    def __init__(self, port: Port, *, timeout_s: float = 1.0, retries: int = 2,
+                 az_max_deg: float = 360.0, clock: Clock | None = None, **_generic: Any):
         # _generic: has_elevation / el_max_deg / autobaud, which generic callers pass to
         # every driver; each AZ/AZ antenna is azimuth-only.
         self.az_max_deg = min(float(az_max_deg), 360.0)
@@ -61,7 +64,7 @@ class AzAzDriver(RotatorDriver):
 
     @classmethod
     def from_url(cls, url: str, *, baudrate: int | None = None, rtscts: bool = False,
-                 **kw) -> AzAzDriver:
+                 **kw: Any) -> AzAzDriver:
         from tracker.transport import open_port
 
         port = open_port(url, baudrate=baudrate or AZAZ_PROFILE.baudrate, timeout_s=0.05,
@@ -82,6 +85,7 @@ class AzAzDriver(RotatorDriver):
     def positions(self) -> tuple[float, float]:
         """(azimuth 1, azimuth 2) from one ``C2``."""
         az1, az2 = self.io.position()
+        assert az2 is not None, "the AZ/AZ profile reads both azimuths"
         return az1, float(az2)
 
     def goto_both(self, az1_deg: float, az2_deg: float) -> None:
@@ -134,7 +138,7 @@ class AzAzDriver(RotatorDriver):
 class AzAzAxis(RotatorDriver):
     """One antenna of an AZ/AZ interface as an azimuth-only driver."""
 
-    def __init__(self, parent: AzAzDriver, n: int, owns_port: bool = False):
+    def __init__(self, parent: AzAzDriver, n: Literal[1, 2], owns_port: bool = False):
         self.parent = parent
         self.n = n
         self.owns_port = owns_port
@@ -171,7 +175,7 @@ class AzAzAxis(RotatorDriver):
 
     # Timed stepping: M / T / N for antenna 1, MB / TB / NB for antenna 2 ------------------
 
-    def upload_table(self, interval_s: int, points) -> None:
+    def upload_table(self, interval_s: int, points: Sequence[float]) -> None:
         """Long-form ``Msss aaa bbb ...`` (``MBsss ...`` for antenna 2): azimuths only."""
         p = self.parent
         if len(points) and not isinstance(points[0], (int, float)):
@@ -195,11 +199,11 @@ class AzAzAxis(RotatorDriver):
             self.parent.close()
 
 
-def open_azaz(url: str, **kw) -> AzAzDriver:
+def open_azaz(url: str, **kw: Any) -> AzAzDriver:
     return AzAzDriver.from_url(url, **kw)
 
 
-def open_azaz2(url: str, **kw) -> AzAzAxis:
+def open_azaz2(url: str, **kw: Any) -> AzAzAxis:
     parent = AzAzDriver.from_url(url, **kw)
     return AzAzAxis(parent, 2, owns_port=True)
 

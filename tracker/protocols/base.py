@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import abc
 from dataclasses import dataclass
+from types import TracebackType
 from typing import Literal
 
 from tracker.errors import TrackerError
@@ -67,7 +68,8 @@ class RotatorDriver(abc.ABC):
     def __enter__(self) -> RotatorDriver:
         return self
 
-    def __exit__(self, exc_type, exc, tb) -> None:
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
         # Every exit path sends all-stop unless the caller wants the move to go on (a
         # rotctl-like "goto and quit"); a lost port must not mask the original error.
         try:

@@ -11,10 +11,10 @@ import math
 import numbers
 import re
 import threading
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
-from typing import Literal
+from typing import Any, Literal
 
 import serial
 
@@ -28,7 +28,7 @@ from tracker.errors import (
 )
 from tracker.protocols.base import Capabilities, Direction, RotatorDriver
 from tracker.protocols.framing import LineFramer
-from tracker.transport import io_clock
+from tracker.transport import Port, io_clock
 
 CR = b"\r"
 ERROR_REPLY = b"?>"
@@ -78,7 +78,7 @@ class Gs232Profile:
     # The largest value the second (EL) field can carry: AZ/AZ boxes put azimuth 2 there.
     second_field_max_deg: int = 180
 
-    def with_(self, **changes) -> Gs232Profile:
+    def with_(self, **changes: Any) -> Gs232Profile:
         return replace(self, **changes)
 
     def capabilities(self, has_elevation: bool = True, az_max_deg: float = 450.0,
@@ -154,7 +154,7 @@ def encode_goto(az_deg: float, el_deg: float | None = None, *, az_max_deg: float
     return b"W" + a + b" " + fmt3(el_deg, "elevation", 0, el_max_deg) + CR
 
 
-def encode_table(interval_s: int, points: Sequence, *, az_max_deg: float = 450.0,
+def encode_table(interval_s: float, points: Sequence, *, az_max_deg: float = 450.0,
                  el_max_deg: float = 180.0) -> bytes:
     """Long form: ``Msss aaa bbb ...\\r`` for a list of azimuths, ``Wsss aaa eee ...\\r`` for a
     list of (az, el) pairs."""
@@ -266,7 +266,7 @@ def format_table_status(profile: Gs232Profile, current: int, total: int) -> byte
 def _check_seconds(key: str, value: object, allow_zero: bool = True) -> None:
     # A NaN or infinite duration makes every deadline comparison false: the driver would hang.
     ok = (isinstance(value, numbers.Real) and math.isfinite(value)
-          and (value >= 0 if allow_zero else value > 0))
+          and (float(value) >= 0 if allow_zero else float(value) > 0))
     if not ok:
         raise ConfigError(f"{key} = {value!r} is invalid; use a finite number of seconds "
                           f"{'>= 0' if allow_zero else '> 0'}")
@@ -287,17 +287,18 @@ class Gs232Driver(RotatorDriver):
     optionally ``pace_char_s`` between bytes.
     """
 
-    def __init__(self, port, profile: str | Gs232Profile = "gs232b", *, timeout_s: float = 1.0,
-                 retries: int = 2, has_elevation: bool = True, az_max_deg: float = 450.0,
-                 el_max_deg: float = 180.0, pace_cmd_s: float | None = None,
-                 pace_char_s: float = 0.0, ack_timeout_s: float = 0.3,
-                 clock: Clock | None = None):
+    def __init__(self, port: Port, profile: str | Gs232Profile = "gs232b", *,
+                 timeout_s: float = 1.0, retries: int = 2, has_elevation: bool = True,
+                 az_max_deg: float = 450.0, el_max_deg: float = 180.0,
+                 pace_cmd_s: float | None = None, pace_char_s: float = 0.0,
+                 ack_timeout_s: float = 0.3,
+                 clock: Clock | None = None) -> None:
         _check_seconds("timeout_s", timeout_s, allow_zero=False)
         _check_seconds("ack_timeout_s", ack_timeout_s, allow_zero=False)
         _check_seconds("pace_char_s", pace_char_s)
         if pace_cmd_s is not None:
             _check_seconds("pace_cmd_s", pace_cmd_s)
-        if not (isinstance(retries, numbers.Integral) and retries >= 0):
+        if not (isinstance(retries, (int, numbers.Integral)) and retries >= 0):
             raise ConfigError(f"retries = {retries!r} is invalid; use a whole number >= 0")
         self.port = port
         self.profile = get_profile(profile)
@@ -322,7 +323,7 @@ class Gs232Driver(RotatorDriver):
     @classmethod
     def from_url(cls, url: str, profile: str | Gs232Profile = "gs232b", *,
                  baudrate: int | None = None, rtscts: bool | None = None,
-                 autobaud: bool = False, **kw) -> Gs232Driver:
+                 autobaud: bool = False, **kw: Any) -> Gs232Driver:
         """Open ``url`` (any pyserial URL) with the profile's serial settings."""
         from tracker.transport import open_port
 
@@ -346,7 +347,7 @@ class Gs232Driver(RotatorDriver):
     # Low-level I/O: the only place pyserial errors are translated --------------------------
 
     @contextmanager
-    def _io(self, what: str):
+    def _io(self, what: str) -> Iterator[None]:
         if self._closed:
             raise PortLostError(f"{what}: the port is closed")
         try:

@@ -16,7 +16,7 @@ before sending anything. The connection is a TCP socket opened through
 from __future__ import annotations
 
 import re
-from typing import Literal
+from typing import Any, Literal
 
 from tracker.clock import Clock
 from tracker.errors import (
@@ -28,6 +28,7 @@ from tracker.errors import (
 )
 from tracker.protocols.base import Capabilities, Direction, RotatorDriver
 from tracker.protocols.rotorez import ByteLink
+from tracker.transport import Port
 
 DEFAULT_PORT = 4533
 # Hamlib 4.5 rig.h: enum rig_errcode_e (RPRT -n), text as rigerror() prints it.
@@ -83,7 +84,7 @@ class RotctldDriver(RotatorDriver):
     """A rotctld client. ``has_elevation`` False: ``p`` elevation is dropped and ``P`` sends
     elevation 0 (Hamlib's az-only backends ignore it)."""
 
-    def __init__(self, port, *, timeout_s: float = 2.0, has_elevation: bool = True,
+    def __init__(self, port: Port, *, timeout_s: float = 2.0, has_elevation: bool = True,
                  az_min_deg: float = -180.0, az_max_deg: float = 450.0,
                  el_min_deg: float = 0.0, el_max_deg: float = 180.0,
                  check_limits: bool = True, read_caps: bool = True,
@@ -111,7 +112,7 @@ class RotctldDriver(RotatorDriver):
         self.stop_on_exit = True
 
     @classmethod
-    def from_url(cls, url: str, *, baudrate: int | None = None, **kw) -> RotctldDriver:
+    def from_url(cls, url: str, *, baudrate: int | None = None, **kw: Any) -> RotctldDriver:
         from tracker.transport import open_port
 
         port = open_port(rotctld_url(url), timeout_s=0.05)
@@ -127,7 +128,7 @@ class RotctldDriver(RotatorDriver):
         """Send ``cmd``; return ``lines`` reply lines, or raise on ``RPRT -n`` / timeout."""
         data = (cmd + "\n").encode("ascii")
 
-        def done(buf: bytes):
+        def done(buf: bytes) -> tuple[str, int] | None:
             m = _RPRT_RE.search(buf)
             if m and buf.endswith(b"\n"):
                 return ("rprt", int(m.group(1)))
@@ -230,7 +231,7 @@ class RotctldDriver(RotatorDriver):
         self.link.close()
 
 
-def open_rotctld(url: str, **kw) -> RotctldDriver:
+def open_rotctld(url: str, **kw: Any) -> RotctldDriver:
     return RotctldDriver.from_url(url, **kw)
 
 

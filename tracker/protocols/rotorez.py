@@ -21,9 +21,9 @@ from __future__ import annotations
 
 import re
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from typing import Literal
+from typing import Any, Literal, TypeVar
 
 import serial
 
@@ -31,7 +31,7 @@ from tracker.clock import Clock, SystemClock
 from tracker.errors import ConfigError, LimitError, PortLostError, RotatorTimeout
 from tracker.mount import AxisMotor, RotatorSpec
 from tracker.protocols.base import Capabilities, Direction, RotatorDriver
-from tracker.transport import io_clock
+from tracker.transport import Port, io_clock
 
 try:  # tcflush/tcsetattr on a vanished tty raise termios.error, which is not an OSError
     import termios
@@ -41,9 +41,10 @@ try:  # tcflush/tcsetattr on a vanished tty raise termios.error, which is not an
 except ImportError:  # Windows
     PORT_ERRORS = (serial.SerialException, OSError)
 
+T = TypeVar("T")
+
 BAUDRATE = 4800
 BANNER = b"C2000 IDIOM V1.4S "
-POWER_ON_BYTE = b"\xe0"
 OPTION_BYTES = {"endpoint": (b"E", b"e"), "overshoot": (b"O", b"o"),
                 "unstick": (b"S", b"s"), "jam": (b"J", b"j")}
 _AI_RE = re.compile(rb";(\d{3})")
@@ -59,7 +60,7 @@ class ByteLink:
     :class:`PortLostError`, write timeouts :class:`RotatorTimeout`.
     """
 
-    def __init__(self, port, clock: Clock | None = None, pace_cmd_s: float = 0.0):
+    def __init__(self, port: Port, clock: Clock | None = None, pace_cmd_s: float = 0.0):
         self.port = port
         self.clock = clock or SystemClock()     # the caller's (simulation) time
         self.io_clock = io_clock(port)          # deadlines and pacing: the wire's time
@@ -69,7 +70,7 @@ class ByteLink:
         self._last_write = -1e9
 
     @contextmanager
-    def io(self, what: str):
+    def io(self, what: str) -> Iterator[None]:
         if self.closed:
             raise PortLostError(f"{what}: the port is closed")
         try:
@@ -98,8 +99,8 @@ class ByteLink:
             n = self.port.in_waiting
             return self.port.read(n if n > 0 else 1)
 
-    def read_until(self, done: Callable[[bytes], object], timeout_s: float) -> tuple[bytes,
-                                                                                      object]:
+    def read_until(self, done: Callable[[bytes], T | None],
+                   timeout_s: float) -> tuple[bytes, T | None]:
         """Read until ``done(buffer)`` is truthy (returns ``(buffer, result)``) or the timeout
         (returns ``(buffer, None)``)."""
         buf = bytearray()
@@ -232,7 +233,7 @@ class RotorEzDriver(RotatorDriver):
     times on silence. The DCU-1 runs open loop (see :class:`OpenLoopAz`).
     """
 
-    def __init__(self, port, variant: Literal["rotorez", "dcu1"] = "rotorez", *,
+    def __init__(self, port: Port, variant: Literal["rotorez", "dcu1"] = "rotorez", *,
                  timeout_s: float = 1.0, retries: int = 2,
                  set_style: Literal["cr", "am"] | None = None, pace_cmd_s: float = 0.05,
                  accept_old_reply: bool = False, clock: Clock | None = None,
@@ -268,7 +269,7 @@ class RotorEzDriver(RotatorDriver):
 
     @classmethod
     def from_url(cls, url: str, variant: Literal["rotorez", "dcu1"] = "rotorez", *,
-                 baudrate: int | None = None, **kw) -> RotorEzDriver:
+                 baudrate: int | None = None, **kw: Any) -> RotorEzDriver:
         from tracker.transport import open_port
 
         port = open_port(url, baudrate=baudrate or BAUDRATE, timeout_s=0.05,
@@ -353,11 +354,11 @@ class RotorEzDriver(RotatorDriver):
         self.link.close()
 
 
-def open_rotorez(url: str, **kw) -> RotorEzDriver:
+def open_rotorez(url: str, **kw: Any) -> RotorEzDriver:
     return RotorEzDriver.from_url(url, "rotorez", **kw)
 
 
-def open_dcu1(url: str, **kw) -> RotorEzDriver:
+def open_dcu1(url: str, **kw: Any) -> RotorEzDriver:
     return RotorEzDriver.from_url(url, "dcu1", **kw)
 
 

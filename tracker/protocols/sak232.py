@@ -10,11 +10,14 @@ controller and re-anchors the estimate, which is how to calibrate it.
 
 from __future__ import annotations
 
+from typing import Any
+
 from tracker.clock import Clock
 from tracker.errors import LimitError
 from tracker.mount import RotatorSpec
 from tracker.protocols.base import Capabilities, Direction, RotatorDriver
 from tracker.protocols.rotorez import ByteLink, open_loop_estimate
+from tracker.transport import Port
 
 BAUDRATE = 9600
 
@@ -39,7 +42,7 @@ def check_gear(pulses: int, degrees: int) -> None:
 
 
 class Sak232Driver(RotatorDriver):
-    def __init__(self, port, *, timeout_s: float = 1.0, pace_cmd_s: float = 0.05,
+    def __init__(self, port: Port, *, timeout_s: float = 1.0, pace_cmd_s: float = 0.05,
                  clock: Clock | None = None, rate_deg_s: float = 4.0,
                  start_az_deg: float = 0.0, start_delay_s: float = 0.2,
                  stop_bearing_deg: float = 0.0, spec: RotatorSpec | None = None,
@@ -60,7 +63,7 @@ class Sak232Driver(RotatorDriver):
         self.stop_on_exit = True
 
     @classmethod
-    def from_url(cls, url: str, *, baudrate: int | None = None, **kw) -> Sak232Driver:
+    def from_url(cls, url: str, *, baudrate: int | None = None, **kw: Any) -> Sak232Driver:
         from tracker.transport import open_port
 
         port = open_port(url, baudrate=baudrate or BAUDRATE, timeout_s=0.05,
@@ -126,7 +129,7 @@ class Sak232Driver(RotatorDriver):
         self.link.close()
 
 
-def open_sak232(url: str, **kw) -> Sak232Driver:
+def open_sak232(url: str, **kw: Any) -> Sak232Driver:
     return Sak232Driver.from_url(url, **kw)
 
 
