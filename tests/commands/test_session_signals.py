@@ -246,8 +246,7 @@ def test_track_through_rotctld_plans_inside_its_elevation_limit(tmp_path):
     that the default G-5500 (0-180) would follow as a keyhole over the top is planned inside
     0..90 instead (it used to plan el 0-180 and abort before AOS on the first move above 90).
     SIGTERM then ends the run the Ctrl-C way."""
-    from _rigs import ROTCTLD
-    from _rigs import start_rotctld
+    from _rigs import ROTCTLD, start_rotctld
 
     if ROTCTLD is None:
         pytest.skip("Hamlib rotctld not installed")
