@@ -82,6 +82,24 @@ class EmulatedRig:
                 os.fstat(fd)
 
 
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+def default_signals(then=None):
+    """A ``preexec_fn``: the child takes the stop signals as a terminal would deliver them.
+
+    The suite may itself run with some ignored (a background job of a non-interactive shell
+    ignores SIGINT, ``nohup`` SIGHUP), and a child inherits that; the tests that send a
+    signal are about a normal process. ``then`` runs after, for a test that wants one
+    ignored on purpose."""
+    def preexec() -> None:
+        for sig in STOP_SIGNALS:
+            signal.signal(sig, signal.SIG_DFL)
+        if then is not None:
+            then()
+    return preexec
+
+
 class EmulateProcess:
     """``tracker emulate ARGS`` as a real subprocess: ``url`` is the port it printed.
 
@@ -90,6 +108,7 @@ class EmulateProcess:
     """
 
     def __init__(self, *args: str, url_now: bool = True, **popen_kw):
+        popen_kw["preexec_fn"] = default_signals(popen_kw.get("preexec_fn"))
         self.proc = subprocess.Popen([sys.executable, "-m", "tracker", "emulate", *args],
                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                      text=True, **popen_kw)

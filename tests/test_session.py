@@ -12,6 +12,20 @@ from tracker.errors import RotatorIOError
 from tracker.session import ControllerSession, Interrupted
 
 
+@pytest.fixture(autouse=True)
+def normal_signals():
+    """Each test starts as a process in a terminal does: the suite itself may run with
+    SIGINT or SIGHUP ignored (a background job, nohup), which the session must respect, and
+    which the test that is about it sets up itself."""
+    old = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGHUP, signal.SIG_DFL)
+    yield
+    for sig, handler in old.items():
+        signal.signal(sig, handler)
+
+
 class Recorder:
     """An all-stop that records calls and can fail."""
 

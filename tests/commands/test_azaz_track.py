@@ -16,6 +16,7 @@ from datetime import datetime, timezone
 import numpy as np
 import pytest
 from _gs232_helpers import wait_until
+from _rigs import default_signals
 
 from tracker.cli import build_parser, main
 from tracker.clock import LockstepClock, SimClock
@@ -196,7 +197,7 @@ def test_signal_mid_run_leaves_all_stop_last(sig, config, tmp_path):
     try:
         proc = subprocess.Popen([sys.executable, "-m", "tracker", *argv],
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env,
-                                text=True)
+                                text=True, preexec_fn=default_signals())
         assert wait_until(ctrl.moving, 60.0), "the tracker never moved an antenna"
         proc.send_signal(sig)
         out, err = proc.communicate(timeout=30)

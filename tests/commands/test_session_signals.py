@@ -20,6 +20,7 @@ from pathlib import Path
 import pytest
 from _gs232_helpers import wait_until
 from _paths import REPO
+from _rigs import default_signals
 
 from tracker.clock import SimClock, SystemClock
 from tracker.config import load_config
@@ -42,13 +43,6 @@ TRACK_AT = "2026-08-23T02:06:05Z"
 TRACK_SPEED = 20.0
 
 
-def _default_signals() -> None:
-    """In the child, before exec: take the signals as a terminal would deliver them (a shell
-    running the tests in the background, or nohup, may have them ignored)."""
-    for sig in SIGNALS:
-        signal.signal(sig, signal.SIG_DFL)
-
-
 class Child:
     """``python -m tracker ARGV`` with its stdout and stderr collected as they come."""
 
@@ -58,7 +52,7 @@ class Child:
                                                           os.environ.get("PYTHONPATH")) if p))
         self.proc = subprocess.Popen([sys.executable, "-m", "tracker", *argv],
                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                                     env=env, preexec_fn=_default_signals)
+                                     env=env, preexec_fn=default_signals())
         self.out: list[str] = []
         self.err: list[str] = []
         self._readers = [threading.Thread(target=self._drain, args=(s, sink), daemon=True)

@@ -12,6 +12,7 @@ import time
 from datetime import datetime, timezone
 
 import pytest
+from _rigs import default_signals
 
 from tracker.cli import main
 from tracker.clock import SimClock
@@ -141,7 +142,8 @@ def test_signal_mid_pass_sends_all_stop_last(sig, tmp_path):
         proc = subprocess.Popen(
             [sys.executable, "-m", "tracker", "track", "ISS (ZARYA)", "--port", server.url,
              "--at", at, "--speed", str(speed), "--plain"],
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=_env(tmp_path), text=True)
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=_env(tmp_path), text=True,
+            preexec_fn=default_signals())
         deadline = time.monotonic() + 40
         while time.monotonic() < deadline and not ctl.moving():
             time.sleep(0.05)   # wait until the tracker has the antenna turning
