@@ -31,7 +31,8 @@ _KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
           (stat.S_ISBLK, "a block device"))
 
 
-def _kind(mode: int) -> str:
+def file_kind(mode: int) -> str:
+    """What a non-regular file is, for an error line ("a FIFO (named pipe)", ...)."""
     for test, name in _KINDS:
         if test(mode):
             return name
@@ -54,7 +55,7 @@ def read_text_file(path: str | Path, what: str, error: type[Exception],
     if _is_devnull(info):
         return ""  # `--config /dev/null`: the usual way to say "an empty file"
     if not stat.S_ISREG(info.st_mode):
-        raise error(f"{what} {path} is {_kind(info.st_mode)}, not a regular file; give the "
+        raise error(f"{what} {path} is {file_kind(info.st_mode)}, not a regular file; give the "
                     f"path of a text file")
     if info.st_size > max_bytes:
         raise error(f"{what} {path} is {info.st_size / MIB:.1f} MiB, more than the "
@@ -88,7 +89,7 @@ def _read_bounded(path: Path, what: str, error: type[Exception], max_bytes: int)
     try:
         mode = os.fstat(fd).st_mode
         if not stat.S_ISREG(mode):
-            raise error(f"{what} {path} is {_kind(mode)}, not a regular file; give the "
+            raise error(f"{what} {path} is {file_kind(mode)}, not a regular file; give the "
                         f"path of a text file")
         chunks: list[bytes] = []
         total = 0

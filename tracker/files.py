@@ -15,15 +15,8 @@ import stat
 import tempfile
 from pathlib import Path
 
+from tle.textfile import file_kind
 from tracker.errors import ConfigError
-
-_KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISCHR, "a character device"),
-          (stat.S_ISBLK, "a block device"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
-          (stat.S_ISSOCK, "a socket"))
-
-
-def _kind(mode: int) -> str:
-    return next((name for test, name in _KINDS if test(mode)), "not a regular file")
 
 
 def _resolve(path: Path) -> Path:
@@ -48,7 +41,7 @@ def check_output(path: str | Path, *, force: bool = False, label: str = "--out")
         raise ConfigError(f"{where}: cannot reach this path ({e.strerror}); choose one in a "
                           "folder you can write") from None
     if st is not None and not stat.S_ISREG(st.st_mode):
-        raise ConfigError(f"{where} is {_kind(st.st_mode)}, not a regular file; give a file "
+        raise ConfigError(f"{where} is {file_kind(st.st_mode)}, not a regular file; give a file "
                           "name")
     if st is not None and not force:
         raise ConfigError(f"{where} already exists; not overwriting it (add --force to "
