@@ -458,7 +458,6 @@ def build_cases(fx: Fixtures) -> list[Case]:
         for group in ("plan", "batch", "track", "upload", "rotator"):
             if opt == "--lat" or group in ("plan", "batch"):
                 numeric(group, opt, ("nan",))
-    window = ("-1", "0", *NUM_BAD)
     numeric("next", "--days", ("-1", "0", "nan", "inf", "1e300"))
     numeric("passes", "--hours", ("-1", "0", "nan", "1e300"))
     numeric("plan", "--hours", ("-1", "0", "nan", "inf", "1e300"))
@@ -513,7 +512,7 @@ def build_cases(fx: Fixtures) -> list[Case]:
     numeric("rotator", "--rotator", ("NO-SUCH-ROTATOR",))
     numeric("rotator", "--park-az", ("nan", "inf", "-1", "1e300"), tail=("park",))
     numeric("rotator", "--park-el", ("nan", "-95", "1e300"), tail=("park",))
-    for v in ("nan", "inf", "-1", "1e300", "999", "abc", ""):
+    for v in ("nan", "inf", "-1", "1e300", "999", ""):
         add("rotator", f"goto {v!r}", [*base["rotator"], "goto", v])
     for v in ("nan", "inf", "-95", "1e300"):
         add("rotator", f"goto 90 {v!r}", [*base["rotator"], "goto", "90", v])
@@ -541,8 +540,7 @@ def build_cases(fx: Fixtures) -> list[Case]:
 
     # -- 2. far dates and garbage times ---------------------------------------------------------
     times = ("0001-01-01", "9999-12-31", "1899-12-31T23:59:59Z", "2101-01-01T00:00:00Z",
-             "2026-13-45", "2026-08-23T25:00:00Z", "nan", "1e300", "-1", "yesterday", "",
-             "2026-08-23T02:00:00+99:00")
+             "2026-13-45", "2026-08-23T25:00:00Z", "nan", "1e300", "yesterday", "")
     for group, argv0 in (("next", ["next", "ISS"]), ("passes", ["passes", "ISS"]),
                          ("plan", ["plan", "ISS"]), ("batch", ["batch", "stations", "--days",
                                                                "0.1"]),
@@ -561,7 +559,7 @@ def build_cases(fx: Fixtures) -> list[Case]:
     # -- 3. unknown names and empty strings -----------------------------------------------------
     names = ("NO SUCH SATELLITE", "", "   ", "99999999999", "-1", "radec:abc",
              "radec:83.6,99", "radec:nan,nan", "schedule:" + fx.missing,
-             "ISS\nsecond line", "Sun\tMoon", "\x1b[31mred\x1b[0m", "\udcff")
+             "ISS\nsecond line", "\x1b[31mred\x1b[0m", "\udcff")
     for group, argv0 in (("next", ["next"]), ("passes", ["passes"]), ("plan", ["plan"]),
                          ("track", ["track"]), ("upload", ["upload"])):
         post = ["--at", AT, *{"track": ["--port", "emu://gs232b", "--plain"],
