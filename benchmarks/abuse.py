@@ -526,7 +526,7 @@ def build_cases(fx: Fixtures) -> list[Case]:
     numeric("emulate", "--tcp", ("-1", "70000", "abc"))
     numeric("emulate", "--speed", ("0", "-1", "nan", "inf", "1e300"))
     numeric("emulate", "--az", ("-1", "999", "nan", "inf"))
-    numeric("emulate", "--el", ("-1", "91", "nan", "inf"))
+    numeric("emulate", "--el", ("-1", "181", "nan", "inf"))   # a G-5500's el is 0-180
     numeric("emulate", "--duration", ("-1", "nan", "inf", "1e300"))
     numeric("emulate", "--fault-seed", ("nan", "1.5"))
     numeric("emulate", "--protocol", ("no-such-protocol",))
@@ -713,9 +713,10 @@ def build_cases(fx: Fixtures) -> list[Case]:
     ports = {mode: f"socket://127.0.0.1:{srv.port}" for mode, srv in fx.ports.items()}
     for mode, url in ports.items():
         for action in (["position"], ["goto", "90", "10"]):
+            # GS-232B set commands get no reply: a goto cannot tell a bad controller
             add("rotator", f"controller '{mode}' / {action[0]}",
                 ["rotator", "--port", url, "--timeout", "1", *action],
-                memory_limit=(mode == "endless"))
+                memory_limit=(mode == "endless"), expect=CLEAN if action[0] == "goto" else ERROR)
         if mode not in ("garbage", "silent", "endless"):
             continue
         add("rotator", f"rotctld '{mode}' / position",
@@ -876,7 +877,8 @@ def classify(case: Case, rc: int | None, stdout: str, stderr: str,
 
 def _multi(err_lines: list[str]) -> tuple[str, str]:
     errors = [s for s in err_lines if s.startswith("tracker: error: ")]
-    if len(errors) == 1 and all(s.startswith("tracker: warning") or s == errors[0]
+    if len(errors) == 1 and all(s.startswith(("tracker: warning", "tracker: note"))
+                                or s == errors[0]
                                 for s in err_lines):
         return "review", f"{len(err_lines)} stderr lines: warning(s) before the error"
     return "multi-line", f"{len(err_lines)} stderr lines"
