@@ -54,12 +54,39 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _option_names(parser: argparse.ArgumentParser) -> dict[str, str]:
+    """dest -> how the user wrote it (``--from`` for ``from_file``), over every subcommand."""
+    names: dict[str, str] = {}
+    for action in parser._actions:   # argparse keeps no public list of a parser's options
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                for dest, name in _option_names(sub).items():
+                    names.setdefault(dest, name)
+        elif action.dest not in names:
+            names[action.dest] = max(action.option_strings, key=len, default=action.dest)
+    return names
+
+
+def _refuse_empty_values(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """No option or argument takes an empty string: ``--port ''`` or ``--bind ''`` (which a
+    socket reads as every interface) is a script that lost a variable, not a choice."""
+    names: dict[str, str] | None = None
+    for dest, value in vars(args).items():
+        values = value if isinstance(value, list) else [value]
+        if any(isinstance(v, str) and not v.strip() for v in values):
+            names = names or _option_names(parser)
+            prog = " ".join(filter(None, ("tracker", getattr(args, "command", None))))
+            raise UsageError(f"tracker: error: {names.get(dest, dest)} is empty; give a value "
+                             f"(see '{prog} --help')")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     from tle.errors import TleError
 
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
+        _refuse_empty_values(parser, args)
     except UsageError as e:
         print(e, file=sys.stderr)
         return EXIT_USAGE

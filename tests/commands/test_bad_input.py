@@ -49,6 +49,12 @@ CASES = [
     c("args-bad-float", "next", "ISS (ZARYA)", "--days", "abc", says="(see 'tracker next --help')"),
     c("args-unknown-command", "nope", says="invalid choice: 'nope'"),
     c("args-missing", "rotator", "--port", "emu://gs232b", says="required: ACTION"),
+    # -- an empty value is a script that lost a variable (--bind '' would mean every interface)
+    c("empty-port", "track", "ISS (ZARYA)", "--port", "", says="--port is empty"),
+    c("empty-bind", "emulate", "--tcp", "0", "--bind", "", says="--bind is empty"),
+    c("empty-from", "upload", "--dry-run", "--from", "", says="--from is empty"),
+    c("empty-target", "next", "", says="target is empty"),
+    c("empty-tle", "passes", "ISS", "--tle", SATS, "--tle", "", says="--tle is empty"),
     # -- 12: special files: refused at once, never read without bound
     *[c(f"fifo-{flag}", *pre, "{fifo}", *post, says="FIFO", subprocess=True)
       for flag, pre, post in (
@@ -94,7 +100,7 @@ CASES = [
       says="before the elements' epoch"),
     c("moon-past-de421", "passes", "Moon", *HERE, "--at", "2060-01-01",
       says="outside the ephemeris span"),
-    c("at-empty", "passes", "ISS", "--tle", SATS, *HERE, "--at", "", says="empty time"),
+    c("at-empty", "passes", "ISS", "--tle", SATS, *HERE, "--at", "", says="--at is empty"),
     # -- OMM numbers and nesting, at parse time, naming file and record
     c("omm-inf", "passes", "AO-7", "--at", AT, *HERE, "--tle", "{omm_inf}",
       says="record 1 ('OSCAR 7 (AO-7)'): MEAN_MOTION should be a finite number"),
