@@ -10,6 +10,7 @@ set into one warning instead. ``load_file``/``parse_text`` also accept OMM (JSON
 
 from __future__ import annotations
 
+import math
 import re
 import warnings
 from collections.abc import Iterator
@@ -22,6 +23,7 @@ from tle.checksum import compute_checksum
 from tle.element_set import ElementSet, WarningHandler
 from tle.errors import TleError, TleFormatError, TleWarning
 from tle.layout import TEMPLATES, TLE_LINE_LENGTH, layout_fault
+from tle.omm import MAX_MEAN_MOTION_REV_DAY
 
 _INTL_RE = re.compile(r"^(\d\d)(\d{3})([A-Z]{1,3})$")
 
@@ -94,6 +96,14 @@ def _build(name: str, line1: str, line2: str, l1_no: int, l2_no: int,
     if not 1.0 <= day < 367.0:
         raise _fault(source, l1_no, name, 1,
                      f"epoch day of year {day} is outside 1..366 (columns 21-32)", line1)
+    try:
+        mean_motion = float(line2[52:63])
+    except ValueError:
+        mean_motion = math.nan
+    if not 0.0 < mean_motion <= MAX_MEAN_MOTION_REV_DAY:   # SGP4 divides by it
+        raise _fault(source, l2_no, name, 2,
+                     f"mean motion {line2[52:63].strip()!r} must be above 0 and at most "
+                     f"{MAX_MEAN_MOTION_REV_DAY:g} rev/day (columns 53-63)", line2)
     return ElementSet(
         name=name or str(norad_id), norad_id=norad_id,
         intl_designator=format_intl_designator(line1[9:17]), epoch=tle_epoch(line1),

@@ -54,30 +54,35 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _option_names(parser: argparse.ArgumentParser) -> dict[str, str]:
-    """dest -> how the user wrote it (``--from`` for ``from_file``), over every subcommand."""
-    names: dict[str, str] = {}
-    for action in parser._actions:   # argparse keeps no public list of a parser's options
+def _options(parser: argparse.ArgumentParser) -> dict[str, argparse.Action]:
+    """dest -> its argparse action, over every subcommand (argparse keeps no public list)."""
+    found: dict[str, argparse.Action] = {}
+    for action in parser._actions:
         if isinstance(action, argparse._SubParsersAction):
             for sub in action.choices.values():
-                for dest, name in _option_names(sub).items():
-                    names.setdefault(dest, name)
-        elif action.dest not in names:
-            names[action.dest] = max(action.option_strings, key=len, default=action.dest)
-    return names
+                for dest, sub_action in _options(sub).items():
+                    found.setdefault(dest, sub_action)
+        else:
+            found.setdefault(action.dest, action)
+    return found
 
 
 def _refuse_empty_values(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
     """No option or argument takes an empty string: ``--port ''`` or ``--bind ''`` (which a
-    socket reads as every interface) is a script that lost a variable, not a choice."""
-    names: dict[str, str] | None = None
+    socket reads as every interface) is a script that lost a variable, not a choice. An
+    option whose bare form means "" (``--dask`` with no address) is the exception."""
+    options: dict[str, argparse.Action] | None = None
     for dest, value in vars(args).items():
         values = value if isinstance(value, list) else [value]
-        if any(isinstance(v, str) and not v.strip() for v in values):
-            names = names or _option_names(parser)
-            prog = " ".join(filter(None, ("tracker", getattr(args, "command", None))))
-            raise UsageError(f"tracker: error: {names.get(dest, dest)} is empty; give a value "
-                             f"(see '{prog} --help')")
+        if not any(isinstance(v, str) and not v.strip() for v in values):
+            continue
+        options = options or _options(parser)
+        action = options.get(dest)
+        if action is not None and action.const == "":
+            continue
+        name = max(action.option_strings, key=len, default=dest) if action else dest
+        prog = " ".join(filter(None, ("tracker", getattr(args, "command", None))))
+        raise UsageError(f"tracker: error: {name} is empty; give a value (see '{prog} --help')")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
