@@ -58,7 +58,7 @@ def check_priority_names(args: argparse.Namespace, elements: list) -> None:
     import difflib
 
     from tracker.errors import ConfigError
-    from tracker.schedule import parse_priorities
+    from tracker.pass_schedule import parse_priorities
 
     known = {es.name.strip().lower(): es.name for es in elements}
     for item in args.priority:
@@ -81,7 +81,7 @@ def check_priority_names(args: argparse.Namespace, elements: list) -> None:
 def run(args: argparse.Namespace) -> int:
     from tracker.errors import ConfigError
     from tracker.export import pass_records, render
-    from tracker.schedule import build_schedule, parse_priorities
+    from tracker.pass_schedule import build_schedule, parse_priorities
 
     if args.default_priority < 0:
         raise ConfigError("--default-priority must be 0 or more")
