@@ -271,7 +271,7 @@ def _stations(data: bytes) -> None:
 def _plan_seed() -> bytes:
     from tracker.mount import preset
     from tracker.steptable import MountPath, compile_program, format_plan_file
-    from tracker.synthpass import synthetic_pass
+    from tracker.testing import synthetic_pass
 
     spec = preset("G-5500")
     track = synthetic_pass(40.0, 100.0, 300.0, pad_s=10.0)
