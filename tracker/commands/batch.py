@@ -268,7 +268,7 @@ def run(args: argparse.Namespace) -> int:
                   errors=error_records(table), stamp_s=start.timestamp(),
                   name=f"{args.source} passes")
     if args.plot:
-        from tracker.timeline import timeline_plot
+        from tracker.plot import timeline_plot
 
         path = timeline_plot(records, args.plot, start.timestamp(), table.end.timestamp(),
                              title=f"{args.source}: {len(records)} passes", force=args.force)

@@ -117,7 +117,7 @@ def run(args: argparse.Namespace) -> int:
     text = render(args.format, out, meta=meta, errors=error_records(table),
                   stamp_s=start.timestamp(), name=f"{args.source} schedule")
     if args.plot:
-        from tracker.timeline import timeline_plot
+        from tracker.plot import timeline_plot
 
         path = timeline_plot(records, args.plot, start.timestamp(), table.end.timestamp(),
                              title=f"schedule for {spec.name}", chosen=chosen,
