@@ -66,6 +66,7 @@ from tracker.emulator.virtual import Bench, make_controller
 from tracker.errors import (
     ConfigError,
     LimitError,
+    OutputExistsError,
     PortLostError,
     PropagationError,
     ProtocolError,
@@ -142,7 +143,7 @@ __all__ = [  # noqa: RUF022 (grouped by topic, the order the docs follow)
     # errors (TrackerError and TleError are the two roots)
     "TrackerError", "ConfigError", "TargetError", "PropagationError", "LimitError",
     "RotatorIOError", "PortLostError", "RotatorTimeout", "ProtocolError", "StallError",
-    "ReadbackError", "ScheduleError",
+    "ReadbackError", "ScheduleError", "OutputExistsError",
     "TleError", "TleFormatError", "UnknownSatelliteError", "AmbiguousSatelliteError",
     "TleFetchError", "TleWarning",
 ]

@@ -47,18 +47,19 @@ def _boresight(plan: MountPlan) -> tuple[np.ndarray, np.ndarray]:
     return np.where(over, np.mod(b + 180.0, 360.0), b), np.where(over, 180.0 - e, e)
 
 
-def check_plot_path(path: str | Path, *, force: bool = False, label: str = "--plot") -> Path:
+def check_plot_path(path: str | Path, *, force: bool = False, label: str = "") -> Path:
     """A .png/.svg name :func:`save_figure` can write (checked before drawing)."""
     from tracker.files import check_output
 
     path = Path(path)
     if path.suffix.lower() not in (".png", ".svg"):
-        raise ConfigError(f"{label} {path}: use a .png or .svg file name")
+        where = f"{label} {path}" if label else str(path)
+        raise ConfigError(f"{where}: use a .png or .svg file name")
     check_output(path, force=force, label=label)
     return path
 
 
-def save_figure(fig, path: Path, *, force: bool = False, label: str = "--plot") -> Path:
+def save_figure(fig, path: Path, *, force: bool = False, label: str = "") -> Path:
     """Render ``fig`` in memory and write it with :func:`tracker.files.write_atomic`."""
     import io
 
@@ -70,7 +71,7 @@ def save_figure(fig, path: Path, *, force: bool = False, label: str = "--plot") 
 
 
 def sky_plot(plan: MountPlan, station: Station, path: str | Path, *, force: bool = False,
-             label: str = "--plot") -> Path:
+             label: str = "") -> Path:
     """Write the polar sky plot of ``plan`` to ``path`` (.png or .svg); returns the path."""
     path = check_plot_path(path, force=force, label=label)
     plt = _pyplot()
@@ -116,9 +117,9 @@ def sky_plot(plan: MountPlan, station: Station, path: str | Path, *, force: bool
 
 def timeline_plot(records: Sequence[dict], path: str | Path, start_s: float, end_s: float,
                   title: str = "", chosen: set[int] | None = None, *,
-                  force: bool = False) -> Path:
+                  force: bool = False, label: str = "") -> Path:
     """Write the timeline of ``records`` (from :func:`tracker.export.pass_records`)."""
-    path = check_plot_path(path, force=force)
+    path = check_plot_path(path, force=force, label=label)
     plt = _pyplot()
     from matplotlib import dates as mdates
 
@@ -162,6 +163,6 @@ def timeline_plot(records: Sequence[dict], path: str | Path, start_s: float, end
     fig.autofmt_xdate()
     fig.tight_layout()
     try:
-        return save_figure(fig, path, force=force)
+        return save_figure(fig, path, force=force, label=label)
     finally:
         plt.close(fig)

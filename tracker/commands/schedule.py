@@ -121,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
 
         path = timeline_plot(records, args.plot, start.timestamp(), table.end.timestamp(),
                              title=f"schedule for {spec.name}", chosen=chosen,
-                             force=args.force)
+                             force=args.force, label="--plot")
         print(f"tracker: wrote {path}", file=sys.stderr)
     emit(args, text)
     print(f"tracker: scheduled {len(sched.chosen)} of {len(records)} passes for {spec.name} "
