@@ -20,7 +20,7 @@ import numpy as np
 
 from tracker.skytrack import SkyTrack
 from tracker.station import Station
-from tracker.synthpass import synthetic_pass
+from tracker.testing import synthetic_pass
 
 TLE_DIR = Path(__file__).resolve().parents[1] / "tle" / "data"
 STATIONS = (

@@ -98,7 +98,7 @@ def main(argv: list[str] | None = None) -> int:  # noqa: C901
     from tracker.skytrack import angular_separation_deg
     from tracker.station import HorizonMask, Station
     from tracker.stream import Link, StreamSettings, TrackCore, run_pass
-    from tracker.synthpass import synthetic_pass
+    from tracker.testing import synthetic_pass
 
     tracemalloc.start()
     rng = random.Random(args.seed)

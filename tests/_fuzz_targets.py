@@ -218,7 +218,7 @@ def _config(data: bytes) -> None:
 
 
 def _schedule(data: bytes) -> None:
-    from tracker.schedule_file import ScheduleTarget
+    from tracker.pointing_file import ScheduleTarget
 
     t = ScheduleTarget.from_text(_text(data))
     assert len(t.t_s) >= 2
@@ -245,7 +245,7 @@ def _plan_file(data: bytes) -> None:
 
 def _priorities(data: bytes) -> None:
     """``tracker schedule --priorities FILE`` and ``--priority NAME=N`` items."""
-    from tracker.schedule import parse_priorities
+    from tracker.pass_schedule import parse_priorities
 
     p = _TMP / "priorities.txt"
     p.write_bytes(data)
@@ -271,7 +271,7 @@ def _stations(data: bytes) -> None:
 def _plan_seed() -> bytes:
     from tracker.mount import preset
     from tracker.steptable import MountPath, compile_program, format_plan_file
-    from tracker.synthpass import synthetic_pass
+    from tracker.testing import synthetic_pass
 
     spec = preset("G-5500")
     track = synthetic_pass(40.0, 100.0, 300.0, pad_s=10.0)
@@ -376,8 +376,8 @@ def _file_readers(data: bytes) -> None:
     from tle.elements import load_file
     from tracker.batch import load_stations
     from tracker.config import load_config
-    from tracker.schedule import parse_priorities
-    from tracker.schedule_file import ScheduleTarget
+    from tracker.pass_schedule import parse_priorities
+    from tracker.pointing_file import ScheduleTarget
     from tracker.station import HorizonMask
     from tracker.steptable import read_plan_file
 

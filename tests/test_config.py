@@ -43,7 +43,7 @@ def test_template_is_valid_and_commented(tmp_path):
 
 def test_init_never_overwrites_without_force(tmp_path):
     p = write(tmp_path, "[station]\nlat_deg = 1.0\nlon_deg = 2.0\n")
-    with pytest.raises(ConfigError, match=r"already exists.*--force"):
+    with pytest.raises(ConfigError, match=r"already exists.*force=True"):
         write_template(p)
     assert p.read_text() == "[station]\nlat_deg = 1.0\nlon_deg = 2.0\n"
     write_template(p, force=True)

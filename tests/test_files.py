@@ -50,7 +50,7 @@ def test_symlink_is_written_through_and_kept(tmp_path):
 def test_existing_file_needs_force(tmp_path):
     out = tmp_path / "passes.csv"
     out.write_text("mine\n")
-    with pytest.raises(ConfigError, match=r"already exists.*--force"):
+    with pytest.raises(ConfigError, match=r"already exists.*force=True"):
         write_atomic(out, "new\n")
     assert out.read_text() == "mine\n"
     link = tmp_path / "link.csv"

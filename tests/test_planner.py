@@ -21,7 +21,7 @@ from tracker.planner import (
 )
 from tracker.skytrack import SkyTrack
 from tracker.station import HorizonMask, Station
-from tracker.synthpass import synthetic_pass
+from tracker.testing import synthetic_pass
 
 STATION = Station("test", 48.0, 11.0, 500.0)
 G5500 = preset("G-5500", 50)

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from tracker.mount import RotatorSpec
 from tracker.planner import OTHER_WAY, boresight_horizon_ok, plan_pass
 from tracker.station import HorizonMask, Station
-from tracker.synthpass import synthetic_pass
+from tracker.testing import synthetic_pass
 
 SETTINGS = settings(max_examples=60, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])

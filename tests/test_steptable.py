@@ -203,7 +203,7 @@ def test_max_error_picks_the_largest_interval_within_the_bound():
     for sss in larger:
         other = compile_program(path, G5500, "gs232b", interval_s=sss)
         assert other.prediction.max_error_deg > 2.0
-    with pytest.raises(LimitError, match=r"best is .* Raise --max-error"):
+    with pytest.raises(LimitError, match=r"best is .* Raise max_error_deg or give interval_s"):
         compile_program(path, G5500, "gs232b", max_error_deg=0.1)
 
 

@@ -66,6 +66,7 @@ from tracker.emulator.virtual import Bench, make_controller
 from tracker.errors import (
     ConfigError,
     LimitError,
+    OutputExistsError,
     PortLostError,
     PropagationError,
     ProtocolError,
@@ -79,11 +80,11 @@ from tracker.errors import (
 from tracker.export import pass_records, to_csv, to_ics, to_json, to_table
 from tracker.files import write_atomic
 from tracker.mount import PRESETS, MotorModel, RotatorSpec, preset
+from tracker.pass_schedule import Schedule, build_schedule, parse_priorities
 from tracker.passes import Pass, find_passes
 from tracker.planner import MountPlan, Move, park_position, plan_pass
+from tracker.pointing_file import ScheduleError, ScheduleTarget, parse_schedule
 from tracker.protocols import DRIVERS, Capabilities, RotatorDriver, open_driver, register_driver
-from tracker.schedule import Schedule, build_schedule, parse_priorities
-from tracker.schedule_file import ScheduleError, ScheduleTarget, parse_schedule
 from tracker.session import ControllerSession, EffectiveLimits, Interrupted, driver_limits
 from tracker.skytrack import SkyTrack
 from tracker.station import HorizonMask, Station
@@ -142,7 +143,7 @@ __all__ = [  # noqa: RUF022 (grouped by topic, the order the docs follow)
     # errors (TrackerError and TleError are the two roots)
     "TrackerError", "ConfigError", "TargetError", "PropagationError", "LimitError",
     "RotatorIOError", "PortLostError", "RotatorTimeout", "ProtocolError", "StallError",
-    "ReadbackError", "ScheduleError",
+    "ReadbackError", "ScheduleError", "OutputExistsError",
     "TleError", "TleFormatError", "UnknownSatelliteError", "AmbiguousSatelliteError",
     "TleFetchError", "TleWarning",
 ]

@@ -8,7 +8,7 @@ Names (case-insensitive; spaces, ``-`` and ``_`` are ignored, so ``Cas A`` = ``c
   ``sgr-a``, ...; J2000 positions from SIMBAD);
 - ``radec:HH:MM:SS,+DD:MM:SS`` (RA in hours) or ``radec:83.63,22.01`` (both in degrees), J2000;
 - an az/el schedule file: ``schedule:FILE`` or any name ending in ``.csv``
-  (:mod:`tracker.schedule_file`).
+  (:mod:`tracker.pointing_file`).
 
 Positions are *apparent topocentric* (light time, aberration, deflection, precession/nutation
 to the true equator of date), **without atmospheric refraction**: refraction depends on weather,
@@ -296,7 +296,7 @@ def resolve(name: str):
     if lower.startswith("schedule:") or lower.endswith(".csv"):
         from pathlib import Path
 
-        from tracker.schedule_file import ScheduleTarget
+        from tracker.pointing_file import ScheduleTarget
 
         # A name ending in .csv is a file the user meant, not a satellite: a missing one is
         # reported as such rather than as an unknown satellite with odd suggestions.

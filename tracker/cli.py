@@ -17,7 +17,7 @@ from typing import NoReturn
 
 import tracker
 import tracker.commands
-from tracker.errors import TrackerError
+from tracker.errors import OutputExistsError, TrackerError
 
 EXIT_USAGE = 2
 
@@ -102,6 +102,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_USAGE
     try:
         return int(args.func(args) or 0)
+    except OutputExistsError as e:
+        # the library's advice names the parameter; on the command line it is --force
+        print(f"tracker: error: {e.problem} (add --force to replace it, or choose another "
+              f"name)", file=sys.stderr)
+        return EXIT_USAGE
     except (TrackerError, TleError) as e:
         print(f"tracker: error: {e}", file=sys.stderr)
         return EXIT_USAGE

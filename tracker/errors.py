@@ -7,9 +7,18 @@ answering) is a ``TrackerError``; the CLI prints its message on one line and exi
 
 from __future__ import annotations
 
+from typing import TypeVar
+
 
 class TrackerError(Exception):
-    """Root of every error the tracker raises on purpose."""
+    """Root of every error the tracker raises on purpose.
+
+    ``problem`` is set when the message ends in advice worded for a Python caller (parameter
+    names): it is the message without that advice, so a front end can put its own (the CLI's
+    flags) after it. Empty when the whole message is the problem.
+    """
+
+    problem: str = ""
 
 
 class ConfigError(TrackerError, ValueError):
@@ -26,6 +35,10 @@ class TargetError(TrackerError, LookupError):
 
 class PropagationError(TrackerError):
     """Elements that cannot be propagated (decayed, SGP4 error) for the named satellite."""
+
+
+class OutputExistsError(ConfigError):
+    """An output file exists and overwriting it was not asked for (``force``)."""
 
 
 class LimitError(TrackerError, ValueError):
@@ -60,3 +73,14 @@ class ReadbackError(TrackerError):
     """The controller's read-back stayed untrustworthy (well-formed positions that contradict
     each other and every command) for longer than the loop may wait: the rotator was
     stopped rather than steered blind."""
+
+
+E = TypeVar("E", bound=TrackerError)
+
+
+def with_advice(error_type: type[E], problem: str, advice: str) -> E:
+    """``error_type(problem + advice)`` that remembers ``problem`` (see :class:`TrackerError`);
+    ``advice`` names parameters, and a front end may replace it with its own."""
+    error = error_type(problem + advice)
+    error.problem = problem
+    return error

@@ -183,4 +183,4 @@ def render(fmt: str, records: Sequence[dict], *, meta: dict | None = None,
         return to_json(records, meta, errors)
     if fmt == "ics":
         return to_ics(records, stamp_s, name or "Satellite passes")
-    raise ConfigError(f"--format {fmt!r} is unknown; use one of {', '.join(FORMATS)}")
+    raise ConfigError(f"format {fmt!r} is unknown; use one of {', '.join(FORMATS)}")

@@ -16,7 +16,7 @@ import tempfile
 from pathlib import Path
 
 from tle.textfile import file_kind
-from tracker.errors import ConfigError
+from tracker.errors import ConfigError, OutputExistsError, with_advice
 
 
 def _resolve(path: Path) -> Path:
@@ -24,7 +24,12 @@ def _resolve(path: Path) -> Path:
     return Path(os.path.realpath(path)) if os.path.islink(path) else path
 
 
-def check_output(path: str | Path, *, force: bool = False, label: str = "--out") -> Path:
+def _exists(where: str) -> OutputExistsError:
+    return with_advice(OutputExistsError, f"{where} already exists; not overwriting it",
+                       " (pass force=True to replace it, or choose another name)")
+
+
+def check_output(path: str | Path, *, force: bool = False, label: str = "") -> Path:
     """Refuse, before any work is done, a path :func:`write_atomic` would refuse; returns the
     file that will be written (the target of a symlink)."""
     shown = Path(path)
@@ -44,8 +49,7 @@ def check_output(path: str | Path, *, force: bool = False, label: str = "--out")
         raise ConfigError(f"{where} is {file_kind(st.st_mode)}, not a regular file; give a file "
                           "name")
     if st is not None and not force:
-        raise ConfigError(f"{where} already exists; not overwriting it (add --force to "
-                          "replace it, or choose another name)")
+        raise _exists(where)
     folder = target.parent
     if not folder.is_dir():
         what = "is not a folder" if folder.exists() else "does not exist"
@@ -89,9 +93,10 @@ def _commit(tmp: str, target: Path, force: bool) -> None:
 
 
 def write_atomic(path: str | Path, data: str | bytes, *, force: bool = False,
-                 label: str = "--out") -> Path:
+                 label: str = "") -> Path:
     """Write ``data`` (text is UTF-8, line ends kept byte for byte) to ``path`` under the
-    rules in the module docstring; returns ``path``. ``label`` (the flag) prefixes errors."""
+    rules in the module docstring; returns ``path``. ``label`` (what the path is for, such as
+    the option it came from) prefixes errors."""
     if isinstance(data, str):
         data = data.encode("utf-8")
     elif not isinstance(data, (bytes, bytearray, memoryview)):
@@ -117,8 +122,7 @@ def write_atomic(path: str | Path, data: str | bytes, *, force: bool = False,
     except BaseException as e:
         Path(tmp).unlink(missing_ok=True)
         if isinstance(e, FileExistsError):
-            raise ConfigError(f"{where} already exists; not overwriting it (add --force to "
-                              "replace it, or choose another name)") from None
+            raise _exists(where) from None
         if isinstance(e, OSError):
             raise ConfigError(f"{where}: cannot write ({e.strerror or e}); the existing file, "
                               "if any, is unchanged") from None

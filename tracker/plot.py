@@ -1,12 +1,18 @@
-"""Plots (extra ``plot``: matplotlib, imported lazily): the polar sky plot of a MountPlan.
+"""Every plot the tracker draws (extra ``plot``: matplotlib, imported lazily), written to
+.png or .svg files only, never a window.
 
-The sky plot shows the target's track, the antenna's predicted boresight (after rate-limited
-motion, flipped positions drawn where they actually point) and the horizon mask, north up,
-east to the right, zenith in the centre.
+* :func:`sky_plot` - the polar sky plot of one MountPlan: the target's track, the antenna's
+  predicted boresight (after rate-limited motion, flipped positions drawn where they actually
+  point) and the horizon mask, north up, east to the right, zenith in the centre.
+* :func:`timeline_plot` - a pass list: one row per satellite, one bar per pass. Bars run
+  AOS -> LOS and are shaded by max elevation; with several stations each station gets its
+  own colour family. Chosen passes of a schedule can be drawn solid and the rest hollow.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from datetime import datetime, timezone
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -17,6 +23,8 @@ from tracker.errors import ConfigError
 if TYPE_CHECKING:  # pragma: no cover
     from tracker.planner import MountPlan
     from tracker.station import Station
+
+TIMELINE_MAX_ROWS = 80  # more satellites than this: keep the ones with the most passes
 
 
 def _pyplot():
@@ -39,18 +47,19 @@ def _boresight(plan: MountPlan) -> tuple[np.ndarray, np.ndarray]:
     return np.where(over, np.mod(b + 180.0, 360.0), b), np.where(over, 180.0 - e, e)
 
 
-def check_plot_path(path: str | Path, *, force: bool = False, label: str = "--plot") -> Path:
+def check_plot_path(path: str | Path, *, force: bool = False, label: str = "") -> Path:
     """A .png/.svg name :func:`save_figure` can write (checked before drawing)."""
     from tracker.files import check_output
 
     path = Path(path)
     if path.suffix.lower() not in (".png", ".svg"):
-        raise ConfigError(f"{label} {path}: use a .png or .svg file name")
+        where = f"{label} {path}" if label else str(path)
+        raise ConfigError(f"{where}: use a .png or .svg file name")
     check_output(path, force=force, label=label)
     return path
 
 
-def save_figure(fig, path: Path, *, force: bool = False, label: str = "--plot") -> Path:
+def save_figure(fig, path: Path, *, force: bool = False, label: str = "") -> Path:
     """Render ``fig`` in memory and write it with :func:`tracker.files.write_atomic`."""
     import io
 
@@ -62,7 +71,7 @@ def save_figure(fig, path: Path, *, force: bool = False, label: str = "--plot") 
 
 
 def sky_plot(plan: MountPlan, station: Station, path: str | Path, *, force: bool = False,
-             label: str = "--plot") -> Path:
+             label: str = "") -> Path:
     """Write the polar sky plot of ``plan`` to ``path`` (.png or .svg); returns the path."""
     path = check_plot_path(path, force=force, label=label)
     plt = _pyplot()
@@ -99,6 +108,59 @@ def sky_plot(plan: MountPlan, station: Station, path: str | Path, *, force: bool
                  f"max error {plan.max_error_deg:.1f}°, lost {plan.lost_track_s:.0f} s, "
                  f"travel {plan.travel_deg:.0f}°", fontsize=10)
     ax.legend(loc="lower left", bbox_to_anchor=(-0.1, -0.12), fontsize=8, ncol=3)
+    fig.tight_layout()
+    try:
+        return save_figure(fig, path, force=force, label=label)
+    finally:
+        plt.close(fig)
+
+
+def timeline_plot(records: Sequence[dict], path: str | Path, start_s: float, end_s: float,
+                  title: str = "", chosen: set[int] | None = None, *,
+                  force: bool = False, label: str = "") -> Path:
+    """Write the timeline of ``records`` (from :func:`tracker.export.pass_records`)."""
+    path = check_plot_path(path, force=force, label=label)
+    plt = _pyplot()
+    from matplotlib import dates as mdates
+
+    counts: dict[str, int] = {}
+    for r in records:
+        counts[r["satellite"]] = counts.get(r["satellite"], 0) + 1
+    names = sorted(counts, key=lambda n: (-counts[n], n))[:TIMELINE_MAX_ROWS]
+    names.sort()
+    row_of = {n: i for i, n in enumerate(names)}
+    stations = sorted({r["station"] for r in records})
+    cmaps = ["Blues", "Oranges", "Greens", "Purples", "Reds", "Greys"]
+
+    def when(t: float):
+        return mdates.date2num(datetime.fromtimestamp(t, timezone.utc))
+
+    fig, ax = plt.subplots(figsize=(11, max(2.5, 0.28 * len(names) + 1.5)))
+    for i, r in enumerate(records):
+        if r["satellite"] not in row_of:
+            continue
+        cmap = plt.get_cmap(cmaps[stations.index(r["station"]) % len(cmaps)])
+        shade = cmap(0.35 + 0.6 * min(1.0, max(0.0, r["max_el_deg"]) / 90.0))
+        hollow = chosen is not None and i not in chosen
+        x0, x1 = when(r["aos_s"]), when(r["los_s"])
+        ax.broken_barh([(x0, max(x1 - x0, 1e-5))], (row_of[r["satellite"]] - 0.35, 0.7),
+                       facecolors="none" if hollow else shade, edgecolors=shade,
+                       linewidth=0.6)
+    ax.set_yticks(range(len(names)))
+    ax.set_yticklabels(names, fontsize=7)
+    ax.set_ylim(-1, len(names))
+    ax.set_xlim(when(start_s), when(end_s))
+    ax.xaxis.set_major_formatter(mdates.DateFormatter("%m-%d %H:%M"))
+    ax.set_xlabel("UTC (bar shade: max elevation" + (
+        "; hollow: not scheduled)" if chosen is not None else ")"))
+    if len(stations) > 1:
+        ax.set_title((title + "  " if title else "") + "stations: " + ", ".join(
+            f"{s} ({cmaps[k % len(cmaps)][:-1].lower()})" for k, s in enumerate(stations)),
+            fontsize=9)
+    elif title:
+        ax.set_title(title, fontsize=10)
+    ax.grid(axis="x", alpha=0.3)
+    fig.autofmt_xdate()
     fig.tight_layout()
     try:
         return save_figure(fig, path, force=force, label=label)

@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from tle.textfile import read_text_file
-from tracker.errors import ConfigError, LimitError
+from tracker.errors import ConfigError, LimitError, with_advice
 from tracker.mount import AxisMotor, MotorModel, RotatorSpec
 from tracker.skytrack import SkyTrack, azel_to_enu
 
@@ -478,14 +478,14 @@ def _compile_within(path: MountPath, max_error_deg: float, candidates: list[int]
         if best is None or prog.prediction.max_error_deg < best.prediction.max_error_deg:
             best = prog
     assert best is not None
-    raise LimitError(f"no interval keeps the predicted error within {max_error_deg:g} "
-                     f"deg; the best is {best.prediction.max_error_deg:.2f} deg at "
-                     f"interval {best.interval_s} s. Raise --max-error or give "
-                     f"--interval")
+    raise with_advice(LimitError,
+                      f"no interval keeps the predicted error within {max_error_deg:g} deg; "
+                      f"the best is {best.prediction.max_error_deg:.2f} deg at interval "
+                      f"{best.interval_s} s", ". Raise max_error_deg or give interval_s")
 
 
 def _interval_candidates(duration_s: float, extra: int) -> list[int]:
-    """Intervals to try for --max-error, largest first (the pass needs >= 2 steps)."""
+    """Intervals to try for ``max_error_deg``, largest first (the pass needs >= 2 steps)."""
     base = [*range(1, 31), 35, 40, 45, 50, 60, 75, 90, 120, 150, 180, 240, 300, 420, 600,
             900, 999]
     useful = [s for s in base if s + extra <= max(duration_s / 2.0, 1.0 + extra)]
@@ -792,13 +792,12 @@ def format_plan_file(program: StepProgram, header: dict | None = None) -> str:
 
 
 def write_plan_file(program: StepProgram, path: str | Path, header: dict | None = None, *,
-                    force: bool = False) -> Path:
+                    force: bool = False, label: str = "") -> Path:
     """Write the plan file with :func:`tracker.files.write_atomic` (an existing file only
     with ``force``; never half-written)."""
     from tracker.files import write_atomic
 
-    return write_atomic(path, format_plan_file(program, header), force=force,
-                        label="--steptable")
+    return write_atomic(path, format_plan_file(program, header), force=force, label=label)
 
 
 @dataclass(frozen=True)

@@ -28,7 +28,7 @@ BAUD_MAX = 4_000_000
 _NETWORK_SCHEMES = ("socket", "rfc2217")
 
 
-def check_baud(baud: object, where: str = "--baud") -> int:
+def check_baud(baud: object, where: str = "baud") -> int:
     """``baud`` as an int if it is a serial rate a port can take, else ConfigError naming
     ``where`` (the flag or config key it came from)."""
     if isinstance(baud, bool) or not isinstance(baud, int) or not BAUD_MIN <= baud <= BAUD_MAX:

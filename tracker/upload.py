@@ -36,6 +36,7 @@ from tracker.errors import (
     ProtocolError,
     RotatorIOError,
     TrackerError,
+    with_advice,
 )
 from tracker.mount import RotatorSpec
 from tracker.protocols.gs232 import is_error_reply
@@ -100,9 +101,10 @@ class TableRunner:
         if not tables:
             raise ConfigError("nothing to upload: no tables")
         if detach and len(tables) > 1:
-            raise ConfigError(f"--detach needs a single table but this pass needs "
-                              f"{len(tables)} chained ones (the host sends each next table); "
-                              f"use a longer --interval or stay attached")
+            raise with_advice(ConfigError,
+                              f"detach needs a single table but this pass needs {len(tables)} "
+                              f"chained ones (the host sends each next table)",
+                              "; compile it with a longer interval_s or stay attached")
         for table in tables:
             table.lines()  # refuse anything over the limits before a single byte is sent
         ok = False

@@ -59,7 +59,7 @@ def test_screening_skips_most_of_the_window(amateur):
 
 def sgp4_elevation_deg(satrec, station: Station, t_s) -> np.ndarray:
     """SGP4's own elevation at POSIX times, in the finder's frames (GMST on UT1)."""
-    from tracker.batchlib import geometry as geo
+    from tracker.batch import geometry as geo
 
     t_s = np.atleast_1d(np.asarray(t_s, dtype=float))
     jd0, fr0 = jday(1970, 1, 1, 0, 0, 0.0)

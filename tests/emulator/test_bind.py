@@ -25,7 +25,7 @@ LISTEN_RE = re.compile(r"create_server\(|\.bind\(|\.listen\(|HTTPServer\(|TCPSer
 # Package files with a listening call, each reviewed: how many calls, and why they are safe.
 REVIEWED = {
     "tracker/emulator/serve.py": 1,        # TcpServer._listen_on: bind defaults to 127.0.0.1
-    "tracker/batchlib/distributed.py": 1,  # LocalCluster: host None -> 127.0.0.1, no dashboard
+    "tracker/batch/distributed.py": 1,  # LocalCluster: host None -> 127.0.0.1, no dashboard
 }
 
 
@@ -106,7 +106,7 @@ def test_emulate_cli_binds_loopback_unless_told(emulate):
 @pytest.mark.slow
 def test_dask_local_cluster_binds_loopback():
     pytest.importorskip("dask.distributed")
-    from tracker.batchlib.distributed import _client
+    from tracker.batch.distributed import _client
 
     client, cluster = _client(None, 1, True, 30.0)
     try:

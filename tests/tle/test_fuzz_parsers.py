@@ -80,7 +80,7 @@ def test_a_binary_file_is_a_config_error_not_a_unicode_error(tmp_path, loader):
     stations file saved in another encoding, a binary by mistake) was a traceback."""
     from tracker.batch import load_stations
     from tracker.errors import ConfigError
-    from tracker.schedule import parse_priorities
+    from tracker.pass_schedule import parse_priorities
     from tracker.steptable import read_plan_file
 
     p = tmp_path / "file.txt"

@@ -209,7 +209,7 @@ def check_outputs(args: argparse.Namespace) -> None:
     if args.out:
         check_output(args.out, force=args.force, label="--out")
     if getattr(args, "plot", None):
-        check_plot_path(args.plot, force=args.force)
+        check_plot_path(args.plot, force=args.force, label="--plot")
 
 
 def emit(args: argparse.Namespace, text: str) -> None:
@@ -268,10 +268,11 @@ def run(args: argparse.Namespace) -> int:
                   errors=error_records(table), stamp_s=start.timestamp(),
                   name=f"{args.source} passes")
     if args.plot:
-        from tracker.timeline import timeline_plot
+        from tracker.plot import timeline_plot
 
         path = timeline_plot(records, args.plot, start.timestamp(), table.end.timestamp(),
-                             title=f"{args.source}: {len(records)} passes", force=args.force)
+                             title=f"{args.source}: {len(records)} passes", force=args.force,
+                             label="--plot")
         print(f"tracker: wrote {path}", file=sys.stderr)
     emit(args, text)
     print(f"tracker: {len(records)} passes of {len(elements)} satellites over "

@@ -31,7 +31,7 @@ from tracker.commands._common import (
 def _write_plot(plan, station, value: str, args: argparse.Namespace) -> None:
     from tracker.plot import sky_plot
 
-    path = sky_plot(plan, station, value, force=args.force)
+    path = sky_plot(plan, station, value, force=args.force, label="--plot")
     print(f"sky plot written to {path}", file=sys.stderr)
 
 
@@ -117,7 +117,7 @@ def _check_outputs(args: argparse.Namespace) -> None:
     from tracker.plot import check_plot_path
 
     if args.plot:
-        check_plot_path(args.plot, force=args.force)
+        check_plot_path(args.plot, force=args.force, label="--plot")
     if args.steptable:
         check_output(args.steptable, force=args.force, label="--steptable")
 

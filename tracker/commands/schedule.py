@@ -58,7 +58,7 @@ def check_priority_names(args: argparse.Namespace, elements: list) -> None:
     import difflib
 
     from tracker.errors import ConfigError
-    from tracker.schedule import parse_priorities
+    from tracker.pass_schedule import parse_priorities
 
     known = {es.name.strip().lower(): es.name for es in elements}
     for item in args.priority:
@@ -81,7 +81,7 @@ def check_priority_names(args: argparse.Namespace, elements: list) -> None:
 def run(args: argparse.Namespace) -> int:
     from tracker.errors import ConfigError
     from tracker.export import pass_records, render
-    from tracker.schedule import build_schedule, parse_priorities
+    from tracker.pass_schedule import build_schedule, parse_priorities
 
     if args.default_priority < 0:
         raise ConfigError("--default-priority must be 0 or more")
@@ -117,11 +117,11 @@ def run(args: argparse.Namespace) -> int:
     text = render(args.format, out, meta=meta, errors=error_records(table),
                   stamp_s=start.timestamp(), name=f"{args.source} schedule")
     if args.plot:
-        from tracker.timeline import timeline_plot
+        from tracker.plot import timeline_plot
 
         path = timeline_plot(records, args.plot, start.timestamp(), table.end.timestamp(),
                              title=f"schedule for {spec.name}", chosen=chosen,
-                             force=args.force)
+                             force=args.force, label="--plot")
         print(f"tracker: wrote {path}", file=sys.stderr)
     emit(args, text)
     print(f"tracker: scheduled {len(sched.chosen)} of {len(records)} passes for {spec.name} "

@@ -76,7 +76,7 @@ def build_program(args: argparse.Namespace, now_s: float, current=None):
     from datetime import datetime, timedelta, timezone
 
     from tracker.commands.passes import warn_element_age
-    from tracker.errors import ConfigError
+    from tracker.errors import ConfigError, LimitError
     from tracker.passes import find_passes
     from tracker.steptable import compile_pass
 
@@ -105,9 +105,14 @@ def build_program(args: argparse.Namespace, now_s: float, current=None):
                          f"alt {station.alt_m:g} m",
               "target": target.name, "element_epoch": epoch,
               "aos_utc": ps.aos.isoformat(), "max_el_deg": f"{ps.max_el_deg:.1f}"}
-    program = compile_pass(track, spec, station, args.protocol, current=current,
-                           interval_s=args.interval, max_error_deg=args.max_error,
-                           baud=args.baud, meta=header)
+    try:
+        program = compile_pass(track, spec, station, args.protocol, current=current,
+                               interval_s=args.interval, max_error_deg=args.max_error,
+                               baud=args.baud, meta=header)
+    except LimitError as e:
+        if not e.problem:
+            raise
+        raise LimitError(f"{e.problem}. Raise --max-error or give --interval") from None
     return program, header
 
 
@@ -228,7 +233,14 @@ def _send(args, tables, clock, simulate: bool, spec: RotatorSpec) -> int:
         with ControllerSession(driver.stop, stop_at_end=False,
                                on_stop_failed=lambda why: log(f"all-stop failed: {why}")):
             runner = TableRunner(driver, clock, baud=args.baud, spec=spec, log=log)
-            report = runner.run(tables, detach=args.detach)
+            try:
+                report = runner.run(tables, detach=args.detach)
+            except ConfigError as e:
+                if not (args.detach and e.problem):
+                    raise
+                # the problem starts with the parameter's name, which is the flag's
+                raise ConfigError(f"--{e.problem}; use a longer --interval or stay "
+                                  f"attached") from None
     finally:
         driver.close()
         if server is not None:
@@ -266,5 +278,5 @@ def write_steptable_for_plan(plan, station, path: str, args: argparse.Namespace)
     current = tuple(args.current) if getattr(args, "current", None) else None
     program = compile_pass(plan.track, plan.spec, station, "gs232b", current=current,
                            meta=header)
-    write_plan_file(program, path, force=getattr(args, "force", False))
+    write_plan_file(program, path, force=getattr(args, "force", False), label="--steptable")
     print(f"step table written to {path}: {program.summary()}", file=sys.stderr)

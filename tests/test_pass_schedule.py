@@ -9,7 +9,7 @@ import pytest
 
 from tracker.errors import ConfigError
 from tracker.mount import RotatorSpec, preset
-from tracker.schedule import build_schedule, parse_priorities, slew_s
+from tracker.pass_schedule import build_schedule, parse_priorities, slew_s
 
 SPEC = RotatorSpec(name="test", az_span_deg=360, stop_bearing_deg=180, el_max_deg=90,
                    az_rate_deg_s=6.0, el_rate_deg_s=3.0, start_delay_s=1.0)

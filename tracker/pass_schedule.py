@@ -1,4 +1,6 @@
-"""One rotator, many passes: pick which to track when they overlap.
+"""One rotator, many passes: pick which to track when they overlap (``tracker schedule``).
+
+Not to be confused with :mod:`tracker.pointing_file`, a user-given az/el pointing plan.
 
 The choice is a weighted interval schedule: each pass weighs its satellite's priority (times
 1000, plus its max elevation as the tie-break, so priority always wins and then the higher

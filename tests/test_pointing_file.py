@@ -12,7 +12,7 @@ from _paths import DATA
 
 from tracker.celestial import find_rise_set, resolve
 from tracker.errors import ConfigError, TrackerError
-from tracker.schedule_file import ScheduleError, ScheduleTarget, parse_schedule
+from tracker.pointing_file import ScheduleError, ScheduleTarget, parse_schedule
 from tracker.station import Station
 
 UTC = timezone.utc

@@ -31,7 +31,7 @@ def _lines_of(elements) -> list[tuple[str, str, str]]:
 def _run_chunk(lines, stations, start, end, min_el_deg, kwargs):
     from sgp4.api import Satrec
 
-    from tracker.batchlib.finder import find_passes_batch
+    from tracker.batch.finder import find_passes_batch
 
     satrecs = [Satrec.twoline2rv(a, b) for _, a, b in lines]
     return find_passes_batch(satrecs, [n for n, _, _ in lines], stations, start, end,
@@ -70,7 +70,7 @@ def find_passes_dask(elements, stations, start: datetime, end: datetime,
     ``address``: a scheduler (``tcp://host:8786``); ``None`` starts a LocalCluster of
     ``n_workers`` single-threaded workers. Satellites go out in chunks of ``chunk_sats``.
     """
-    from tracker.batchlib.finder import merge_tables, remap
+    from tracker.batch.finder import merge_tables, remap
 
     lines = _lines_of(elements)
     names = [n for n, _, _ in lines]

@@ -1,4 +1,5 @@
-"""Az/el schedule files: a user-given pointing plan (band openings, custom sweeps).
+"""Az/el pointing files (``schedule:FILE`` targets): a user-given pointing plan (band openings,
+custom sweeps). Not to be confused with :mod:`tracker.pass_schedule`, which picks passes.
 
 Format (CSV, one point per line)::
 

@@ -38,7 +38,7 @@ from datetime import datetime, timedelta, timezone
 import numpy as np
 from sgp4.api import SGP4_ERRORS, SatrecArray, jday
 
-from tracker.batchlib import geometry as geo
+from tracker.batch import geometry as geo
 from tracker.errors import ConfigError
 from tracker.station import Station
 

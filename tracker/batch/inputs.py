@@ -1,11 +1,4 @@
-"""Batch planning at catalogue and network scale: the public entry points.
-
-* :func:`find_passes_batch` - every pass of many satellites over many stations (vectorised
-  SGP4 + numpy; see :mod:`tracker.batchlib.finder` for the method) -> :class:`PassTable`.
-* :func:`find_passes_dask` - the same job split into chunks on a dask.distributed cluster.
-* :func:`load_stations` - a stations file (CSV or TOML, format below).
-* :func:`pass_track` / :func:`plan_summaries` - the sky track of a pass and the planner's
-  summary (mode, predicted max error, pre-position time) for passes worth planning.
+"""The inputs of a batch run: the stations file, and the element sets SGP4 is given.
 
 Stations file: CSV with columns ``name,lat,lon,alt[,min_el]`` (degrees, metres; a header
 row and ``#`` comments are allowed), or TOML with one ``[[station]]`` table per station
@@ -16,30 +9,12 @@ from __future__ import annotations
 
 import csv
 import io
-import math
 from collections.abc import Iterable
 from pathlib import Path
 
-import numpy as np
-
 from tle.textfile import read_text_file
-from tracker.batchlib.distributed import find_passes_dask
-from tracker.batchlib.finder import (
-    PASS_DTYPE,
-    PassTable,
-    SatError,
-    find_passes_batch,
-    merge_tables,
-)
-from tracker.batchlib.geometry import look_angles, teme_to_ecef
 from tracker.errors import ConfigError
-from tracker.skytrack import SkyTrack
 from tracker.station import Station
-
-__all__ = [
-    "PASS_DTYPE", "PassTable", "SatError", "find_passes_batch", "find_passes_dask",
-    "load_stations", "merge_tables", "pass_track", "plan_summaries", "satrecs_of",
-]
 
 _KEYS = {"name": "name", "lat": "lat_deg", "lat_deg": "lat_deg", "lon": "lon_deg",
          "lon_deg": "lon_deg", "alt": "alt_m", "alt_m": "alt_m", "min_el": "min_el_deg",
@@ -143,49 +118,3 @@ def load_stations(path: str | Path) -> list[Station]:
             raise ConfigError(f"{path}: station name {s.name!r} appears twice")
         seen.add(s.name)
     return stations
-
-
-def pass_track(satrec, station: Station, aos_s: float, los_s: float, step_s: float = 5.0,
-               name: str = "") -> SkyTrack:
-    """The sky track of one pass (az/el every ``step_s`` from AOS to LOS, both included)."""
-    from sgp4.api import jday
-
-    from tracker.batchlib.geometry import StationFrames, gmst_rad
-
-    n = max(2, math.ceil((los_s - aos_s) / step_s) + 1)
-    t = np.linspace(aos_s, los_s, n)
-    jd0, fr0 = jday(1970, 1, 1, 0, 0, 0.0)
-    fr = fr0 + t / 86400.0
-    err, r, v = satrec.sgp4_array(np.full(n, jd0), fr)
-    r_ecef, v_ecef = teme_to_ecef(r, v, gmst_rad(jd0, fr))
-    el, az, _ = look_angles(r_ecef, v_ecef, StationFrames.from_stations([station]), 0)
-    ok = (err == 0) & np.isfinite(el)
-    return SkyTrack.from_azel(t[ok], az[ok], el[ok], name=name)
-
-
-def plan_summaries(table: PassTable, satrecs, spec, min_max_el_deg: float = 0.0,
-                   step_s: float = 5.0, on_plan=None) -> list[dict | None]:
-    """The planner's summary for each pass whose max elevation reaches ``min_max_el_deg``
-    (``None`` for the others and for clipped passes): mode, max error, pre-position time.
-
-    ``on_plan(index, plan, station)`` is called with each MountPlan (e.g. to draw it)."""
-    from tracker.planner import plan_pass
-
-    out: list[dict | None] = []
-    for row in table.passes:
-        if row["max_el_deg"] < min_max_el_deg or row["aos_clipped"] or row["los_clipped"]:
-            out.append(None)
-            continue
-        station = table.stations[int(row["station"])]
-        track = pass_track(satrecs[int(row["sat"])], station, float(row["aos_s"]),
-                           float(row["los_s"]), step_s, table.names[int(row["sat"])])
-        if len(track) < 2:
-            out.append(None)
-            continue
-        plan = plan_pass(track, spec, station)
-        if on_plan is not None:
-            on_plan(len(out), plan, station)
-        out.append({"mode": plan.mode, "max_error_deg": round(float(plan.max_error_deg), 2),
-                    "preposition_s": float(plan.preposition_t_s),
-                    "reason": plan.reason})
-    return out

@@ -1,1 +1,0 @@
-"""Internals of :mod:`tracker.batch`: geometry, the vectorised finder, the Dask backend."""
