@@ -277,7 +277,8 @@ class _HttpHandler(http.server.BaseHTTPRequestHandler):
     def log_message(self, *args) -> None:   # quiet
         pass
 
-    def do_GET(self) -> None:
+    # One branch per kind of bad download the fake server can serve.
+    def do_GET(self) -> None:  # noqa: C901
         mode = self.path.strip("/").split("/")[0].split("?")[0]
         port = self.server.server_address[1]
         if mode == "good":
@@ -413,7 +414,8 @@ class _TcpServer:
 NUM_BAD = ("nan", "inf", "1e300", "abc", "")
 
 
-def build_cases(fx: Fixtures) -> list[Case]:
+# The case table: one block per subcommand and option, read top to bottom.
+def build_cases(fx: Fixtures) -> list[Case]:  # noqa: C901
     cases: list[Case] = []
 
     def add(group: str, what: str, argv: list[str], **kw) -> None:
@@ -841,7 +843,8 @@ def _kill_group(proc: subprocess.Popen) -> None:
             pass
 
 
-def classify(case: Case, rc: int | None, stdout: str, stderr: str,
+# One check per promise (traceback, hang, exit code, one line, files kept), in that order.
+def classify(case: Case, rc: int | None, stdout: str, stderr: str,  # noqa: C901
              protect: Path | None) -> tuple[str, str]:
     """One of "ok", "review" or KINDS, with a note."""
     if rc is None:
