@@ -122,6 +122,10 @@ CONTROLLERS: list[Controller] = [
                "tracker.protocols.azaz:open_azaz", "tracker.emulator.azaz_controller:emulate",
                default_rotator="AZ-360", has_elevation=False, step_tables="gs232b",
                dual_azimuth=True),
+    Controller(("easycomm2", "easycomm3"), "easycomm",
+               "Easycomm II / III (Hamlib 202 / 204, SatNOGS): AZaaa.a ELeee.e lines",
+               "tracker.protocols.easycomm:open_easycomm",
+               "tracker.emulator.easycomm_controller:emulate"),
     Controller(("rotctld",), "rotctld", "Hamlib rotctld over TCP: any rotator Hamlib drives",
                "tracker.protocols.rotctld:open_rotctld", default_rotator=None, baudrate=None,
                port_hint="HOST:PORT of a running rotctld (e.g. rotctld -m 1 for Hamlib's "
