@@ -140,11 +140,11 @@ _ALIVE = {"rotorez": (b"AI1;", b";"), "dcu1": (b"AI1;", b""), "sak232": (b"C\r",
 
 
 def other_emulator_target(protocol: str) -> Callable[[bytes], None]:
-    from tracker.emulator.factory import make_other_controller
+    from tracker.emulator.factory import make_emulator
 
     def run(data: bytes) -> None:
         clock = _clock()
-        ctrl = make_other_controller(protocol, clock)
+        ctrl = make_emulator(protocol, clock)
         s = ctrl.open_session()
         for i in range(0, len(data), 97):
             s.feed(data[i:i + 97])

@@ -17,32 +17,18 @@ import pytest
 from _gs232_helpers import SPEED, T0, WAIT_S, wait_until
 
 from tracker.clock import SimClock
+from tracker.controllers import in_family
 from tracker.emulator import serve_pty, serve_tcp
-from tracker.mount import preset
+from tracker.emulator.factory import make_emulator
 from tracker.protocols import open_driver
 
-GS232_PROFILES = ["gs232a", "gs23", "gs232b", "gs232b-manual", "k3ng"]
+GS232_PROFILES = in_family("gs232")
 
 
 def make_controller(protocol: str, clock, **kw):
-    """The project's emulator for ``protocol`` (a GS-232 profile or another protocol)."""
-    if protocol in GS232_PROFILES:
-        from tracker.emulator import Gs232Controller
-
-        return Gs232Controller(protocol, kw.pop("spec", preset("G-5500")), clock, **kw)
-    if protocol in ("rotorez", "dcu1"):
-        from tracker.emulator.rotorez_controller import RotorEzController
-
-        return RotorEzController(protocol, clock=clock, **kw)
-    if protocol == "sak232":
-        from tracker.emulator.sak232_controller import Sak232Controller
-
-        return Sak232Controller(clock=clock, **kw)
-    if protocol in ("gs232b-azaz", "gs232b-azaz2"):
-        from tracker.emulator.azaz_controller import AzAzController
-
-        return AzAzController(clock=clock, **kw)
-    raise ValueError(f"no emulator for {protocol!r}")
+    """The project's emulator for ``protocol``, as the registry makes it (``kw``: the
+    controller's own arguments, ``spec`` among them)."""
+    return make_emulator(protocol, clock, kw.pop("spec", None), **kw)
 
 
 class EmulatedRig:

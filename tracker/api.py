@@ -60,6 +60,7 @@ from tracker.celestial import (
 )
 from tracker.clock import Clock, LockstepClock, ManualClock, SimClock, SystemClock, utc
 from tracker.config import Config, load_config
+from tracker.controllers import CONTROLLERS, Controller, controller, register_controller
 from tracker.emulator import EmulatorOptions, Gs232Controller, serve_pty, serve_tcp
 from tracker.emulator.faults import parse_fault
 from tracker.emulator.virtual import Bench, make_controller
@@ -84,7 +85,7 @@ from tracker.pass_schedule import Schedule, build_schedule, parse_priorities
 from tracker.passes import Pass, find_passes
 from tracker.planner import MountPlan, Move, park_position, plan_pass
 from tracker.pointing_file import ScheduleError, ScheduleTarget, parse_schedule
-from tracker.protocols import DRIVERS, Capabilities, RotatorDriver, open_driver, register_driver
+from tracker.protocols import Capabilities, RotatorDriver, open_driver
 from tracker.session import ControllerSession, EffectiveLimits, Interrupted, driver_limits
 from tracker.skytrack import SkyTrack
 from tracker.station import HorizonMask, Station
@@ -128,8 +129,8 @@ __all__ = [  # noqa: RUF022 (grouped by topic, the order the docs follow)
     "compile_pass", "compile_program", "read_plan_file", "table_profile",
     "tables_from_points", "write_plan_file",
     # drivers and ports
-    "DRIVERS", "Capabilities", "RotatorDriver", "open_driver", "open_port",
-    "register_driver",
+    "CONTROLLERS", "Capabilities", "Controller", "RotatorDriver", "controller", "open_driver",
+    "open_port", "register_controller",
     # the live session
     "ControllerSession", "EffectiveLimits", "Interrupted", "Link", "PassResult", "Status",
     "StreamSettings", "TrackCore", "driver_limits", "run_pass",

@@ -206,6 +206,24 @@ PRESETS: dict[str, RotatorSpec] = {
         name="generic-k3ng", az_span_deg=360, stop_bearing_deg=180, el_max_deg=90,
         az_rate_deg_s=6.0, el_rate_deg_s=3.0, deadband_deg=3.0,
         description="Generic K3NG Arduino controller, 360 deg south-stop, 0-90 elevation"),
+    # The default rotators of the azimuth-only controllers' emulators and demos
+    # (tracker.controllers names them).
+    "HAM-IV": RotatorSpec(
+        name="HAM-IV", az_span_deg=360, stop_bearing_deg=180, el_max_deg=None,
+        el_rate_deg_s=None, az_rate_deg_s=6.0, start_delay_s=0.5, controller_maps_south=True,
+        deadband_deg=3.0,
+        description="Hy-Gain HAM-IV class azimuth rotator: 360 deg, south stop, ~60 s per "
+                    "turn"),
+    "Zelpro-RAU": RotatorSpec(
+        name="Zelpro-RAU", az_span_deg=360, stop_bearing_deg=0, el_max_deg=None,
+        el_rate_deg_s=None, az_rate_deg_s=4.0, start_delay_s=0.2, resolution_deg=4 / 6,
+        deadband_deg=2.0,
+        description="Zelpro RAU rotator on a SAK-232: 360 deg from a north stop, 6 pulses per "
+                    "4 deg (rate assumed, not published)"),
+    "AZ-360": RotatorSpec(
+        name="AZ-360", az_span_deg=360, stop_bearing_deg=0, el_max_deg=None,
+        el_rate_deg_s=None, az_rate_deg_s=6.0, start_delay_s=0.5, deadband_deg=3.0,
+        description="generic azimuth-only rotator, 360 deg from a north stop, 6 deg/s"),
 }
 
 # DC-motor drives (speed set by the controller): mains frequency does not change their rates.

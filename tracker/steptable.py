@@ -32,6 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from tle.textfile import read_text_file
+from tracker.controllers import find
 from tracker.errors import ConfigError, LimitError, with_advice
 from tracker.mount import AxisMotor, MotorModel, RotatorSpec
 from tracker.skytrack import SkyTrack, azel_to_enu
@@ -100,11 +101,11 @@ PROFILES: dict[str, TableProfile] = {
 
 
 def table_profile(name: str) -> TableProfile:
-    """The table profile of a controller protocol name (``gs232a``, ``gs232b``, ``k3ng``)."""
-    key = name.lower()
-    if key.startswith("gs232b"):
-        key = "gs232b"
-    profile = PROFILES.get(key)
+    """The table profile of a controller protocol name (``gs232a``, ``gs232b-manual``,
+    ``k3ng`` ...: the registry's ``step_tables``), or of a profile name (a plan file's)."""
+    entry = find(name)
+    key = entry.step_tables if entry is not None else name.lower()
+    profile = PROFILES.get(key) if key else None
     if profile is None:
         raise ConfigError(f"protocol {name!r} has no timed step tables; use one of: "
                           f"{', '.join(PROFILES)}")

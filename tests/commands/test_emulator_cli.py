@@ -81,7 +81,7 @@ def test_emulate_under_nohup_keeps_running_through_sighup(emulate, capsys):
     (["rotator", "--port", "socket://127.0.0.1:1", "--protocol", "nope", "position"],
      "unknown protocol"),
     (["emulate", "--rotator", "G-9999", "--duration", "0.1"], "unknown rotator"),
-    (["emulate", "--protocol", "gs999", "--duration", "0.1"], "unknown GS-232 profile"),
+    (["emulate", "--protocol", "gs999", "--duration", "0.1"], "unknown protocol"),
     (["emulate", "--tcp", "99999", "--duration", "0.1"], "--tcp 99999 is invalid"),
     (["emulate", "--tcp", "-5", "--duration", "0.1"], "--tcp -5 is invalid"),
     (["emulate", "--speed", "inf", "--duration", "0.1"], "--speed inf is invalid"),

@@ -13,7 +13,7 @@ import pytest
 from _stream_fakes import T0, arc_pass
 from _virtual import manual_clock, virtual_rig
 
-from tracker.emulator.factory import make_other_controller
+from tracker.emulator.factory import make_emulator
 from tracker.mount import preset
 from tracker.planner import plan_pass
 from tracker.protocols import open_driver
@@ -39,7 +39,7 @@ def test_stream_tracks_a_pass(protocol, emulator, spec, closed_loop):
     plan = plan_pass(track, spec, station, current=(0.0, 0.0))
     start = min(plan.preposition_t_s, T0 - 25.0) - 2.0
     clock = manual_clock(start)
-    ctrl = make_other_controller(emulator, clock, spec, az_deg=None)
+    ctrl = make_emulator(emulator, clock, spec, az_deg=None)
     server = virtual_rig(ctrl)
     errors: list[float] = []
 

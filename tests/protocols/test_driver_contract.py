@@ -303,6 +303,8 @@ BACKENDS = [
             lambda c: c.antenna()[1] == 200.0, (350,), b"E", (361,),
             driver_kw=lambda c: {"has_elevation": False, "az_max_deg": 360.0,
                                  "el_max_deg": 90.0}, az_of=lambda c: c.antenna()[1]),
+    *(Backend(p, p, (120, 30), b"AZ120.0 EL30.0", lambda c: c.antenna() == (120.0, 30.0),
+              (350, 170), b"SA SE ", (361, 0)) for p in ("easycomm2", "easycomm3")),
     # rotctld paces its GS-232B backend in real time (50 ms a write): a slower antenna
     Backend("rotctld", "gs232b", (180, 45), b"W180 045",
             lambda c: c.antenna() == (180.0, 45.0), (20, 170), b"S", (10, 181), speed=20.0,

@@ -140,11 +140,11 @@ def test_read_timeout_is_real_time_even_when_the_simulation_runs_100x(protocol):
     """A 1 s timeout measured on a 100x SimClock was 10 ms of wall time, so a reply 0.2 s
     away on a real pty timed out. The deadline is the port's (real) time now, in the GS-232
     driver and in the byte link the Rotor-EZ, DCU-1, SAK-232 and rotctld drivers share."""
-    from tracker.emulator.factory import make_other_controller
+    from tracker.emulator.factory import make_emulator
 
     clock = SimClock(datetime(2026, 8, 23, tzinfo=timezone.utc), speed=100.0)
     ctrl = Gs232Controller("gs232b", preset("G-5500"), clock, az_deg=123, el_deg=45) \
-        if protocol == "gs232b" else make_other_controller(protocol, clock, az_deg=123)
+        if protocol == "gs232b" else make_emulator(protocol, clock, az_deg=123)
     expected = (123.0, 45.0) if protocol == "gs232b" else (123.0, None)
     install(ctrl, ["delay=20"])                    # 20 simulated s = 0.2 s of wall time
     server = serve_pty(ctrl)

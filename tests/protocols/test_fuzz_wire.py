@@ -15,7 +15,7 @@ from _gs232_helpers import T0, RawPeer, wait_until
 
 from tracker.clock import SimClock
 from tracker.emulator import Gs232Controller, serve_pty, serve_tcp
-from tracker.emulator.factory import make_other_controller
+from tracker.emulator.factory import make_emulator
 from tracker.errors import LimitError, PortLostError, ProtocolError, RotatorTimeout
 from tracker.protocols import open_driver
 
@@ -62,7 +62,7 @@ class _Client:
 def test_emulator_survives_garbage_over_the_wire(kind, protocol):
     clock = SimClock(datetime.fromisoformat(T0), speed=20.0)
     if protocol in ("rotorez", "gs232b-azaz"):
-        ctrl = make_other_controller(protocol, clock)
+        ctrl = make_emulator(protocol, clock)
     else:
         ctrl = Gs232Controller(protocol, clock=clock)
     server = serve_tcp(ctrl) if kind == "tcp" else serve_pty(ctrl)

@@ -29,6 +29,22 @@ if TYPE_CHECKING:  # pragma: no cover - typing only
     from tracker.targets import Target
 
 
+def protocol_help(default: str = "gs232b") -> str:
+    """``--protocol``'s help: every name the registry knows, with what it drives."""
+    from tracker.controllers import CONTROLLERS
+
+    parts = []
+    for entry in CONTROLLERS:
+        for n in entry.names:
+            note = " (default)" if n == default else ""
+            if entry.dual_azimuth:
+                note += f" (antenna {entry.names.index(n) + 1})"
+            if entry.port_hint:
+                note += " (--port host:port)"
+            parts.append(n + note)
+    return "controller protocol: " + ", ".join(parts)
+
+
 def add_config_arg(parser: argparse.ArgumentParser) -> None:
     """``--config FILE`` alone (for commands that need no station)."""
     if any("--config" in a.option_strings for a in parser._actions):

@@ -1,4 +1,4 @@
-"""``tracker emulate``: run a virtual GS-232 controller on a pty or a TCP port."""
+"""``tracker emulate``: run an emulated controller on a pty or a TCP port."""
 
 from __future__ import annotations
 
@@ -12,18 +12,19 @@ from collections.abc import Callable
 def register(sub) -> None:
     p = sub.add_parser(
         "emulate", help="run a virtual rotator controller on a pty or TCP port",
-        description="Serve an emulated GS-232A/GS-232B/K3NG controller driving a simulated "
+        description="Serve an emulated controller (GS-232B by default) driving a simulated "
                     "rotator. Prints the port (/dev/pts/N or socket://host:port), then a live "
                     "status line. Ctrl-C, SIGTERM or SIGHUP stops it.")
     p.add_argument("--protocol", default="gs232b",
-                   help="gs232b (default), gs232b-manual, gs232a, gs23, k3ng, rotorez, dcu1, "
-                        "sak232 or gs232b-azaz")
+                   help="gs232b (default), or any protocol with an emulator: "
+                        + ", ".join(_emulated()))
     where = p.add_mutually_exclusive_group()
     where.add_argument("--pty", action="store_true", help="serve on a new pseudo-terminal "
                        "(default)")
     where.add_argument("--tcp", type=int, metavar="PORT", help="listen on TCP PORT (0 = any)")
     p.add_argument("--bind", default="127.0.0.1", help="TCP address (default 127.0.0.1)")
-    p.add_argument("--rotator", default="G-5500", help="rotator preset (default G-5500)")
+    p.add_argument("--rotator", default=None,
+                   help="rotator preset (default: the protocol's, G-5500 for the GS-232 family)")
     p.add_argument("--mains", type=int, default=60, choices=(50, 60), help="mains frequency")
     p.add_argument("--speed", type=float, default=1.0,
                    help="run the motors this many times faster than real time")
@@ -56,6 +57,12 @@ def register(sub) -> None:
     p.add_argument("--duration", type=float, default=None,
                    help="exit after this many real seconds (default: until Ctrl-C)")
     p.set_defaults(func=run)
+
+
+def _emulated() -> list[str]:
+    from tracker.controllers import names, with_emulator
+
+    return names(with_emulator())
 
 
 def _check_args(args: argparse.Namespace) -> None:
@@ -96,28 +103,30 @@ def run(args: argparse.Namespace) -> int:
     import time
 
     from tracker.clock import SimClock, SystemClock
-    from tracker.emulator import EmulatorOptions, Gs232Controller
+    from tracker.controllers import controller
+    from tracker.emulator import EmulatorOptions
+    from tracker.emulator.factory import make_emulator
     from tracker.emulator.faults import FaultPlan, install
+    from tracker.errors import ConfigError
     from tracker.mount import preset
 
     _check_args(args)
+    entry = controller(args.protocol)
+    if entry.emulator is None or entry.default_rotator is None:
+        raise ConfigError(f"protocol {entry.name} has no emulator; emulated: "
+                          f"{', '.join(_emulated())}")
     plan = FaultPlan.parse(args.fault, args.fault_seed)
-    spec = preset(args.rotator, args.mains)
+    spec = preset(args.rotator or entry.default_rotator, args.mains)
     clock = SimClock(SystemClock().now(), speed=args.speed)
-    opts = EmulatorOptions(strict_acks=args.strict_acks, one_space=args.one_space,
-                           readback_360=args.readback_360, end_behaviour=args.end,
-                           autobaud=args.autobaud)
-    from tracker.emulator.factory import OTHER_PROTOCOLS, make_other_controller
-
-    if args.protocol.lower() in OTHER_PROTOCOLS:
-        # rotorez, dcu1, sak232, gs232b-azaz: azimuth-only; their own default rotator
-        # unless --rotator names one.
-        ctrl = make_other_controller(args.protocol, clock,
-                                     None if args.rotator == "G-5500" else spec, args.az)
-    else:
+    kw: dict = {"az_deg": args.az}
+    if entry.has_elevation:
         _check_start_position(spec, args.az, args.el)
-        ctrl = Gs232Controller(args.protocol, spec, clock, opts, az_deg=args.az,
-                               el_deg=args.el)
+        kw["el_deg"] = args.el
+    if entry.gs232_switches:
+        kw["options"] = EmulatorOptions(
+            strict_acks=args.strict_acks, one_space=args.one_space,
+            readback_360=args.readback_360, end_behaviour=args.end, autobaud=args.autobaud)
+    ctrl = make_emulator(args.protocol, clock, spec, **kw)
     injector = install(ctrl, plan) if plan.specs else None
     server = _serve(ctrl, args, plan.needs_reopen)
     # handlers first: whoever reads the port line may signal at once

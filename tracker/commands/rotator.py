@@ -9,11 +9,10 @@ from tracker.commands._common import (
     add_rotator_args,
     add_station_args,
     check_baud_arg,
+    protocol_help,
     rotator_from_args,
     station_from_args,
 )
-
-AZAZ_PROTOCOLS = ("gs232b-azaz", "gs232b-azaz2")
 
 
 def register(sub) -> None:
@@ -24,9 +23,7 @@ def register(sub) -> None:
                     "socket://host:port, /dev/pts/N of 'tracker emulate').")
     p.add_argument("--port", required=True, help="serial device or pyserial URL")
     p.add_argument("--protocol", default="gs232b",
-                   help="gs232b (default), gs232b-manual, gs232a, gs23, k3ng, rotorez, dcu1, "
-                        "sak232, gs232b-azaz (antenna 1), gs232b-azaz2 (antenna 2), rotctld "
-                        "(--port host:port)")
+                   help=protocol_help())
     p.add_argument("--baud", type=int, default=None, help="baud rate (default: profile's)")
     p.add_argument("--timeout", type=float, default=1.0, help="reply timeout in seconds")
     p.add_argument("--az-only", action="store_true", help="azimuth-only rotator (C / M)")
@@ -71,6 +68,7 @@ def register(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     import math
 
+    from tracker.controllers import controller
     from tracker.errors import ConfigError
     from tracker.protocols import open_driver
     from tracker.session import ControllerSession, EffectiveLimits, driver_limits
@@ -88,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("raw sends a command line unchecked, and it may move the rotator "
                           "past its limits or below the mask; add --ignore-limits to send it "
                           "(maintenance), or use goto/park/position")
-    if args.action in ("sync", "unsync") and args.protocol.lower() not in AZAZ_PROTOCOLS:
+    if args.action in ("sync", "unsync") and not controller(args.protocol).dual_azimuth:
         raise ConfigError(f"{args.action} is a GS-232B-AZ/AZ command; use --protocol "
                           f"gs232b-azaz (got {args.protocol})")
     if args.action == "sync" and not (math.isfinite(args.offset_deg)

@@ -35,6 +35,7 @@ from tracker.commands._common import (
     check_baud_arg,
     config_from_args,
     parse_utc,
+    protocol_help,
     station_from_args,
     target_from_args,
 )
@@ -47,12 +48,6 @@ PASS_SEARCH_DAYS = 3.0
 PAD_S = 60.0
 IDLE_SKIP_MIN_S = 30.0      # the demo skips idle stretches longer than this
 JOIN_TIMEOUT_S = 10.0       # an antenna loop notices a stop within a cycle or a read timeout
-# Controllers that cannot report their position: the loop runs them on an estimate.
-OPEN_LOOP_PROTOCOLS = ("dcu1", "sak232")
-AZ_ONLY_PROTOCOLS = ("rotorez", "dcu1", "sak232", "gs232b-azaz", "gs232b-azaz2")
-# --protocol -> the emulator the demo (no --port) serves it with, when not a GS-232 profile
-DEMO_EMULATORS = {"rotorez": "rotorez", "dcu1": "dcu1", "sak232": "sak232",
-                  "gs232b-azaz": "gs232b-azaz", "gs232b-azaz2": "gs232b-azaz"}
 
 
 def register(sub) -> None:
@@ -74,9 +69,7 @@ def register(sub) -> None:
                                   "(/dev/ttyUSB0, COM3, socket://host:port); default: the "
                                   "[tracking] port of the config, else the built-in emulator")
     p.add_argument("--protocol",
-                   help="controller protocol: gs232b (default), gs232b-manual, gs232a, gs23, "
-                        "k3ng, rotorez, dcu1, sak232, gs232b-azaz (antenna 1), gs232b-azaz2 "
-                        "(antenna 2), rotctld (--port host:port)")
+                   help=protocol_help())
     p.add_argument("--baud", type=int, help="baud rate (default: the protocol's)")
     p.add_argument("--rotator", help="rotator preset or [rotator.NAME] (default G-5500; "
                                      "with --target2: antenna 1's, and antenna 2's too unless "
@@ -427,6 +420,7 @@ class _AntennaOut:
 
 # The command's whole flow; its logic is to move into the library, and gets split then.
 def run(args: argparse.Namespace) -> int:  # noqa: C901
+    from tracker.controllers import controller
     from tracker.protocols import open_driver
     from tracker.session import ControllerSession, driver_limits
     from tracker.stream import Link
@@ -442,31 +436,31 @@ def run(args: argparse.Namespace) -> int:  # noqa: C901
     tr = config.tracking
     port = args.port or tr.get("port")
     protocol = args.protocol or tr.get("protocol") or "gs232b"
+    entry = controller(protocol)
     dual = args.target2 is not None
     if args.rotator2 and not dual:
         raise ConfigError("--rotator2 names antenna 2's rotator; it needs --target2 TARGET2 "
                           "(and --protocol gs232b-azaz)")
-    if dual and protocol.lower() != "gs232b-azaz":
+    if dual and not (entry.dual_azimuth and protocol.lower() == entry.name):
         raise ConfigError(f"--target2 needs --protocol gs232b-azaz (two azimuth-only antennas "
                           f"on one GS-232B-AZ/AZ interface); {protocol} drives one rotator: "
                           f"run one 'tracker track' per rotator instead")
     demo = not port
-    if demo and protocol.lower() == "rotctld":
-        raise ConfigError("--protocol rotctld needs --port HOST:PORT of a running rotctld "
-                          "(e.g. rotctld -m 1 for Hamlib's dummy rotator)")
-    emulator = DEMO_EMULATORS.get(protocol.lower()) if demo else None
+    if demo and entry.emulator is None:
+        raise ConfigError(f"--protocol {protocol} needs --port {entry.port_hint}")
+    emulator = entry.name if demo else None
     station = station_from_args(args)
     spec = config.rotator(args.rotator)
     targets = [target_from_args(args.target, args)]
     if dual:
         targets.append(target_from_args(args.target2, args))
     if emulator and not (args.rotator or tr.get("rotator")):
-        spec = _demo_spec(emulator)
+        spec = config.rotator(entry.default_rotator)
     specs = [spec]
     if dual:
         specs.append(config.rotator(args.rotator2) if args.rotator2 else spec)
     for i, s in enumerate(specs):
-        if protocol.lower() in AZ_ONLY_PROTOCOLS and s.has_elevation:
+        if not entry.has_elevation and s.has_elevation:
             raise ConfigError(f"protocol {protocol} drives an azimuth-only rotator, but "
                               f"rotator {s.name} has elevation; pass "
                               f"{('--rotator', '--rotator2')[i]} with an azimuth-only one "
@@ -520,22 +514,11 @@ def run(args: argparse.Namespace) -> int:  # noqa: C901
 
     server = None
     if demo:
-        from tracker.emulator import Gs232Controller
+        from tracker.emulator.factory import make_emulator
         from tracker.emulator.virtual import Bench
-        from tracker.protocols.gs232 import PROFILES
 
-        if dual:
-            from tracker.emulator.azaz_controller import AzAzController
-
-            controller = AzAzController(specs[0], specs[1], clock)
-        elif emulator:
-            from tracker.emulator.factory import make_other_controller
-
-            controller = make_other_controller(emulator, clock, spec)
-        else:
-            emulator = protocol.lower() if protocol.lower() in PROFILES else "gs232b"
-            controller = Gs232Controller(emulator, spec, clock=clock)
-        server = Bench(controller)       # in-process: emu://bench-N, no socket
+        box = make_emulator(emulator, clock, specs[0], **({"spec2": specs[1]} if dual else {}))
+        server = Bench(box)              # in-process: emu://bench-N, no socket
         url = server.url
     else:
         url = port
@@ -552,7 +535,7 @@ def run(args: argparse.Namespace) -> int:  # noqa: C901
         # estimate on it, an emu:// controller runs on it; read timeouts stay on the port's
         # own time either way.
         kw["clock"] = clock
-        if protocol in OPEN_LOOP_PROTOCOLS:
+        if entry.open_loop:
             kw["spec"] = spec
         drv = open_driver(url, protocol, **kw)
         if not drv.capabilities.has_position_query and not open_loop_said:
@@ -709,16 +692,6 @@ def _run_both(ants: list[_Antenna], shared: _SharedAzAz, station, clock, passes:
             raise e                  # a bug, not a rotator problem: keep its traceback
         raise TrackerError(f"antenna {a.n} ({a.target.name}): {e}; all-stop (S) sent, both "
                            f"antennas stopped") from e
-
-
-def _demo_spec(emulator: str):
-    """The rotator the demo emulator of a non-GS-232 protocol drives by default."""
-    from tracker.emulator.azaz_controller import AZ_360
-    from tracker.emulator.rotorez_controller import HAM_IV
-    from tracker.emulator.sak232_controller import ZELPRO_RAU
-
-    return {"rotorez": HAM_IV, "dcu1": HAM_IV, "sak232": ZELPRO_RAU,
-            "gs232b-azaz": AZ_360}[emulator]
 
 
 def _mech_guess(spec, wire_az: float, wire_el):

@@ -33,14 +33,11 @@ from tracker.emulator.gs232_controller import (
     _SessionState,
     _Table,
 )
-from tracker.mount import AxisMotor, RotatorSpec
+from tracker.mount import PRESETS, AxisMotor, RotatorSpec
 from tracker.protocols.azaz import AZAZ_PROFILE
 from tracker.protocols.gs232 import format_table_status
 
-AZ_360 = RotatorSpec(
-    name="AZ-360", az_span_deg=360, stop_bearing_deg=0, el_max_deg=None, el_rate_deg_s=None,
-    az_rate_deg_s=6.0, start_delay_s=0.5, deadband_deg=3.0,
-    description="generic azimuth-only rotator, 360 deg from a north stop, 6 deg/s")
+AZ_360 = PRESETS["AZ-360"]
 SET3 = ("U", "D", "E", "ZB", "P36B", "P45B", "TB", "NB", "O2B", "FB", "FB2")
 
 
@@ -189,3 +186,9 @@ class AzAzController(Gs232Controller):
         state = "moving" if self.moving() else "idle"
         return (f"{self.profile.name}  az1 {a1:6.1f}  az2 {a2:6.1f}  X{self.speed_step}/"
                 f"XB{self.speed_step_b}  {state}{sync}  cmds {self.commands_seen}")
+
+
+def emulate(protocol: str, clock: Clock, spec: RotatorSpec, **kw) -> AzAzController:
+    """The registry's emulator factory: one box for both antennas' protocol names
+    (``spec2`` in ``kw``: antenna 2's rotator, default the same as antenna 1's)."""
+    return AzAzController(spec, kw.pop("spec2", None), clock, **kw)

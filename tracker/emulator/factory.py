@@ -1,33 +1,26 @@
-"""The emulators of the non-GS-232 protocols, by protocol name (``tracker emulate --protocol``,
-``emu://`` URLs, the demo).
-
-A module of its own so each controller module only knows its own controller: the factory
-names all of them, the controllers name none of the others.
-"""
+"""An emulated controller by protocol name, as the registry (:mod:`tracker.controllers`)
+names it: ``tracker emulate --protocol``, ``emu://`` URLs, the demos and the tests' rigs all
+make their emulators here."""
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Any
 
 from tracker.clock import Clock
-from tracker.emulator.azaz_controller import AzAzController
-from tracker.emulator.rotorez_controller import RotorEzController
-from tracker.emulator.sak232_controller import Sak232Controller
-from tracker.mount import RotatorSpec
-
-OTHER_PROTOCOLS = ("rotorez", "dcu1", "sak232", "gs232b-azaz")
+from tracker.controllers import find, names, with_emulator
+from tracker.errors import ConfigError
+from tracker.mount import RotatorSpec, preset
 
 
-def make_other_controller(protocol: str, clock: Clock, spec: RotatorSpec | None = None,
-                          az_deg: float | None = None):
-    """The emulator for a non-GS-232 ``protocol`` (one of :data:`OTHER_PROTOCOLS`) with its
-    own default rotator unless ``spec`` is given (used azimuth-only)."""
-    name = protocol.lower()
-    if name in ("rotorez", "dcu1"):
-        variant: Literal["rotorez", "dcu1"] = "dcu1" if name == "dcu1" else "rotorez"
-        return RotorEzController(variant, spec, clock, az_deg=az_deg)
-    if name == "sak232":
-        return Sak232Controller(spec, clock, az_deg=az_deg)
-    if name == "gs232b-azaz":
-        return AzAzController(spec, None, clock, az_deg=az_deg)
-    raise ValueError(f"{protocol!r} is not one of {', '.join(OTHER_PROTOCOLS)}")
+def make_emulator(protocol: str, clock: Clock, spec: RotatorSpec | None = None,
+                  **kw: Any) -> Any:
+    """The emulator of ``protocol`` on ``clock``, driving ``spec`` (default: the protocol's
+    default rotator). ``kw`` go to the controller (``az_deg``; ``el_deg`` for a controller
+    with elevation; ``options`` ...). Raises :class:`ConfigError` (a ``ValueError``) for a
+    protocol without an emulator, listing the ones that have one."""
+    entry = find(protocol)
+    if entry is None or entry.emulator is None or entry.default_rotator is None:
+        raise ConfigError(f"no emulator for {protocol!r}; known: "
+                          f"{', '.join(names(with_emulator()))}")
+    return entry.emulator_factory()(str(protocol).lower(), clock,
+                                    spec or preset(entry.default_rotator), **kw)

@@ -499,3 +499,8 @@ class Session:
             return b""
         reply = f.reply_filter(reply) if f.reply_filter else reply
         return f.injector.on_output(self, reply) if f.injector is not None else reply
+
+
+def emulate(protocol: str, clock: Clock, spec: RotatorSpec, **kw: Any) -> Gs232Controller:
+    """The registry's emulator factory: ``protocol`` is the dialect (a profile name)."""
+    return Gs232Controller(protocol, spec, clock, **kw)

@@ -28,13 +28,10 @@ from typing import Literal
 
 from tracker.clock import Clock, SystemClock
 from tracker.emulator.gs232_controller import Faults
-from tracker.mount import MotorModel, RotatorSpec
+from tracker.mount import PRESETS, MotorModel, RotatorSpec
 
 BANNER = b"C2000 IDIOM V1.4S "
-HAM_IV = RotatorSpec(
-    name="HAM-IV", az_span_deg=360, stop_bearing_deg=180, el_max_deg=None, el_rate_deg_s=None,
-    az_rate_deg_s=6.0, start_delay_s=0.5, controller_maps_south=True, deadband_deg=3.0,
-    description="Hy-Gain HAM-IV class azimuth rotator: 360 deg, south stop, ~60 s per turn")
+HAM_IV = PRESETS["HAM-IV"]
 
 
 class ByteController:
@@ -258,3 +255,8 @@ class RotorEzController(ByteController):
         tgt = "---" if self.target_bearing is None else f"{self.target_bearing:03d}"
         return f"{super().status_line()}  target {tgt}  options {opts}"
 
+
+def emulate(protocol: str, clock: Clock, spec: RotatorSpec, **kw) -> RotorEzController:
+    """The registry's emulator factory: ``protocol`` "rotorez" or "dcu1"."""
+    variant: Literal["rotorez", "dcu1"] = "dcu1" if protocol == "dcu1" else "rotorez"
+    return RotorEzController(variant, spec, clock, **kw)

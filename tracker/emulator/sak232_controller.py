@@ -28,14 +28,9 @@ from dataclasses import dataclass
 
 from tracker.clock import Clock
 from tracker.emulator.rotorez_controller import ByteController, SessionState
-from tracker.mount import RotatorSpec
+from tracker.mount import PRESETS, RotatorSpec
 
-ZELPRO_RAU = RotatorSpec(
-    name="Zelpro-RAU", az_span_deg=360, stop_bearing_deg=0, el_max_deg=None,
-    el_rate_deg_s=None, az_rate_deg_s=4.0, start_delay_s=0.2, resolution_deg=4 / 6,
-    deadband_deg=2.0,
-    description="Zelpro RAU rotator on a SAK-232: 360 deg from a north stop, 6 pulses per "
-                "4 deg (rate assumed, not published)")
+ZELPRO_RAU = PRESETS["Zelpro-RAU"]
 
 
 @dataclass
@@ -182,3 +177,8 @@ class Sak232Controller(ByteController):
         k = {0: "", 1: "  K: seeking CCW limit", 2: "  K: seeking CW limit"}[self.k_phase]
         return (f"{super().status_line()}  gear {self.gear[0]}/{self.gear[1]}  "
                 f"offset {self.offset_deg:.0f}{k}")
+
+
+def emulate(protocol: str, clock: Clock, spec: RotatorSpec, **kw) -> Sak232Controller:
+    """The registry's emulator factory."""
+    return Sak232Controller(spec, clock, **kw)

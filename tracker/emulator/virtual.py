@@ -1,8 +1,8 @@
 """Emulated controllers reached in-process through ``emu://`` URLs, on virtual time.
 
 ``emu://PROFILE?rotator=G-5500&az=180&el=0&fault=jam=az@60&seed=1&autobaud=1`` names a
-controller (any ``--protocol`` that has an emulator: gs232a, gs23, gs232b, gs232b-manual,
-k3ng, rotorez, dcu1, sak232, gs232b-azaz); ``fault`` may repeat and takes the
+controller (any ``--protocol`` the registry, :mod:`tracker.controllers`, gives an emulator);
+``fault`` may repeat and takes the
 ``tracker emulate --fault`` syntax. The port answers on write, synchronously: there is no pty,
 no socket and no thread. A read that has to wait sleeps on the emulator's clock until the
 first of: the read timeout, the next timed fault (disconnect, power cycle, jam, ...), the next
@@ -212,21 +212,22 @@ def make_controller(protocol: str, clock: Clock, rotator: str | None = None, mai
                     az_deg: float | None = None, el_deg: float | None = None,
                     autobaud: bool = False):
     """The emulator for ``protocol`` on ``clock`` (``rotator``: a preset name; None: the
-    protocol's default rotator)."""
-    from tracker.emulator.factory import OTHER_PROTOCOLS, make_other_controller
-    from tracker.emulator.gs232_controller import EmulatorOptions, Gs232Controller
+    protocol's default rotator). ``el_deg`` applies to a controller with elevation,
+    ``autobaud`` to one that takes the GS-232 switches; the others ignore them."""
+    from tracker.controllers import find
+    from tracker.emulator.factory import make_emulator
+    from tracker.emulator.gs232_controller import EmulatorOptions
     from tracker.mount import preset
-    from tracker.protocols.gs232 import PROFILES
 
-    name = protocol.lower()
-    spec = preset(rotator, mains) if rotator else None
-    if name in OTHER_PROTOCOLS:
-        return make_other_controller(name, clock, spec, az_deg)
-    if name not in PROFILES:
-        known = ", ".join(sorted((*PROFILES, *OTHER_PROTOCOLS)))
-        raise ValueError(f"no emulator for {protocol!r}; known: {known}")
-    return Gs232Controller(name, spec or preset("G-5500", mains), clock,
-                           EmulatorOptions(autobaud=autobaud), az_deg=az_deg, el_deg=el_deg)
+    entry = find(protocol)
+    default = entry.default_rotator if entry is not None else None
+    spec = preset(rotator or default, mains) if (rotator or default) else None
+    kw: dict = {"az_deg": az_deg}
+    if entry is not None and entry.has_elevation:
+        kw["el_deg"] = el_deg
+    if entry is not None and entry.gs232_switches:
+        kw["options"] = EmulatorOptions(autobaud=autobaud)
+    return make_emulator(protocol, clock, spec, **kw)
 
 
 def _bench_from_url(url: str, clock: Clock) -> Bench:

@@ -199,20 +199,10 @@ class AzAzAxis(RotatorDriver):
             self.parent.close()
 
 
-def open_azaz(url: str, **kw: Any) -> AzAzDriver:
-    return AzAzDriver.from_url(url, **kw)
-
-
-def open_azaz2(url: str, **kw: Any) -> AzAzAxis:
+def open_azaz(protocol: str, url: str, **kw: Any) -> AzAzDriver | AzAzAxis:
+    """The registry's driver factory: "gs232b-azaz" drives antenna 1 (and reaches antenna 2
+    through ``axis(2)``), "gs232b-azaz2" antenna 2 alone."""
     parent = AzAzDriver.from_url(url, **kw)
-    return AzAzAxis(parent, 2, owns_port=True)
-
-
-def _register() -> None:
-    from tracker.protocols import register_driver
-
-    register_driver("gs232b-azaz", open_azaz)
-    register_driver("gs232b-azaz2", open_azaz2)
-
-
-_register()
+    if protocol.lower() == "gs232b-azaz2":
+        return AzAzAxis(parent, 2, owns_port=True)
+    return parent

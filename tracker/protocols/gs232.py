@@ -581,3 +581,8 @@ class Gs232Driver(RotatorDriver):
         except _PORT_ERRORS:
             # The port is already gone (unplugged, peer closed); closing cannot fail usefully.
             return
+
+
+def open_gs232(protocol: str, url: str, **kw: Any) -> Gs232Driver:
+    """The registry's driver factory: ``protocol`` is the dialect (a :data:`PROFILES` key)."""
+    return Gs232Driver.from_url(url, protocol, **kw)

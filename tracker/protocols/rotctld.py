@@ -231,14 +231,6 @@ class RotctldDriver(RotatorDriver):
         self.link.close()
 
 
-def open_rotctld(url: str, **kw: Any) -> RotctldDriver:
+def open_rotctld(protocol: str, url: str, **kw: Any) -> RotctldDriver:
+    """The registry's driver factory."""
     return RotctldDriver.from_url(url, **kw)
-
-
-def _register() -> None:
-    from tracker.protocols import register_driver
-
-    register_driver("rotctld", open_rotctld)
-
-
-_register()

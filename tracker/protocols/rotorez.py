@@ -354,19 +354,7 @@ class RotorEzDriver(RotatorDriver):
         self.link.close()
 
 
-def open_rotorez(url: str, **kw: Any) -> RotorEzDriver:
-    return RotorEzDriver.from_url(url, "rotorez", **kw)
-
-
-def open_dcu1(url: str, **kw: Any) -> RotorEzDriver:
-    return RotorEzDriver.from_url(url, "dcu1", **kw)
-
-
-def _register() -> None:
-    from tracker.protocols import register_driver
-
-    register_driver("rotorez", open_rotorez)
-    register_driver("dcu1", open_dcu1)
-
-
-_register()
+def open_rotorez(protocol: str, url: str, **kw: Any) -> RotorEzDriver:
+    """The registry's driver factory: ``protocol`` "rotorez" or "dcu1"."""
+    variant: Literal["rotorez", "dcu1"] = "dcu1" if protocol.lower() == "dcu1" else "rotorez"
+    return RotorEzDriver.from_url(url, variant, **kw)

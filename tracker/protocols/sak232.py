@@ -129,14 +129,6 @@ class Sak232Driver(RotatorDriver):
         self.link.close()
 
 
-def open_sak232(url: str, **kw: Any) -> Sak232Driver:
+def open_sak232(protocol: str, url: str, **kw: Any) -> Sak232Driver:
+    """The registry's driver factory."""
     return Sak232Driver.from_url(url, **kw)
-
-
-def _register() -> None:
-    from tracker.protocols import register_driver
-
-    register_driver("sak232", open_sak232)
-
-
-_register()
