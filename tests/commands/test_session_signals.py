@@ -41,6 +41,9 @@ park_az_deg = 440
 # ~02:17:04; the pre-position starts a few simulated seconds after this.
 TRACK_AT = "2026-08-23T02:06:05Z"
 TRACK_SPEED = 20.0
+# The phases defined by a slew last as long as the slew: at 20x a minute-long park is 3 s of
+# wall time, which a child starved by a loaded machine can miss entirely; at 5x it is 12 s.
+PHASE_SPEED = {"preposition": 5.0, "park": 5.0}
 
 
 class Child:
@@ -132,11 +135,12 @@ PARK_AT = "2026-08-23T02:16:00Z"   # joins the pass a minute before LOS, then pa
 def test_track_signal_ends_with_all_stop_last(sig, phase, config):
     spec = load_config(str(config)).rotator("farpark")
     at = {"wait": WAIT_AT, "park": PARK_AT}.get(phase, TRACK_AT)
-    clock = SimClock(datetime.fromisoformat(at.replace("Z", "+00:00")), TRACK_SPEED)
+    speed = PHASE_SPEED.get(phase, TRACK_SPEED)
+    clock = SimClock(datetime.fromisoformat(at.replace("Z", "+00:00")), speed)
     ctrl = Gs232Controller("gs232b", spec, clock=clock)
     server = serve_tcp(ctrl)
     child = Child(["track", "ISS (ZARYA)", "--port", server.url, "--rotator", "farpark",
-                   "--at", at, "--speed", str(TRACK_SPEED), "--plain"], config)
+                   "--at", at, "--speed", str(speed), "--plain"], config)
     try:
         line, turning = TRACK_PHASES[phase]
         child.wait_for(lambda: child.said(line) and (ctrl.moving() or not turning),
