@@ -348,7 +348,7 @@ class TleStore:
             raise TleError(f"cannot read {self.meta_path} ({e.strerror}); the element cache "
                            f"{self.cache_dir} must be a folder you can read and write (see "
                            "--cache-dir or $TRACKER_CACHE_DIR)") from None
-        except ValueError as e:
+        except (ValueError, RecursionError) as e:
             raise TleError(f"{self.meta_path}: unreadable cache metadata ({e}); delete it and "
                            "run `tracker tle update --force`") from None
         return data if isinstance(data, dict) else {}

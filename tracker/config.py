@@ -182,6 +182,9 @@ def _read_toml(path: Path) -> dict:
     except tomllib.TOMLDecodeError as e:
         raise ConfigError(f"{path}: invalid TOML: {e}; see `tracker config init` for the "
                           f"format") from None
+    except RecursionError:   # the parser nests one call per [ : a config has a few levels
+        raise ConfigError(f"{path}: TOML nested too deeply to be a config file; see "
+                          f"`tracker config init` for the format") from None
 
 
 def _number(path: Path, section: str, key: str, value: Any, lo: float, hi: float) -> float:

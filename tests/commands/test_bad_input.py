@@ -49,6 +49,10 @@ CASES = [
     c("args-bad-float", "next", "ISS (ZARYA)", "--days", "abc", says="(see 'tracker next --help')"),
     c("args-unknown-command", "nope", says="invalid choice: 'nope'"),
     c("args-missing", "rotator", "--port", "emu://gs232b", says="required: ACTION"),
+    # -- TOML nested past the parser's recursion limit
+    c("nested-config", "config", "show", "--config", "{nested_toml}", says="nested too deeply"),
+    c("nested-stations", "batch", "amateur", "--stations", "{nested_toml}",
+      says="nested too deeply"),
     # -- an empty value is a script that lost a variable (--bind '' would mean every interface)
     c("empty-port", "track", "ISS (ZARYA)", "--port", "", says="--port is empty"),
     c("empty-bind", "emulate", "--tcp", "0", "--bind", "", says="--bind is empty"),
@@ -183,12 +187,13 @@ def _files(tmp: Path) -> dict[str, str]:
         p.write_text(json.dumps([{**record, **change}]))
         out[name] = str(p)
     (tmp / "nested.json").write_text("[" * 100_000)
+    (tmp / "nested.toml").write_text("a = " + "[" * 100_000)
     (tmp / "empty.tle").write_text("")
     (tmp / "binary.tle").write_bytes(bytes(range(256)) * 4)
     (tmp / "bom.toml").write_bytes(b'\xef\xbb\xbf[station]\nname = "BOM"\nlat_deg = 52.0\n'
                                    b"lon_deg = 4.4\nalt_m = 10\n")
     os.mkfifo(tmp / "fifo")
-    out.update(nested=str(tmp / "nested.json"), empty=str(tmp / "empty.tle"),
+    out.update(nested_toml=str(tmp / "nested.toml"), nested=str(tmp / "nested.json"), empty=str(tmp / "empty.tle"),
                binary=str(tmp / "binary.tle"), bom=str(tmp / "bom.toml"),
                fifo=str(tmp / "fifo"))
     return out

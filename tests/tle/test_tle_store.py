@@ -226,3 +226,13 @@ def test_empty_store_lists_nothing(tmp_path, clock):
     store = TleStore(cache_dir=tmp_path / "none", clock=clock)
     assert store.list() == [] and store.paths() == []
     assert Catalog.default(store).bundled
+
+
+def test_metadata_nested_past_the_parser_is_one_clean_error(tmp_path):
+    from tle.errors import TleError
+
+    store = TleStore(cache_dir=tmp_path / "cache")
+    store.cache_dir.mkdir()
+    store.meta_path.write_text("[" * 100_000)
+    with pytest.raises(TleError, match="unreadable cache metadata"):
+        store.list()

@@ -94,6 +94,9 @@ def _load_toml(path: Path, text: str) -> list[Station]:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise ConfigError(f"{path}: {e}") from None
+    except RecursionError:   # the parser nests one call per [ : a stations file has two levels
+        raise ConfigError(f"{path}: TOML nested too deeply to be a stations file; expected "
+                          "[[station]] tables with name, lat, lon, alt") from None
     tables = data.get("station")
     if not isinstance(tables, list):
         raise ConfigError(f"{path}: expected [[station]] tables with name, lat, lon, alt")
