@@ -53,6 +53,8 @@ CASES = [
     c("nested-config", "config", "show", "--config", "{nested_toml}", says="nested too deeply"),
     c("nested-stations", "batch", "amateur", "--stations", "{nested_toml}",
       says="nested too deeply"),
+    c("emu-nan", "rotator", "--port", "emu://gs232b?az=nan", "position",
+      says="az nan is outside the G-5500 travel"),
     # -- an empty value is a script that lost a variable (--bind '' would mean every interface)
     c("empty-port", "track", "ISS (ZARYA)", "--port", "", says="--port is empty"),
     c("empty-bind", "emulate", "--tcp", "0", "--bind", "", says="--bind is empty"),
@@ -193,7 +195,8 @@ def _files(tmp: Path) -> dict[str, str]:
     (tmp / "bom.toml").write_bytes(b'\xef\xbb\xbf[station]\nname = "BOM"\nlat_deg = 52.0\n'
                                    b"lon_deg = 4.4\nalt_m = 10\n")
     os.mkfifo(tmp / "fifo")
-    out.update(nested_toml=str(tmp / "nested.toml"), nested=str(tmp / "nested.json"), empty=str(tmp / "empty.tle"),
+    out.update(nested_toml=str(tmp / "nested.toml"), nested=str(tmp / "nested.json"),
+               empty=str(tmp / "empty.tle"),
                binary=str(tmp / "binary.tle"), bom=str(tmp / "bom.toml"),
                fifo=str(tmp / "fifo"))
     return out

@@ -105,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
     from tracker.clock import SimClock, SystemClock
     from tracker.controllers import controller
     from tracker.emulator import EmulatorOptions
-    from tracker.emulator.factory import make_emulator
+    from tracker.emulator.factory import check_start_position, make_emulator
     from tracker.emulator.faults import FaultPlan, install
     from tracker.errors import ConfigError
     from tracker.mount import preset
@@ -120,7 +120,7 @@ def run(args: argparse.Namespace) -> int:
     clock = SimClock(SystemClock().now(), speed=args.speed)
     kw: dict = {"az_deg": args.az}
     if entry.has_elevation:
-        _check_start_position(spec, args.az, args.el)
+        check_start_position(spec, args.az, args.el, az_name="--az", el_name="--el")
         kw["el_deg"] = args.el
     if entry.gs232_switches:
         kw["options"] = EmulatorOptions(
@@ -173,20 +173,3 @@ def _stop_on_signals(stop: threading.Event) -> Callable[[], None]:
 
     wanted = tuple(sig for sig in STOP_SIGNALS if sig != signal.SIGINT)
     return route_stop_signals(lambda _signum, _frame: stop.set(), wanted)
-
-
-def _check_start_position(spec, az_deg: float | None, el_deg: float | None) -> None:
-    """--az/--el must lie inside the rotator's travel: a simulated antenna beyond its end
-    stops would read back positions no real unit can report."""
-    from tracker.errors import ConfigError
-
-    (az_min, az_max), el_lim = spec.axis_limits()
-    if az_deg is not None and not az_min <= az_deg <= az_max:
-        raise ConfigError(f"--az {az_deg:g} is outside the {spec.name} travel "
-                          f"{az_min:g}..{az_max:g} deg (mechanical)")
-    if el_deg is not None:
-        if el_lim is None:
-            raise ConfigError(f"--el given but the {spec.name} has no elevation axis")
-        if not el_lim[0] <= el_deg <= el_lim[1]:
-            raise ConfigError(f"--el {el_deg:g} is outside the {spec.name} travel "
-                              f"{el_lim[0]:g}..{el_lim[1]:g} deg")

@@ -12,6 +12,22 @@ from tracker.errors import ConfigError
 from tracker.mount import RotatorSpec, preset
 
 
+def check_start_position(spec: RotatorSpec, az_deg: float | None, el_deg: float | None, *,
+                         az_name: str = "az", el_name: str = "el") -> None:
+    """Refuse (ConfigError) a starting position outside the rotator's travel: a simulated
+    antenna beyond its end stops would read back positions no real unit can report."""
+    (az_min, az_max), el_lim = spec.axis_limits()
+    if az_deg is not None and not az_min <= az_deg <= az_max:   # NaN fails too
+        raise ConfigError(f"{az_name} {az_deg:g} is outside the {spec.name} travel "
+                          f"{az_min:g}..{az_max:g} deg (mechanical)")
+    if el_deg is not None:
+        if el_lim is None:
+            raise ConfigError(f"{el_name} given but the {spec.name} has no elevation axis")
+        if not el_lim[0] <= el_deg <= el_lim[1]:
+            raise ConfigError(f"{el_name} {el_deg:g} is outside the {spec.name} travel "
+                              f"{el_lim[0]:g}..{el_lim[1]:g} deg")
+
+
 def make_emulator(protocol: str, clock: Clock, spec: RotatorSpec | None = None,
                   **kw: Any) -> Any:
     """The emulator of ``protocol`` on ``clock``, driving ``spec`` (default: the protocol's
@@ -22,5 +38,6 @@ def make_emulator(protocol: str, clock: Clock, spec: RotatorSpec | None = None,
     if entry is None or entry.emulator is None or entry.default_rotator is None:
         raise ConfigError(f"no emulator for {protocol!r}; known: "
                           f"{', '.join(names(with_emulator()))}")
-    return entry.emulator_factory()(str(protocol).lower(), clock,
-                                    spec or preset(entry.default_rotator), **kw)
+    spec = spec or preset(entry.default_rotator)
+    check_start_position(spec, kw.get("az_deg"), kw.get("el_deg"))
+    return entry.emulator_factory()(str(protocol).lower(), clock, spec, **kw)
