@@ -256,7 +256,12 @@ def resolve_source(spec: str, base_url: str = DEFAULT_BASE_URL, fmt: str = "tle"
 
 def _check_url(url: str, what: str) -> None:
     """Only http(s) URLs with a host are downloaded (a local file is read with --tle FILE)."""
-    parts = urllib.parse.urlsplit(url)
+    try:
+        parts = urllib.parse.urlsplit(url)
+        parts.port   # noqa: B018  # parsed on access: a bad port or IPv6 literal raises here
+    except ValueError as e:
+        raise TleError(f"{what} is not a valid URL ({e}); give a CelesTrak-style http:// "
+                       "or https:// URL") from None
     if parts.scheme.lower() not in ("http", "https") or not parts.netloc:
         raise TleError(f"{what} is not an http:// or https:// URL with a host; give a "
                        "CelesTrak-style URL (a local file is read with --tle FILE)")

@@ -55,6 +55,7 @@ CASES = [
       says="nested too deeply"),
     c("emu-nan", "rotator", "--port", "emu://gs232b?az=nan", "position",
       says="az nan is outside the G-5500 travel"),
+    c("url-bad-ipv6", "tle", "update", "http://[::1", says="not a valid URL"),
     # -- an empty value is a script that lost a variable (--bind '' would mean every interface)
     c("empty-port", "track", "ISS (ZARYA)", "--port", "", says="--port is empty"),
     c("empty-bind", "emulate", "--tcp", "0", "--bind", "", says="--bind is empty"),
