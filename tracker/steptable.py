@@ -855,7 +855,27 @@ def read_plan_file(path: str | Path) -> PlanFile:
     if not tables:
         raise ConfigError(f"{path}: no tables found; write one with "
                           f"`tracker plan ... --steptable FILE`")
+    _check_header_agrees(path, header, tables[0])
     return PlanFile(tuple(tables), header)
+
+
+def _check_header_agrees(path: Path, header: dict, first: StepTable) -> None:
+    """The header's interval and T time are written from the tables; one that disagrees
+    with them is a file edited by hand or damaged, and which of the two to trust is a guess."""
+    interval = header.get("interval_s", "").split(" ", 1)[0]
+    if interval and interval != str(first.interval_s):
+        raise ConfigError(f"{path}: the header says interval_s {interval} but the tables step "
+                          f"every {first.interval_s:03d}; regenerate the file with "
+                          f"`tracker plan ... --steptable FILE`")
+    t_text = header.get("t_utc", "")
+    try:
+        t_ok = not t_text or abs(_parse_iso(t_text) - first.start_t_s) < 1.0
+    except (ValueError, OverflowError):
+        t_ok = False
+    if not t_ok:
+        raise ConfigError(f"{path}: the header says t_utc {t_text} but the first table's T "
+                          f"time is {_iso(first.start_t_s)}; regenerate the file with "
+                          f"`tracker plan ... --steptable FILE`")
 
 
 def parse_table_line(line: str) -> tuple[str, int, list[int]]:

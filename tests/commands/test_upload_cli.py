@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+import pytest
 from test_steptable_fixtures import DATA
 
 from tracker.cli import main
@@ -35,6 +36,25 @@ def test_plan_steptable_writes_a_file_upload_reads(tmp_path, capsys):
     assert plan.header["target"] == "ISS (ZARYA)" and plan.tables[0].kind == "W"
     assert main(["upload", "--from", str(f), "--dry-run"]) == 0
     assert capsys.readouterr().out == f.read_text()
+
+
+@pytest.mark.parametrize(("header", "says"), [
+    ("# t_utc: soon", "the header says t_utc soon"),
+    ("# t_utc: 9999-12-31T00:00:00Z", "the header says t_utc 9999"),
+    ("# interval_s: nan", "the header says interval_s nan"),
+])
+def test_a_header_that_contradicts_its_tables_is_refused(tmp_path, capsys, header, says):
+    f = tmp_path / "iss.steps"
+    assert main(["plan", "ISS", *WHERE, *AT, "--steptable", str(f)]) == 0
+    key = header.split(":")[0]
+    lines = [header if line.startswith(key + ":") else line
+             for line in f.read_text().splitlines()]
+    assert header in lines
+    f.write_text("\n".join(lines) + "\n")
+    capsys.readouterr()
+    assert main(["upload", "--from", str(f), "--dry-run"]) == 2
+    err = capsys.readouterr().err
+    assert says in err and err.count("\n") == 1, err
 
 
 def _tiny_plan(path: Path, start: str = "2026-08-23T02:00:00") -> None:
