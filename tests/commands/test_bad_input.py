@@ -56,6 +56,18 @@ CASES = [
     c("emu-nan", "rotator", "--port", "emu://gs232b?az=nan", "position",
       says="az nan is outside the G-5500 travel"),
     c("url-bad-ipv6", "tle", "update", "http://[::1", says="not a valid URL"),
+    # -- numbers no run can use
+    c("emulate-speed-huge", "emulate", "--speed", "1e300", "--duration", "0.1",
+      says="--speed 1e+300 is invalid"),
+    c("emulate-duration-huge", "emulate", "--duration", "1e300", says="--duration 1e+300"),
+    c("rotator-timeout-huge", "rotator", "--port", "emu://gs232b", "--timeout", "1e300",
+      "position", says="--timeout 1e+300 is invalid"),
+    c("upload-max-error-inf", "upload", "ISS", "--tle", SATS, *HERE, "--dry-run",
+      "--max-error", "inf", says="--max-error inf is invalid"),
+    c("upload-speed-inf", "upload", "ISS", "--tle", SATS, *HERE, "--at",
+      "2026-08-23T02:00:00Z", "--speed", "inf", says="--speed inf is invalid"),
+    c("sync-fraction", "rotator", "--port", "emu://gs232b-azaz", "--protocol", "gs232b-azaz",
+      "sync", "1.5", says="whole degrees"),
     # -- an empty value is a script that lost a variable (--bind '' would mean every interface)
     c("empty-port", "track", "ISS (ZARYA)", "--port", "", says="--port is empty"),
     c("empty-bind", "emulate", "--tcp", "0", "--bind", "", says="--bind is empty"),

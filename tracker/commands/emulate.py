@@ -65,16 +65,24 @@ def _emulated() -> list[str]:
     return names(with_emulator())
 
 
+# Beyond these a simulated motor jumps in one tick or the run outlives any use of it.
+MAX_SPEED = 10_000.0
+MAX_DURATION_S = 365 * 86400.0
+
+
 def _check_args(args: argparse.Namespace) -> None:
     import math
 
     from tracker.errors import ConfigError
 
-    if not (math.isfinite(args.speed) and args.speed > 0):
-        raise ConfigError(f"--speed {args.speed} is invalid; use a finite number > 0")
-    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
+    if not (math.isfinite(args.speed) and 0 < args.speed <= MAX_SPEED):
+        raise ConfigError(f"--speed {args.speed:g} is invalid; use a number above 0 and at "
+                          f"most {MAX_SPEED:g}")
+    if args.duration is not None and not (math.isfinite(args.duration)
+                                          and 0 < args.duration <= MAX_DURATION_S):
         raise ConfigError(f"--duration {args.duration:g} is invalid; use a number of seconds "
-                          f"> 0 (leave it out to run until Ctrl-C)")
+                          f"above 0 and at most {MAX_DURATION_S:g} (a year; leave it out to "
+                          f"run until Ctrl-C)")
     if args.tcp is not None and not 0 <= args.tcp <= 65535:
         raise ConfigError(f"--tcp {args.tcp} is invalid; use a TCP port 1..65535 (0 = any "
                           f"free port)")

@@ -75,8 +75,9 @@ def run(args: argparse.Namespace) -> int:
 
     # A NaN/infinite timeout would make every deadline check false: refuse it here, once,
     # for every protocol.
-    if not (math.isfinite(args.timeout) and args.timeout > 0):
-        raise ConfigError(f"--timeout {args.timeout} is invalid; use a number of seconds > 0")
+    if not (math.isfinite(args.timeout) and 0 < args.timeout <= 3600):
+        raise ConfigError(f"--timeout {args.timeout:g} is invalid; use a number of seconds "
+                          f"above 0 and at most 3600")
     check_baud_arg(args)
     if args.action == "raw" and not args.cmd.isascii():
         raise ConfigError(f"raw command {args.cmd!r} is not ASCII; controllers take ASCII "
@@ -90,9 +91,10 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"{args.action} is a GS-232B-AZ/AZ command; use --protocol "
                           f"gs232b-azaz (got {args.protocol})")
     if args.action == "sync" and not (math.isfinite(args.offset_deg)
-                                      and 0 <= round(args.offset_deg) <= 360):
+                                      and args.offset_deg == int(args.offset_deg)
+                                      and 0 <= args.offset_deg <= 360):
         raise ConfigError(f"sync offset {args.offset_deg:g} is invalid; use 0..360 degrees "
-                          f"(antenna 2 = antenna 1 + offset, mod 360)")
+                          f"(whole degrees: antenna 2 = antenna 1 + offset, mod 360)")
     spec = rotator_from_args(args)
     station = station_from_args(args, quiet=True)
     if args.ignore_limits and args.action in ("goto", "park", "raw"):

@@ -8,6 +8,7 @@ sends a plan file written by ``tracker plan --steptable FILE``.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from typing import TYPE_CHECKING
 
@@ -17,6 +18,7 @@ from tracker.commands._common import (
     add_target_args,
     add_time_args,
     check_baud_arg,
+    check_number_arg,
     clock_from_args,
     rotator_from_args,
     station_from_args,
@@ -128,6 +130,7 @@ def run(args: argparse.Namespace) -> int:
     from tracker.upload import resume_schedule
 
     check_baud_arg(args)
+    check_number_arg(args, "max_error", 0.1, 180.0, "degrees")
     if args.from_file and not args.protocol:
         args.protocol = read_plan_file(args.from_file).header.get("profile") or "gs232b"
     args.protocol = args.protocol or "gs232b"
@@ -201,8 +204,9 @@ def _send(args, tables, clock, simulate: bool, spec: RotatorSpec) -> int:
     if simulate:
         from tracker.emulator import Gs232Controller, serve_pty
 
-        if not args.speed > 0:
-            raise ConfigError(f"--speed {args.speed} is invalid; use a number > 0")
+        if not (math.isfinite(args.speed) and 0 < args.speed <= 10_000):
+            raise ConfigError(f"--speed {args.speed:g} is invalid; use a number above 0 and "
+                              f"at most 10000")
         start = tables[0].upload_t_s - 1.0
         clock = SimClock(datetime.fromtimestamp(start, timezone.utc), speed=args.speed)
         ctrl = Gs232Controller(args.protocol, spec, clock=clock)
