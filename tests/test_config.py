@@ -31,7 +31,7 @@ def write(tmp_path, text: str):
 
 
 def test_template_is_valid_and_commented(tmp_path):
-    p = write_template(tmp_path / "sub" / "config.toml")
+    p = write_template(tmp_path / "config.toml")
     text = p.read_text()
     assert text == TEMPLATE and text.count("#") > 20
     config = load_config(p)
@@ -39,6 +39,15 @@ def test_template_is_valid_and_commented(tmp_path):
     assert not config.station_is_default
     assert config.rotator().name == "home"
     assert config.rotator().az_span_deg == 450  # from the G-5500 preset
+
+
+def test_init_makes_only_its_own_config_folder(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "xdg"))
+    own = write_template(tmp_path / "xdg" / "tracker" / "config.toml")
+    assert own.read_text() == TEMPLATE          # the tool's folder is made on first use
+    with pytest.raises(ConfigError, match="does not exist"):
+        write_template(tmp_path / "typo" / "config.toml")
+    assert not (tmp_path / "typo").exists()     # a user's path grows no folders
 
 
 def test_init_never_overwrites_without_force(tmp_path):

@@ -98,7 +98,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.global_config and getattr(args, "config", None) is None:
         args.config = args.global_config
     if not getattr(args, "func", None):
-        parser.print_help()
+        commands = ", ".join(sorted(name for action in parser._actions
+                                    if isinstance(action, argparse._SubParsersAction)
+                                    for name in action.choices))
+        print(f"tracker: error: give a command: {commands} (see 'tracker --help')",
+              file=sys.stderr)
         return EXIT_USAGE
     try:
         return int(args.func(args) or 0)

@@ -420,10 +420,17 @@ preset = "G-5500"
 
 def write_template(path: Path, force: bool = False) -> Path:
     """Write :data:`TEMPLATE` to ``path``; refuses to overwrite unless ``force``."""
+    from platformdirs import user_config_dir
+
     from tracker.files import write_atomic
 
     path = Path(path).expanduser()
     label = "config file"
+    if path.parent != Path(user_config_dir("tracker")):
+        # Any other folder is the user's: like every output, a missing one is refused (a
+        # typo in the path must not grow a folder tree); the tool's own config folder is
+        # made on first use.
+        return write_atomic(path, TEMPLATE, force=force, label=label)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except (FileExistsError, NotADirectoryError):

@@ -48,6 +48,7 @@ CASES = [
     # -- command lines argparse refuses: the same one line, naming the help to read
     c("args-bad-float", "next", "ISS (ZARYA)", "--days", "abc", says="(see 'tracker next --help')"),
     c("args-unknown-command", "nope", says="invalid choice: 'nope'"),
+    c("args-no-command", says="give a command: batch, config"),
     c("args-missing", "rotator", "--port", "emu://gs232b", says="required: ACTION"),
     # -- TOML nested past the parser's recursion limit
     c("nested-config", "config", "show", "--config", "{nested_toml}", says="nested too deeply"),

@@ -178,7 +178,7 @@ def test_config_station_used_and_flags_override(capsys, tmp_path):
 
 
 def test_config_init_show_path(capsys, tmp_path):
-    cfg = tmp_path / "dir" / "config.toml"
+    cfg = tmp_path / "config.toml"
     code, out, _ = run(capsys, "config", "init", "--config", str(cfg))
     assert code == 0 and cfg.exists()
     cfg.write_text(cfg.read_text().replace("lat_deg = 52.0", "lat_deg = 51.25"))
