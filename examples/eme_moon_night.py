@@ -25,7 +25,7 @@ from tracker.api import (
     TrackerError,
     compile_program,
     event_labels,
-    find_rise_set,
+    find_passes,
     plan_pass,
     preset,
     resolve_target,
@@ -41,6 +41,12 @@ def _az(az_deg: float) -> float:
 
 def _utc(t_s: float) -> str:
     return datetime.fromtimestamp(t_s, timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")
+
+
+def _times(t0_s: float, t1_s: float, step_s: float) -> np.ndarray:
+    """Sample times from t0 to t1 every ``step_s`` (t1 always included)."""
+    t = np.arange(t0_s, t1_s, step_s)
+    return np.append(t, t1_s) if t.size == 0 or t[-1] < t1_s else t
 
 
 def _parse_at(text: str) -> datetime:
@@ -69,24 +75,27 @@ def main(argv: list[str] | None = None) -> int:
 def _session(args, now: datetime) -> int:
     station = Station("station", args.lat, args.lon, args.alt, args.min_el)
     moon = resolve_target("moon")
-    passes = find_rise_set(moon, station, now, now + timedelta(hours=36))
+    passes = find_passes(moon, station, now, now + timedelta(hours=36))
     if not passes:
         print(f"The Moon does not rise above {args.min_el:g}° at {args.lat}, {args.lon} in the "
               f"36 h from {_utc(now.timestamp())}.")
         return 0
     p = passes[0]
     rise, transit, set_ = event_labels(moon.kind)
+    # A Moon already up: track it from now (its real rise, in the past, is printed).
+    start_s = max(p.aos.timestamp(), now.timestamp())
     print(f"Moon from {args.lat:.4f}, {args.lon:.4f} (min el {args.min_el:g}°, "
           "no refraction)")
-    print(f"  {rise:<8} {_utc(p.rise_s)}  az {_az(p.rise_az_deg):6.1f}°"
-          + ("" if p.rises else "  (already up)"))
-    print(f"  {transit:<8} {_utc(p.transit_s)}  az {_az(p.transit_az_deg):6.1f}°  "
+    print(f"  {rise:<8} {_utc(p.aos.timestamp())}  az {_az(p.aos_az_deg):6.1f}°"
+          + ("  (already up)" if p.in_progress_at_start else ""))
+    print(f"  {transit:<8} {_utc(p.tca.timestamp())}  az {_az(p.tca_az_deg):6.1f}°  "
           f"el {p.max_el_deg:5.1f}°")
-    print(f"  {set_:<8} {_utc(p.set_s)}  az {_az(p.set_az_deg):6.1f}°"
-          + ("" if p.sets else "  (still up at the end of the search)"))
-    track = p.track(moon, station, step_s=STEP_S)
+    print(f"  {set_:<8} {_utc(p.los.timestamp())}  az {_az(p.los_az_deg):6.1f}°"
+          + ("" if p.los_known else "  (still up at the end of the search)"))
+    track = moon.observe(station, _times(start_s, p.los.timestamp(), STEP_S))
+    duration_s = p.los.timestamp() - start_s
     fits = "fits" if len(track) <= TABLE_PAIRS else "does NOT fit"
-    print(f"Track: {len(track)} points at {STEP_S:g} s ({p.duration_s / 3600:.1f} h) — "
+    print(f"Track: {len(track)} points at {STEP_S:g} s ({duration_s / 3600:.1f} h) — "
           f"{fits} one {TABLE_PAIRS}-pair step table")
     print(f"  range {np.nanmin(track.range_km):,.0f} .. {np.nanmax(track.range_km):,.0f} km, "
           f"EME path loss varies by {_path_loss_span_db(track.range_km):.2f} dB")

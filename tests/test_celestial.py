@@ -14,11 +14,11 @@ from tracker.celestial import (
     FixedTarget,
     SolarSystemTarget,
     event_labels,
-    find_rise_set,
     parse_radec,
     resolve,
 )
 from tracker.errors import ConfigError, TargetError
+from tracker.passes import find_passes
 from tracker.skytrack import angular_separation_deg
 from tracker.station import HorizonMask, Station
 
@@ -119,70 +119,72 @@ def test_fixed_source_has_no_range():
 def test_rise_transit_set_match_pyephem_within_seconds(name):
     station = STATIONS[0]
     target = resolve(name)
-    passes = find_rise_set(target, station, T0, datetime(2026, 8, 25, tzinfo=UTC))
-    full = [p for p in passes if p.rises and p.sets]
+    passes = find_passes(target, station, T0, datetime(2026, 8, 25, tzinfo=UTC))
+    full = [p for p in passes if p.aos_known and p.los_known]
     assert len(full) >= 2
     o = _observer(station)
     body = _ephem_body(target)
     for p in full:
-        rise = o.next_rising(body, start=_edate(p.rise_s - 3600), use_center=True)
-        transit = o.next_transit(body, start=_edate(p.rise_s))
-        setting = o.next_setting(body, start=_edate(p.set_s - 3600), use_center=True)
-        assert abs(p.rise_s - _posix(rise)) < 3.0
-        assert abs(p.transit_s - _posix(transit)) < 3.0
-        assert abs(p.set_s - _posix(setting)) < 3.0
+        rise = o.next_rising(body, start=_edate(p.aos.timestamp() - 3600), use_center=True)
+        transit = o.next_transit(body, start=_edate(p.aos.timestamp()))
+        setting = o.next_setting(body, start=_edate(p.los.timestamp() - 3600), use_center=True)
+        assert abs(p.aos.timestamp() - _posix(rise)) < 3.0
+        assert abs(p.tca.timestamp() - _posix(transit)) < 3.0
+        assert abs(p.los.timestamp() - _posix(setting)) < 3.0
         # Invariants: on the horizon at rise/set, highest near transit.
-        track = target.observe(station, np.array([p.rise_s, p.transit_s, p.set_s]))
+        track = target.observe(station, np.array([p.aos.timestamp(), p.tca.timestamp(),
+                                                  p.los.timestamp()]))
         assert np.allclose(track.el_deg[[0, 2]], 0.0, atol=0.01)
         assert track.el_deg[1] == pytest.approx(p.max_el_deg, abs=0.05)
 
 
 def test_moon_pass_is_hours_long_and_fits_a_step_table():
-    passes = find_rise_set(resolve("moon"), STATIONS[1], T0, T0_S + 86400)
+    passes = find_passes(resolve("moon"), STATIONS[1], T0, T0_S + 86400)
     assert passes
     p = max(passes, key=lambda p: p.duration_s)
     assert 6 * 3600 < p.duration_s < 16 * 3600
-    track = p.track(resolve("moon"), STATIONS[1], step_s=60.0)
+    track = p.track(step_s=60.0)
     assert len(track) <= 1900  # one GS-232 W table
-    assert track.t_s[0] == p.rise_s and track.t_s[-1] == p.set_s
+    assert track.t_s[0] == p.aos.timestamp() and track.t_s[-1] == p.los.timestamp()
     assert np.all(track.el_deg >= -0.01)
 
 
 def test_circumpolar_sun_is_split_at_lower_culmination():
     station = Station("Nordaustlandet", 80.0, 20.0, 10.0)  # midnight sun until ~Aug 27
-    passes = find_rise_set(resolve("sun"), station, T0, T0_S + 2 * 86400)
+    passes = find_passes(resolve("sun"), station, T0, T0_S + 2 * 86400)
     assert len(passes) == 3
-    assert not any(p.rises or p.sets for p in passes)
-    assert passes[0].rise_s == T0_S and passes[-1].set_s == T0_S + 2 * 86400
+    assert not any(p.aos_known or p.los_known for p in passes)
+    assert passes[0].aos.timestamp() == T0_S and passes[-1].los.timestamp() == T0_S + 2 * 86400
     for a, b in itertools.pairwise(passes):
-        assert a.set_s == b.rise_s
+        assert a.los.timestamp() == b.aos.timestamp()
     o = _observer(station)
     transit = _posix(o.next_transit(ephem.Sun(), start=_edate(T0_S)))
-    assert abs(passes[0].transit_s - transit) < 3.0
+    assert abs(passes[0].tca.timestamp() - transit) < 3.0
     # The cut is at lower culmination: the Sun is due north there, at its lowest.
-    cut = resolve("sun").observe(station, np.array([passes[0].set_s]))
+    cut = resolve("sun").observe(station, np.array([passes[0].los.timestamp()]))
     assert min(cut.az_deg[0], 360 - cut.az_deg[0]) < 0.5
 
 
 def test_never_rising_target_gives_no_passes():
     # The Moon is near declination -28° in these days: never up at 78°N.
-    assert find_rise_set(resolve("moon"), STATIONS[2], T0, T0_S + 2 * 86400) == []
+    assert find_passes(resolve("moon"), STATIONS[2], T0, T0_S + 2 * 86400) == []
 
 
 def test_min_elevation_and_mask_delay_rise():
     sun = resolve("sun")
-    base = find_rise_set(sun, STATIONS[0], T0, T0_S + 86400)[0]
-    high = find_rise_set(sun, STATIONS[0], T0, T0_S + 86400, min_el_deg=10.0)[0]
-    assert high.rise_s > base.rise_s + 600 and high.set_s < base.set_s - 600
-    el = sun.observe(STATIONS[0], np.array([high.rise_s, high.set_s])).el_deg
+    base = find_passes(sun, STATIONS[0], T0, T0_S + 86400)[0]
+    high = find_passes(sun, STATIONS[0], T0, T0_S + 86400, min_el_deg=10.0)[0]
+    assert (high.aos.timestamp() > base.aos.timestamp() + 600
+            and high.los.timestamp() < base.los.timestamp() - 600)
+    el = sun.observe(STATIONS[0], np.array([high.aos.timestamp(), high.los.timestamp()])).el_deg
     assert np.allclose(el, 10.0, atol=0.01)
     # A 20° wall only in the east (where the Sun rises) delays the rise, not the set.
     mask = HorizonMask((0.0, 40.0, 50.0, 110.0, 120.0), (0.0, 0.0, 20.0, 20.0, 0.0))
     masked_station = Station("masked", 52.81, 6.40, 20.0, 0.0, mask)
-    masked = find_rise_set(sun, masked_station, T0, T0_S + 86400)[0]
-    assert masked.rise_s > base.rise_s + 1800
-    assert masked.set_s == pytest.approx(base.set_s, abs=1.0)
-    track = sun.observe(masked_station, np.array([masked.rise_s]))
+    masked = find_passes(sun, masked_station, T0, T0_S + 86400)[0]
+    assert masked.aos.timestamp() > base.aos.timestamp() + 1800
+    assert masked.los.timestamp() == pytest.approx(base.los.timestamp(), abs=1.0)
+    track = sun.observe(masked_station, np.array([masked.aos.timestamp()]))
     assert track.el_deg[0] == pytest.approx(masked_station.horizon_at(track.az_deg[0]),
                                             abs=0.01)
 

@@ -10,8 +10,10 @@ import numpy as np
 import pytest
 from _paths import DATA
 
-from tracker.celestial import find_rise_set, resolve
+from tracker.celestial import resolve
 from tracker.errors import ConfigError, TrackerError
+from tracker.event_labels import event_labels
+from tracker.passes import find_passes
 from tracker.pointing_file import ScheduleError, ScheduleTarget, parse_schedule
 from tracker.station import Station
 
@@ -81,26 +83,26 @@ def test_azimuth_only_schedule_is_one_whole_pass(tmp_path):
                     "2026-08-22T19:00:00Z, 180\n")
     target = resolve(f"schedule:{path}")
     assert target.az_only and np.all(target.el_deg == 0.0)
-    passes = find_rise_set(target, STATION, T18 - 3600, T18 + 3 * 3600)
+    passes = find_passes(target, STATION, T18 - 3600, T18 + 3 * 3600)
     assert len(passes) == 1
-    assert passes[0].rise_s == pytest.approx(T18, abs=0.1)
-    assert passes[0].set_s == pytest.approx(T18 + 3600, abs=0.1)
-    assert passes[0].labels == ("start", "max el", "end")
+    assert passes[0].aos.timestamp() == pytest.approx(T18, abs=0.1)
+    assert passes[0].los.timestamp() == pytest.approx(T18 + 3600, abs=0.1)
+    assert event_labels(passes[0].kind) == ("start", "max el", "end")
 
 
 def test_schedule_pass_is_where_el_is_above_the_horizon():
     target = ScheduleTarget.load(SWEEP)
-    passes = find_rise_set(target, STATION, T18 - 3600, T18 + 3 * 3600)
+    passes = find_passes(target, STATION, T18 - 3600, T18 + 3 * 3600)
     assert len(passes) == 1
     p = passes[0]
-    assert p.rise_s == pytest.approx(T18, abs=0.1)  # el is exactly 0 at the first row
+    assert p.aos.timestamp() == pytest.approx(T18, abs=0.1)  # el is exactly 0 at the first row
     # el goes 10 -> -2 between 18:40 and 18:50: crosses 0 at 18:40 + 10/12 * 600 s.
-    assert p.set_s == pytest.approx(T18 + 2400 + 500, abs=0.1)
+    assert p.los.timestamp() == pytest.approx(T18 + 2400 + 500, abs=0.1)
     assert p.max_el_deg == pytest.approx(20.0)
-    assert T18 + 1200 - 1 <= p.transit_s <= T18 + 1800 + 1
-    high = find_rise_set(target, STATION, T18 - 3600, T18 + 3 * 3600, min_el_deg=15.0)
-    assert high[0].rise_s == pytest.approx(T18 + 900, abs=0.1)
-    assert high[0].set_s == pytest.approx(T18 + 2100, abs=0.1)
+    assert T18 + 1200 - 1 <= p.tca.timestamp() <= T18 + 1800 + 1
+    high = find_passes(target, STATION, T18 - 3600, T18 + 3 * 3600, min_el_deg=15.0)
+    assert high[0].aos.timestamp() == pytest.approx(T18 + 900, abs=0.1)
+    assert high[0].los.timestamp() == pytest.approx(T18 + 2100, abs=0.1)
 
 
 def _write(tmp_path, text: str) -> Path:
@@ -159,8 +161,8 @@ def test_schedule_plans_into_a_mount_plan():
     from tracker.mount import preset
 
     target = ScheduleTarget.load(SWEEP)
-    p = find_rise_set(target, STATION, T18 - 3600, T18 + 3 * 3600)[0]
-    track = p.track(target, STATION, step_s=10.0)
+    p = find_passes(target, STATION, T18 - 3600, T18 + 3 * 3600)[0]
+    track = p.track(step_s=10.0)
     spec = preset("G-5500")
     plan = planner.plan_pass(track, spec, STATION)
     # The sweep crosses north (300 -> 60 via 0): a 450° rotator with a north stop takes it
@@ -181,8 +183,8 @@ def test_schedule_round_trips_into_a_step_table():
     from tracker.skytrack import angular_separation_deg
 
     target = ScheduleTarget.load(SWEEP)
-    p = find_rise_set(target, STATION, T18 - 3600, T18 + 3 * 3600)[0]
-    program = steptable.compile_pass(p.track(target, STATION, step_s=5.0), preset("G-5500"),
+    p = find_passes(target, STATION, T18 - 3600, T18 + 3 * 3600)[0]
+    program = steptable.compile_pass(p.track(step_s=5.0), preset("G-5500"),
                                      STATION, "gs232b", interval_s=10)
     points = []
     for line in program.lines():

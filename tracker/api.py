@@ -53,9 +53,7 @@ from tracker.batch import (
 from tracker.celestial import (
     RADIO_SOURCES,
     FixedTarget,
-    RiseSet,
     SolarSystemTarget,
-    find_rise_set,
     parse_radec,
 )
 from tracker.clock import Clock, LockstepClock, ManualClock, SimClock, SystemClock, utc
@@ -113,9 +111,9 @@ __all__ = [  # noqa: RUF022 (grouped by topic, the order the docs follow)
     # time
     "Clock", "LockstepClock", "ManualClock", "SimClock", "SystemClock", "utc",
     # targets
-    "RADIO_SOURCES", "FixedTarget", "RiseSet", "SatelliteTarget", "ScheduleTarget",
-    "SkyTrack", "SolarSystemTarget", "Target", "event_labels", "find_rise_set",
-    "parse_radec", "parse_schedule", "resolve_target",
+    "RADIO_SOURCES", "FixedTarget", "SatelliteTarget", "ScheduleTarget", "SkyTrack",
+    "SolarSystemTarget", "Target", "event_labels", "parse_radec", "parse_schedule",
+    "resolve_target",
     # station and configuration
     "Config", "HorizonMask", "Station", "load_config",
     # passes

@@ -17,7 +17,8 @@ off keeps results reproducible and matches what rotator users compare against (P
 ``pressure=0``). Rise/set is therefore the centre of the body crossing the geometric horizon
 (plus the station's minimum elevation and mask), not the upper limb.
 
-:func:`resolve` is the first of :data:`tracker.targets.RESOLVERS`.
+:func:`resolve` is the first of :data:`tracker.targets.RESOLVERS`. Rise, transit and set come
+from :func:`tracker.passes.find_passes`, like every other target's passes.
 """
 
 from __future__ import annotations
@@ -200,7 +201,11 @@ class _SkyfieldTarget:
         return (track.az_deg[inverse].reshape(shape), track.el_deg[inverse].reshape(shape))
 
     def hour_angle_deg(self, station: Station, t_s) -> np.ndarray:
-        """Local hour angle of date in degrees, wrapped to (-180, 180]; 0 at upper transit."""
+        """Local hour angle of date in degrees, wrapped to (-180, 180]; 0 at upper transit.
+
+        :func:`tracker.passes.find_passes` uses it for TCA (the upper transit) and to cut a
+        circumpolar span at its lower culminations.
+        """
         t_s = np.atleast_1d(np.asarray(t_s, dtype=float))
         ha, _dec, _ = self._apparent(station, t_s).hadec()
         ha_deg = np.asarray(ha.hours, dtype=float).reshape(t_s.shape) * 15.0
@@ -318,212 +323,3 @@ def resolve(name: str):
 __all__ = ["RADIO_SOURCES", "FixedTarget", "RadioSource", "SolarSystemTarget",
            "event_labels", "known_names", "parse_radec", "resolve"]
 
-
-# --------------------------------------------------------------------------------------------
-# Rise / transit / set for slow targets
-
-#: Coarse sampling step of the rise/set search per kind. These bodies move at most ~0.5° per
-#: 2 minutes, so only a pass peaking within a few hundredths of a degree of the horizon could
-#: fall between two samples. Schedule files are sampled at their own points as well.
-SEARCH_STEP_S: dict[str, float] = {"sun": 120.0, "moon": 120.0, "planet": 120.0,
-                                   "radio": 120.0, "schedule": 60.0}
-_BISECT_TOL_S = 0.05
-
-
-@dataclass(frozen=True)
-class RiseSet:
-    """One visible span of a slow target: rise, transit (culmination) and set.
-
-    Times are UTC POSIX seconds. If the target is already up at the window start,
-    ``rise_s`` is the window start and ``rises`` is False (likewise ``set_s`` / ``sets``);
-    a circumpolar target's span is cut at lower culmination, which then counts as its rise/set.
-    ``transit_s`` is the upper meridian crossing when it lies inside the span, otherwise the
-    time of highest elevation (schedule files: always the highest point).
-    """
-
-    name: str
-    kind: str
-    rise_s: float
-    transit_s: float
-    set_s: float
-    rise_az_deg: float
-    transit_az_deg: float
-    set_az_deg: float
-    max_el_deg: float
-    rises: bool = True
-    sets: bool = True
-
-    @property
-    def duration_s(self) -> float:
-        return self.set_s - self.rise_s
-
-    @property
-    def labels(self) -> tuple[str, str, str]:
-        return event_labels(self.kind)
-
-    def times(self, step_s: float) -> np.ndarray:
-        """Sample times from rise to set every ``step_s`` (the set time always included)."""
-        if step_s <= 0:
-            raise ValueError("step_s must be positive")
-        t = np.arange(self.rise_s, self.set_s, step_s)
-        return np.append(t, self.set_s) if t.size == 0 or t[-1] < self.set_s else t
-
-    def track(self, target, station: Station, step_s: float = 60.0) -> SkyTrack:
-        """The target's SkyTrack over this span (one vectorised observe call)."""
-        return target.observe(station, self.times(step_s))
-
-
-def _margin(target, station: Station, t_s: np.ndarray) -> tuple[np.ndarray, SkyTrack]:
-    """Elevation above the station's horizon (min elevation and mask); NaN counts as below."""
-    track = target.observe(station, t_s)
-    margin = track.el_deg - station.horizon_at(np.nan_to_num(track.az_deg))
-    return np.where(np.isfinite(margin), margin, -np.inf), track
-
-
-def _bisect(f, lo_s: np.ndarray, hi_s: np.ndarray, lo_up: np.ndarray) -> np.ndarray:
-    """Vectorised bisection: the time each bracket [lo, hi] changes from up to not up."""
-    lo_s, hi_s = lo_s.copy(), hi_s.copy()
-    while lo_s.size and np.max(hi_s - lo_s) > _BISECT_TOL_S:
-        mid = 0.5 * (lo_s + hi_s)
-        up = f(mid) >= 0.0
-        same = up == lo_up
-        lo_s = np.where(same, mid, lo_s)
-        hi_s = np.where(same, hi_s, mid)
-    return 0.5 * (lo_s + hi_s)
-
-
-def _refine_max(f, lo_s: np.ndarray, hi_s: np.ndarray) -> np.ndarray:
-    """Vectorised golden-section search for the maximum of ``f`` in each [lo, hi]."""
-    g = (np.sqrt(5.0) - 1.0) / 2.0
-    a, b = lo_s.copy(), hi_s.copy()
-    while a.size and np.max(b - a) > 1.0:
-        c = b - g * (b - a)
-        d = a + g * (b - a)
-        fc, fd = f(np.concatenate([c, d])).reshape(2, -1)
-        left = fc > fd
-        b = np.where(left, d, b)
-        a = np.where(left, a, c)
-    return 0.5 * (a + b)
-
-
-def _to_s(t) -> float:
-    from datetime import datetime
-
-    if isinstance(t, datetime):
-        if t.tzinfo is None:
-            raise ValueError("times must be timezone-aware (UTC); got a naive datetime")
-        return t.timestamp()
-    return float(t)
-
-
-def find_rise_set(target, station: Station, start, end, min_el_deg: float | None = None,
-                  step_s: float | None = None) -> list[RiseSet]:
-    """Rise, transit and set of a slow target (Sun, Moon, planet, fixed source, schedule).
-
-    Coarse samples every ``step_s`` (default by kind, :data:`SEARCH_STEP_S`) in one
-    vectorised observe call; horizon crossings (min elevation + mask) are refined by
-    vectorised bisection to 0.05 s and upper transits by the hour angle's zero crossing.
-    Handles hours-long passes, targets already up at ``start`` or still up at ``end``,
-    circumpolar targets (spans cut at lower culmination) and targets that never rise.
-    ``start``/``end`` are aware datetimes or POSIX seconds.
-    """
-    from dataclasses import replace
-
-    t0_s, t1_s = _to_s(start), _to_s(end)
-    if not t1_s > t0_s:
-        raise ValueError("end must be after start")
-    if min_el_deg is not None:
-        station = replace(station, min_el_deg=float(min_el_deg))
-    kind = getattr(target, "kind", "")
-    step_s = float(step_s or SEARCH_STEP_S.get(kind, 60.0))
-    n = int(np.ceil((t1_s - t0_s) / step_s)) + 1
-    t_s = np.linspace(t0_s, t1_s, n)
-    knots = getattr(target, "t_s", None)  # a schedule's own points are where el turns
-    if kind == "schedule" and knots is not None:
-        inside = np.asarray(knots)[(knots > t0_s) & (knots < t1_s)]
-        # Also one sample just before/after each knot edge, so span ends are bracketed.
-        t_s = np.unique(np.concatenate([t_s, inside]))
-
-    def f(t):
-        return _margin(target, station, np.asarray(t, dtype=float))[0]
-
-    margin, _track = _margin(target, station, t_s)
-    up = margin >= 0.0
-    change = np.flatnonzero(up[1:] != up[:-1])
-    cross_s = _bisect(f, t_s[change], t_s[change + 1], up[change])
-    rising = ~up[change]
-    edges = [(float(c), bool(r)) for c, r in zip(cross_s, rising, strict=True)]
-
-    spans: list[tuple[float, float, bool, bool]] = []
-    begin = t0_s if up[0] else None
-    rises = False
-    for c, is_rise in edges:
-        if is_rise:
-            begin, rises = c, True
-        elif begin is not None:
-            spans.append((begin, c, rises, True))
-            begin = None
-    if begin is not None:
-        spans.append((begin, t1_s, rises, False))
-
-    hour_angle = getattr(target, "hour_angle_deg", None)
-    out: list[RiseSet] = []
-    for s0, s1, r, st in spans:
-        out.extend(_split_and_describe(target, station, f, hour_angle, s0, s1, r, st, step_s))
-    return out
-
-
-def _split_and_describe(target, station, f, hour_angle, s0, s1, rises, sets, step_s):
-    """RiseSet(s) for one continuous visible span; cut at lower culminations if needed."""
-    transits: list[float] = []
-    cuts: list[float] = []
-    if hour_angle is not None:
-        t = np.linspace(s0, s1, max(3, int(np.ceil((s1 - s0) / step_s)) + 1))
-        ha = hour_angle(station, t)
-        d = np.diff(ha)
-        up_cross = np.flatnonzero((ha[:-1] < 0) & (ha[1:] >= 0) & (d < 180))
-        low_cross = np.flatnonzero(d < -180)  # HA wraps +180 -> -180: lower culmination
-
-        def ha_f(tt):
-            return -hour_angle(station, tt)  # >= 0 while before transit
-
-        transits = list(_bisect(ha_f, t[up_cross], t[up_cross + 1],
-                                np.ones(up_cross.size, bool)))
-        if len(transits) > 1:
-            def wrap_f(tt):
-                return np.where(hour_angle(station, tt) > 0, 0.0, -1.0)
-
-            cuts = list(_bisect(wrap_f, t[low_cross], t[low_cross + 1],
-                                np.ones(low_cross.size, bool)))
-    bounds = [s0, *cuts, s1]
-    pieces = []
-    for i in range(len(bounds) - 1):
-        a, b = bounds[i], bounds[i + 1]
-        r = rises if i == 0 else False
-        s = sets if i == len(bounds) - 2 else False
-        inside = [x for x in transits if a <= x <= b]
-        if inside:
-            tt = inside[0]
-        else:
-            grid = np.linspace(a, b, max(3, int(np.ceil((b - a) / step_s)) + 1))
-            k = int(np.argmax(f(grid)))
-            lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
-            if k in (0, grid.size - 1):
-                tt = float(grid[k])  # highest at a span end (window edge or a cut)
-            else:
-                tt = float(_refine_max(f, np.array([lo]), np.array([hi]))[0])
-        samples = target.observe(station, np.array([a, tt, b]) if a < tt < b
-                                 else np.array([a, b]))
-        if samples.t_s.size == 3:
-            az_r, az_t, az_s = samples.az_deg
-            el_t = samples.el_deg[1]
-        else:
-            az_r, az_s = samples.az_deg
-            az_t = az_r if tt <= a else az_s
-            el_t = samples.el_deg[0] if tt <= a else samples.el_deg[1]
-        el_max = float(np.nanmax(target.observe(
-            station, np.linspace(a, b, max(3, int(np.ceil((b - a) / step_s)) + 1))).el_deg))
-        pieces.append(RiseSet(target.name, target.kind, float(a), float(tt), float(b),
-                              float(az_r), float(az_t), float(az_s),
-                              max(float(el_t), el_max), r, s))
-    return pieces

@@ -4,11 +4,19 @@
 skyfield's ``find_events`` on a window padded by one orbit (so a pass in progress at the start
 gets its real AOS and one straddling the end its real LOS) at the *lowest* horizon level, and
 every other target (Sun, Moon, radio sources, schedules) from coarse vectorised sampling of
-``target.observe``. Both then share one refinement:
+``target.observe`` (a schedule file's own points are added to the grid). Both then share one
+refinement:
 
 * rise/set: the crossings of ``g(t) = el(t) - station.horizon_at(az(t))`` are bracketed on a
   grid and bisected to :data:`TIME_TOL_S`, all brackets at once (one vectorised call per step);
+  a target exactly on the horizon counts as up;
 * maximum: golden-section search on the elevation around the grid maximum, all passes at once.
+
+A target that supplies ``hour_angle_deg(station, t_s)`` (the Sun, Moon, planets and fixed
+sources in :mod:`tracker.celestial`) also gets the almanac's culminations: TCA is the upper
+transit (the hour angle's zero crossing) when one falls inside the pass, and a span holding
+more than one upper transit (a circumpolar body) is cut at its lower culminations, one pass per
+transit.
 
 So a horizon mask cuts a pass where the target really meets the obstruction, and a pass that
 dips behind an obstruction splits in two. Event codes follow skyfield: 0 rise, 1 culminate,
@@ -17,6 +25,7 @@ dips behind an obstruction splits in two. Event codes follow skyfield: 0 rise, 1
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import asdict, dataclass, field, replace
 from datetime import datetime
@@ -125,7 +134,7 @@ def _observe_any_order(target: Target, station: Station, t_s):
 
 
 def _margin_fn(azel, station: Station):
-    """``g(t) = el - horizon(az)``: > 0 while the target counts as up. NaN counts as down."""
+    """``g(t) = el - horizon(az)``: >= 0 while the target counts as up. NaN counts as down."""
 
     def g(t_s):
         az, el = azel(t_s)
@@ -135,8 +144,25 @@ def _margin_fn(azel, station: Station):
     return g
 
 
+def _up(margin: np.ndarray) -> np.ndarray:
+    """On or above the horizon counts as up (an azimuth-only schedule sits at el 0)."""
+    return margin >= 0.0
+
+
+def _hour_angle_fn(target: Target, station: Station):
+    """The target's ``t_s -> hour angle (deg, (-180, 180])``, or None if it has none."""
+    hour_angle = getattr(target, "hour_angle_deg", None)
+    if not callable(hour_angle):
+        return None
+
+    def ha(t_s):
+        return np.asarray(hour_angle(station, np.asarray(t_s, dtype=float)), dtype=float)
+
+    return ha
+
+
 def _bisect_crossings(g, lo: np.ndarray, hi: np.ndarray, up_lo: np.ndarray) -> np.ndarray:
-    """Refine sign changes of ``g`` in ``[lo, hi]`` (``up_lo`` = g(lo) > 0), all at once.
+    """Refine sign changes of ``g`` in ``[lo, hi]`` (``up_lo`` = g(lo) >= 0), all at once.
 
     Returns the end of the final bracket on the *up* side, so the target is never below the
     horizon at a reported AOS/LOS (it matters to whoever points an antenna there).
@@ -148,7 +174,7 @@ def _bisect_crossings(g, lo: np.ndarray, hi: np.ndarray, up_lo: np.ndarray) -> n
     width = float(np.max(hi - lo))
     for _ in range(max(1, math.ceil(math.log2(max(width, TIME_TOL_S) / TIME_TOL_S)))):
         mid = 0.5 * (lo + hi)
-        same = (g(mid) > 0) == up_lo
+        same = _up(g(mid)) == up_lo
         lo = np.where(same, mid, lo)
         hi = np.where(same, hi, mid)
     return np.where(up_lo, lo, hi)
@@ -224,15 +250,23 @@ def _satellite_spans(target: SatelliteTarget, station: Station, t0: float, t1: f
     return spans, s0, s1
 
 
+def _generic_step(target: Target) -> float:
+    return float(getattr(target, "search_step_s", 0) or GENERIC_STEP_S.get(
+        target.kind, DEFAULT_GENERIC_STEP_S))
+
+
 def _generic_spans(target: Target, station: Station, g, t0: float, t1: float
                    ) -> tuple[list[tuple[float, float, bool, bool]], float, float]:
-    step = float(getattr(target, "search_step_s", 0) or GENERIC_STEP_S.get(
-        target.kind, DEFAULT_GENERIC_STEP_S))
+    step = _generic_step(target)
     pad = float(getattr(target, "search_pad_s", 0) or GENERIC_PAD_S)
     s0, s1 = t0 - pad, t1 + pad
     n = max(3, math.ceil((s1 - s0) / step) + 1)
     t = np.linspace(s0, s1, n)
-    up = g(t) > 0
+    knots = getattr(target, "t_s", None)  # a schedule's own points are where el turns
+    if target.kind == "schedule" and knots is not None:
+        knots = np.asarray(knots, dtype=float)
+        t = np.unique(np.concatenate([t, knots[(knots > s0) & (knots < s1)]]))
+    up = _up(g(t))
     return _spans_from_grid(t, up, g), s0, s1
 
 
@@ -266,10 +300,61 @@ def _refine_against_mask(spans, g, s0: float, s1: float):
         step = 5.0 if hi - lo < 7200.0 else (hi - lo) / 1500.0
         n = max(3, math.ceil((hi - lo) / step) + 1)
         t = np.linspace(lo, hi, n)
-        up = g(t) > 0
+        up = _up(g(t))
         for c, d, c_known, d_known in _spans_from_grid(t, up, g):
             out.append((c, d, c_known or (c > lo), d_known or (d < hi)))
     return out
+
+
+# Culminations from the hour angle (targets that supply one) ------------------------------------
+
+
+def _culminations(ha_fn, bounds: list[tuple[float, float]], step: float
+                  ) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Per interval: the upper transits (hour angle rising through 0) and lower culminations
+    (the hour angle wrapping from +180 to -180), bracketed on one grid over every interval and
+    bisected to :data:`TIME_TOL_S`, all at once."""
+    grids = [np.linspace(lo, hi, max(3, math.ceil((hi - lo) / step) + 1)) for lo, hi in bounds]
+    t = np.concatenate(grids)
+    seg = np.repeat(np.arange(len(grids)), [len(g) for g in grids])
+    ha = ha_fn(t)
+    d = np.diff(ha)
+    inside = seg[1:] == seg[:-1]
+    upper = np.flatnonzero(inside & (ha[:-1] < 0) & (ha[1:] >= 0) & (d < 180))
+    lower = np.flatnonzero(inside & (d < -180))
+    idx = np.concatenate([upper, lower])
+    is_upper = np.arange(idx.size) < upper.size
+
+    def g(x):  # >= 0 before the crossing: -HA before a transit, HA before the wrap
+        h = ha_fn(x)
+        return np.where(is_upper, -h, np.where(h > 0, 1.0, -1.0))
+
+    when = _bisect_crossings(g, t[idx], t[idx + 1], np.ones(idx.size, dtype=bool))
+    which = seg[idx]
+    return ([when[is_upper & (which == k)] for k in range(len(grids))],
+            [when[~is_upper & (which == k)] for k in range(len(grids))])
+
+
+def _cut_at_culminations(spans, ha_fn, step: float, t0: float, t1: float):
+    """Spans cut at lower culminations when they hold more than one upper transit (a
+    circumpolar body: one piece per transit, as an almanac lists it). Returns the pieces, the
+    upper transit inside each (NaN if none) and whether each comes from a span that was up
+    over the whole search."""
+    bounds = [(a if a_known else max(a, t0), b if b_known else min(b, t1))
+              for a, b, a_known, b_known in spans]
+    transits, lowers = _culminations(ha_fn, bounds, step)
+    pieces, tca, always = [], [], []
+    for (a, b, a_known, b_known), (lo, hi), up, low in zip(spans, bounds, transits, lowers,
+                                                           strict=True):
+        edges = [lo, *(low.tolist() if len(up) > 1 else []), hi]
+        last = len(edges) - 2
+        for i, (x, y) in enumerate(itertools.pairwise(edges)):
+            pieces.append((a if i == 0 else x, b if i == last else y,
+                           a_known and i == 0, b_known and i == last))
+            hit = up[(up >= x) & (up <= y)]
+            tca.append(float(hit[0]) if hit.size else math.nan)
+            always.append(not a_known and not b_known)
+    return pieces, np.array(tca), np.array(always, dtype=bool)
 
 
 # The finder --------------------------------------------------------------------------------------
@@ -282,7 +367,9 @@ def find_passes(target: Target, station: Station, start: datetime | float,
     ``min_el_deg`` overrides the station's minimum elevation (the mask still applies). A pass
     in progress at ``start`` is included with its real AOS; one running past ``end`` with its
     real LOS. A target that never rises gives ``[]``; one that is up the whole time (GEO)
-    gives one Pass with ``always_up=True`` spanning the window. Raises
+    gives one Pass with ``always_up=True`` spanning the window, except that a target with an
+    hour angle (Sun, Moon, planets, fixed sources) is cut at its lower culminations, one Pass
+    per upper transit, and its TCA is the upper transit when one falls inside the pass. Raises
     :class:`~tracker.errors.PropagationError` for elements that cannot be propagated.
     """
     t0, t1 = to_posix(start), to_posix(end)
@@ -298,12 +385,24 @@ def find_passes(target: Target, station: Station, start: datetime | float,
     else:
         spans, s0, s1 = _generic_spans(target, station, g, t0, t1)
     spans = [s for s in spans if s[1] > t0 and s[0] < t1]
+    ha_fn = _hour_angle_fn(target, station)
+    transit = always = None
+    if spans and ha_fn is not None:
+        spans, transit, always = _cut_at_culminations(spans, ha_fn, _generic_step(target),
+                                                      t0, t1)
+        keep = np.array([s[1] > t0 and s[0] < t1 for s in spans], dtype=bool)
+        spans = [s for s, k in zip(spans, keep, strict=True) if k]
+        transit, always = transit[keep], always[keep]
     if not spans:
         return []
-    return _build_passes(target, station, spans, azel, t0, t1)
+    return _build_passes(target, station, spans, azel, t0, t1, transit, always)
 
 
-def _build_passes(target, station, spans, azel, t0: float, t1: float) -> list[Pass]:
+def _build_passes(target, station, spans, azel, t0: float, t1: float,
+                  transit: np.ndarray | None = None, always: np.ndarray | None = None
+                  ) -> list[Pass]:
+    """Pass values for refined spans; ``transit`` (NaN where none) overrides the TCA time and
+    ``always`` the always-up flag (both from the hour angle, for celestial targets)."""
     a = np.array([s[0] for s in spans])
     b = np.array([s[1] for s in spans])
     a_known = np.array([s[2] for s in spans])
@@ -336,11 +435,14 @@ def _build_passes(target, station, spans, azel, t0: float, t1: float) -> list[Pa
     max_el = np.maximum(tca_el, grid_max)
     if np.any(use_grid):
         tca_az = np.where(use_grid, azel(tca)[0], tca_az)
+    if transit is not None and np.any(np.isfinite(transit)):
+        tca, tca_az = _at_transit(azel, tca, tca_az, transit)
+    if always is None:
+        always = ~a_known & ~b_known
 
     sunlit, visible = _sunlit_visible(target, station, aos, los)
     passes = []
     for i in range(k):
-        always = not a_known[i] and not b_known[i]
         passes.append(Pass(
             target_name=target.name, kind=target.kind,
             aos=to_datetime(aos[i]), tca=to_datetime(tca[i]), los=to_datetime(los[i]),
@@ -348,10 +450,23 @@ def _build_passes(target, station, spans, azel, t0: float, t1: float) -> list[Pa
             tca_az_deg=float(tca_az[i]), los_az_deg=float(los_az[i]),
             duration_s=float(los[i] - aos[i]), sunlit=bool(sunlit[i]),
             visible=bool(visible[i]), in_progress_at_start=bool(a[i] < t0),
-            aos_known=bool(a_known[i]), los_known=bool(b_known[i]), always_up=always,
+            aos_known=bool(a_known[i]), los_known=bool(b_known[i]),
+            always_up=bool(always[i]),
             target=target, station=station))
     passes.sort(key=lambda p: p.aos)
     return passes
+
+
+def _at_transit(azel, tca: np.ndarray, tca_az: np.ndarray, transit: np.ndarray):
+    """TCA (and its azimuth) moved to the upper transit where a pass has one; the maximum
+    elevation stays the searched maximum (the Moon's highest point is minutes off transit)."""
+    has = np.isfinite(transit)
+    az_t, _ = azel(transit[has])
+    tca = tca.copy()
+    tca_az = np.asarray(tca_az, dtype=float).copy()
+    tca[has] = transit[has]
+    tca_az[has] = az_t
+    return tca, tca_az
 
 
 def _sunlit_visible(target, station: Station, aos: np.ndarray, los: np.ndarray):
