@@ -164,7 +164,10 @@ def test_tracker_track_through_rotctld_to_the_gs232b_emulator(tmp_path, capsys, 
 
     from tracker.cli import main
 
-    speed = 100.0     # rotctld paces its GS-232B backend in real time (50 ms per write)
+    # rotctld paces its GS-232B backend in real time (50 ms per write), and every reply comes
+    # through two more processes: at 100x a loaded machine's delays were seconds of simulated
+    # read-back lag, which the loop rightly judged inconsistent. At 25x they stay small.
+    speed = 25.0
     clock = SimClock(datetime.fromisoformat("2026-08-23T02:06:05+00:00"), speed=speed)
     ctrl = Gs232Controller("gs232b", preset("G-5500"), clock)
     server = serve_pty(ctrl)
