@@ -28,6 +28,7 @@ from tracker.errors import (
 )
 from tracker.protocols.base import Capabilities, Direction, RotatorDriver
 from tracker.protocols.framing import LineFramer
+from tracker.protocols.gs232_tables import encode_table_line, field3
 from tracker.transport import Port, io_clock
 
 CR = b"\r"
@@ -135,14 +136,7 @@ def get_profile(name: str | Gs232Profile) -> Gs232Profile:
 
 def fmt3(value: float, what: str, lo: float, hi: float) -> bytes:
     """``value`` rounded (half to even, like Hamlib's rint) as 3 zero-padded digits."""
-    try:
-        n = round(float(value))
-    except (TypeError, ValueError, OverflowError) as e:
-        raise LimitError(f"{what} {value!r} is not a number") from e
-    if not (lo <= n <= hi):
-        raise LimitError(f"{what} {value!r} deg is outside the controller range "
-                         f"{lo:g}..{hi:g} deg; nothing was sent")
-    return b"%03d" % n
+    return b"%03d" % field3(value, what, lo, hi)
 
 
 def encode_goto(az_deg: float, el_deg: float | None = None, *, az_max_deg: float = 450.0,
@@ -157,20 +151,15 @@ def encode_goto(az_deg: float, el_deg: float | None = None, *, az_max_deg: float
 def encode_table(interval_s: float, points: Sequence, *, az_max_deg: float = 450.0,
                  el_max_deg: float = 180.0) -> bytes:
     """Long form: ``Msss aaa bbb ...\\r`` for a list of azimuths, ``Wsss aaa eee ...\\r`` for a
-    list of (az, el) pairs."""
-    if isinstance(interval_s, float) and not interval_s.is_integer():
-        raise LimitError(f"table interval {interval_s!r} s must be a whole number of seconds")
-    parts = [fmt3(interval_s, "table interval", 1, 999)]
-    if not len(points):
-        raise LimitError("a step table needs at least one point")
-    pairs = not isinstance(points[0], (int, float))
-    for p in points:
-        if pairs:
-            az, el = p
-            parts += [fmt3(az, "azimuth", 0, az_max_deg), fmt3(el, "elevation", 0, el_max_deg)]
-        else:
-            parts.append(fmt3(p, "azimuth", 0, az_max_deg))
-    return (b"W" if pairs else b"M") + b" ".join(parts) + CR
+    list of (az, el) pairs. The line itself is ``gs232_tables.encode_table_line``'s."""
+    if len(points) and not isinstance(points[0], (int, float)):
+        pairs = [(a, e) for a, e in points]
+        az, el = [a for a, _ in pairs], [e for _, e in pairs]
+        line = encode_table_line("W", interval_s, az, el, az_max_deg=az_max_deg,
+                                 el_max_deg=el_max_deg)
+    else:
+        line = encode_table_line("M", interval_s, points, az_max_deg=az_max_deg)
+    return line.encode("ascii") + CR
 
 
 # Codec: replies --------------------------------------------------------------------------------
