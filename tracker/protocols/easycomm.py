@@ -16,7 +16,7 @@ from tracker.errors import ConfigError, ProtocolError, RotatorTimeout
 from tracker.protocols import easycomm_codec as codec
 from tracker.protocols.base import Capabilities, Direction, RotatorDriver
 from tracker.protocols.framing import LineFramer
-from tracker.protocols.rotorez import ByteLink
+from tracker.protocols.link import ByteLink
 from tracker.transport import Port
 
 BAUDRATE = 9600

@@ -10,38 +10,25 @@ from __future__ import annotations
 import math
 import numbers
 import re
-import threading
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any, Literal
 
-import serial
-
-from tracker.clock import Clock, SystemClock
+from tracker.clock import Clock
 from tracker.errors import (
     ConfigError,
     LimitError,
-    PortLostError,
     ProtocolError,
     RotatorTimeout,
 )
 from tracker.protocols.base import Capabilities, Direction, RotatorDriver
 from tracker.protocols.framing import LineFramer
 from tracker.protocols.gs232_tables import encode_table_line, field3
-from tracker.transport import Port, io_clock
+from tracker.protocols.link import ByteLink
+from tracker.transport import Port
 
 CR = b"\r"
 ERROR_REPLY = b"?>"
-
-try:  # tcflush/tcsetattr on a vanished tty raise termios.error, which is not an OSError
-    import termios
-
-    _PORT_ERRORS: tuple[type[BaseException], ...] = (serial.SerialException, OSError,
-                                                     termios.error)
-except ImportError:  # Windows
-    _PORT_ERRORS = (serial.SerialException, OSError)
-
 
 # Profiles -------------------------------------------------------------------------------------
 
@@ -296,18 +283,16 @@ class Gs232Driver(RotatorDriver):
         self.az_max_deg = float(az_max_deg)
         self._az_max_configured_deg = self.az_max_deg
         self.el_max_deg = float(el_max_deg)
-        self.pace_cmd_s = self.profile.pace_cmd_s if pace_cmd_s is None else float(pace_cmd_s)
-        self.pace_char_s = float(pace_char_s)
+        self.link = ByteLink(port, clock, (self.profile.pace_cmd_s if pace_cmd_s is None
+                                           else float(pace_cmd_s)), float(pace_char_s))
         self.ack_timeout_s = float(ack_timeout_s)
-        self.clock = clock or SystemClock()
-        self.io_clock = io_clock(port)      # deadlines and pacing: the wire's time
+        self.clock = self.link.clock
+        self.io_clock = self.link.io_clock      # deadlines and pacing: the wire's time
         self.capabilities = self.profile.capabilities(has_elevation, az_max_deg, el_max_deg)
         self.stop_on_exit = True
-        self._lock = threading.RLock()
+        self._lock = self.link.lock
         self._framer = LineFramer(b"\r\n", keep_empty=True)
         self._lines: list[bytes] = []
-        self._last_write = -1e9
-        self._closed = False
 
     @classmethod
     def from_url(cls, url: str, profile: str | Gs232Profile = "gs232b", *,
@@ -333,44 +318,24 @@ class Gs232Driver(RotatorDriver):
                 raise
         return drv
 
-    # Low-level I/O: the only place pyserial errors are translated --------------------------
+    @property
+    def pace_cmd_s(self) -> float:
+        return self.link.pace_cmd_s
 
-    @contextmanager
-    def _io(self, what: str) -> Iterator[None]:
-        if self._closed:
-            raise PortLostError(f"{what}: the port is closed")
-        try:
-            yield
-        except serial.SerialTimeoutException as e:
-            raise RotatorTimeout(f"{what}: write timed out (flow control holding? cable?)") \
-                from e
-        except _PORT_ERRORS as e:
-            raise PortLostError(f"{what}: port lost: {e}") from e
+    @property
+    def pace_char_s(self) -> float:
+        return self.link.pace_char_s
+
+    # Low-level I/O: the shared link (tracker.protocols.link) translates pyserial errors -------
 
     def _write(self, data: bytes) -> None:
-        wait = self._last_write + self.pace_cmd_s - self.io_clock.monotonic()
-        if wait > 0:
-            self.io_clock.sleep(wait)
-        with self._io(f"writing {data!r}"):
-            if self.pace_char_s > 0:
-                for i in range(len(data)):
-                    self.port.write(data[i:i + 1])
-                    self.port.flush()
-                    self.io_clock.sleep(self.pace_char_s)
-            else:
-                self.port.write(data)
-                self.port.flush()
-        self._last_write = self.io_clock.monotonic()
+        self.link.write(data)
 
     def _read_some(self, remaining_s: float) -> bytes:
-        with self._io("reading"):
-            self.port.timeout = max(0.001, min(remaining_s, 0.05))
-            n = self.port.in_waiting
-            return self.port.read(n if n > 0 else 1)
+        return self.link.read_some(remaining_s)
 
     def _flush(self) -> None:
-        with self._io("flushing input"):
-            self.port.reset_input_buffer()
+        self.link.flush_input()
         self._framer.clear()
         self._lines.clear()
 
@@ -520,17 +485,7 @@ class Gs232Driver(RotatorDriver):
         with self._lock:
             self._flush()
             self._write(cmd)
-            out = bytearray()
-            start = self.io_clock.monotonic()
-            last = start
-            while True:
-                now = self.io_clock.monotonic()
-                if now - start >= self.timeout_s or (out and now - last >= quiet_s):
-                    return bytes(out)
-                chunk = self._read_some(min(quiet_s, self.timeout_s - (now - start)))
-                if chunk:
-                    out += chunk
-                    last = self.io_clock.monotonic()
+            return self.link.collect(quiet_s, self.timeout_s)
 
     def help(self, page: int = 1) -> str:
         if page not in (1, 2, 3):
@@ -562,14 +517,7 @@ class Gs232Driver(RotatorDriver):
                                  f"GS-232B and retry within 15 s (received {bytes(seen)!r})")
 
     def close(self) -> None:
-        if self._closed:
-            return
-        self._closed = True
-        try:
-            self.port.close()
-        except _PORT_ERRORS:
-            # The port is already gone (unplugged, peer closed); closing cannot fail usefully.
-            return
+        self.link.close()
 
 
 def open_gs232(protocol: str, url: str, **kw: Any) -> Gs232Driver:

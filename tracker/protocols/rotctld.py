@@ -27,7 +27,7 @@ from tracker.errors import (
     RotatorTimeout,
 )
 from tracker.protocols.base import Capabilities, Direction, RotatorDriver
-from tracker.protocols.rotorez import ByteLink
+from tracker.protocols.link import ByteLink
 from tracker.transport import Port
 
 DEFAULT_PORT = 4533

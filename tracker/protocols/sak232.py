@@ -16,7 +16,8 @@ from tracker.clock import Clock
 from tracker.errors import LimitError
 from tracker.mount import RotatorSpec
 from tracker.protocols.base import Capabilities, Direction, RotatorDriver
-from tracker.protocols.rotorez import ByteLink, open_loop_estimate
+from tracker.protocols.link import ByteLink
+from tracker.protocols.rotorez import open_loop_estimate
 from tracker.transport import Port
 
 BAUDRATE = 9600
