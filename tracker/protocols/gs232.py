@@ -21,10 +21,10 @@ from tracker.errors import (
     ProtocolError,
     RotatorTimeout,
 )
-from tracker.protocols.base import Capabilities, Direction, RotatorDriver
+from tracker.protocols.base import Capabilities, Direction
 from tracker.protocols.framing import LineFramer
 from tracker.protocols.gs232_tables import encode_table_line, field3
-from tracker.protocols.link import ByteLink
+from tracker.protocols.link import ByteLink, LinkDriver, driver_on_port
 from tracker.transport import Port
 
 CR = b"\r"
@@ -252,7 +252,7 @@ _DIRECTIONS: dict[str, bytes] = {"cw": b"R", "ccw": b"L", "up": b"U", "down": b"
                                  "right": b"R", "left": b"L"}
 
 
-class Gs232Driver(RotatorDriver):
+class Gs232Driver(LinkDriver):
     """Driver for one GS-232-class controller on an open port.
 
     One request at a time (a lock); stale input is flushed before each request; each read is
@@ -262,6 +262,8 @@ class Gs232Driver(RotatorDriver):
     harmless). Profiles without handshake get at least ``pace_cmd_s`` between commands and
     optionally ``pace_char_s`` between bytes.
     """
+
+    raw_terminator = CR
 
     def __init__(self, port: Port, profile: str | Gs232Profile = "gs232b", *,
                  timeout_s: float = 1.0, retries: int = 2, has_elevation: bool = True,
@@ -299,17 +301,10 @@ class Gs232Driver(RotatorDriver):
                  baudrate: int | None = None, rtscts: bool | None = None,
                  autobaud: bool = False, **kw: Any) -> Gs232Driver:
         """Open ``url`` (any pyserial URL) with the profile's serial settings."""
-        from tracker.transport import open_port
-
         prof = get_profile(profile)
-        port = open_port(url, baudrate=baudrate or prof.baudrate, timeout_s=0.05,
-                         rtscts=prof.rtscts if rtscts is None else rtscts,
-                         clock=kw.get("clock"))
-        try:
-            drv = cls(port, prof, **kw)
-        except BaseException:
-            port.close()
-            raise
+        drv = driver_on_port(cls, url, prof, port_kw=dict(
+            baudrate=baudrate or prof.baudrate, timeout_s=0.05,
+            rtscts=prof.rtscts if rtscts is None else rtscts, clock=kw.get("clock")), **kw)
         if autobaud:
             try:
                 drv.autobaud()
@@ -334,7 +329,7 @@ class Gs232Driver(RotatorDriver):
     def _read_some(self, remaining_s: float) -> bytes:
         return self.link.read_some(remaining_s)
 
-    def _flush(self) -> None:
+    def _flush_input(self) -> None:
         self.link.flush_input()
         self._framer.clear()
         self._lines.clear()
@@ -361,7 +356,7 @@ class Gs232Driver(RotatorDriver):
         last: Exception | None = None
         with self._lock:
             for _attempt in range(1 + self.retries):
-                self._flush()
+                self._flush_input()
                 self._write(cmd + CR)
                 line = self._next_line(self.io_clock.monotonic() + self.timeout_s)
                 if line is None:
@@ -385,7 +380,7 @@ class Gs232Driver(RotatorDriver):
     def _command(self, cmd: bytes) -> None:
         """Send a set/move command; profiles that acknowledge get their ack consumed."""
         with self._lock:
-            self._flush()
+            self._flush_input()
             self._write(cmd + CR)
             if not self.profile.set_ack and not self.profile.k3ng_messages:
                 return
@@ -480,30 +475,16 @@ class Gs232Driver(RotatorDriver):
     def table_status(self) -> tuple[int | None, int]:
         return parse_table_status(self._query(b"N"))
 
-    def _collect(self, cmd: bytes, quiet_s: float) -> bytes:
-        """Send ``cmd`` and gather raw bytes until ``quiet_s`` without input or the timeout."""
-        with self._lock:
-            self._flush()
-            self._write(cmd)
-            return self.link.collect(quiet_s, self.timeout_s)
-
     def help(self, page: int = 1) -> str:
         if page not in (1, 2, 3):
             raise ValueError("help page must be 1, 2 or 3")
         cmd = b"H" if page == 1 else b"H%d" % page
         return self._collect(cmd + CR, 0.2).decode("ascii", "replace")
 
-    def raw(self, cmd: str | bytes, quiet_s: float = 0.2) -> bytes:
-        """Send one command line (CR added) and return whatever came back, maybe b''."""
-        data = cmd.encode("ascii") if isinstance(cmd, str) else bytes(cmd)
-        if not data.endswith(CR):
-            data += CR
-        return self._collect(data, quiet_s)
-
     def autobaud(self, attempts: int = 10, interval_s: float = 0.3) -> None:
         """GS-232B power-up autobaud: send CR until the unit says Connect OK (bounded)."""
         with self._lock:
-            self._flush()
+            self._flush_input()
             seen = bytearray()
             for _ in range(attempts):
                 self._write(CR)
@@ -511,13 +492,10 @@ class Gs232Driver(RotatorDriver):
                 while self.io_clock.monotonic() < deadline:
                     seen += self._read_some(deadline - self.io_clock.monotonic())
                     if b"CONNECT OK" in seen.upper():
-                        self._flush()
+                        self._flush_input()
                         return
             raise RotatorTimeout(f"no 'Connect OK' after {attempts} CRs; power-cycle the "
                                  f"GS-232B and retry within 15 s (received {bytes(seen)!r})")
-
-    def close(self) -> None:
-        self.link.close()
 
 
 def open_gs232(protocol: str, url: str, **kw: Any) -> Gs232Driver:

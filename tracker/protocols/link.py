@@ -11,15 +11,17 @@ from __future__ import annotations
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import serial
 
 from tracker.clock import Clock, SystemClock
 from tracker.errors import PortLostError, RotatorTimeout
+from tracker.protocols.base import RotatorDriver
 from tracker.transport import Port, io_clock
 
 T = TypeVar("T")
+D = TypeVar("D")
 
 try:  # tcflush/tcsetattr on a vanished tty raise termios.error, which is not an OSError
     import termios
@@ -123,3 +125,52 @@ class ByteLink:
             self.port.close()
         except PORT_ERRORS:
             return  # already gone (unplugged, peer closed): nothing left to release
+
+
+def driver_on_port(make: Callable[..., D], url: str, *args: Any,
+                   port_kw: dict[str, Any] | None = None, **kw: Any) -> D:
+    """Every driver's ``from_url``: open ``url`` (:func:`tracker.transport.open_port`, with
+    ``port_kw``) and build the driver on it with ``make(port, *args, **kw)``; a driver that
+    cannot be built (bad option) closes the port it would have owned."""
+    from tracker.transport import open_port
+
+    port = open_port(url, **(port_kw or {}))
+    try:
+        return make(port, *args, **kw)
+    except BaseException:
+        port.close()
+        raise
+
+
+class LinkDriver(RotatorDriver):
+    """A driver that talks through a :class:`ByteLink`: ``raw`` and ``close`` for all of them.
+
+    ``raw_terminator`` is appended to a raw command that lacks it (b"" for controllers
+    without line framing); :meth:`_flush_input` is overridden by drivers that also buffer
+    what they have read (a line framer).
+    """
+
+    link: ByteLink
+    timeout_s: float
+    raw_terminator: bytes = b""
+
+    def _flush_input(self) -> None:
+        self.link.flush_input()
+
+    def _collect(self, data: bytes, quiet_s: float) -> bytes:
+        """Send ``data`` and gather raw bytes until ``quiet_s`` without input or the timeout."""
+        with self.link.lock:
+            self._flush_input()
+            self.link.write(data)
+            return self.link.collect(quiet_s, self.timeout_s)
+
+    def raw(self, cmd: str | bytes, quiet_s: float = 0.2) -> bytes:
+        """Send one command (the terminator added if missing) and return whatever came back,
+        maybe b''."""
+        data = cmd.encode("ascii") if isinstance(cmd, str) else bytes(cmd)
+        if self.raw_terminator and not data.endswith(self.raw_terminator):
+            data += self.raw_terminator
+        return self._collect(data, quiet_s)
+
+    def close(self) -> None:
+        self.link.close()

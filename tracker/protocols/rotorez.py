@@ -24,8 +24,8 @@ from typing import Any, Literal
 from tracker.clock import Clock
 from tracker.errors import ConfigError, LimitError, RotatorTimeout
 from tracker.mount import AxisMotor, RotatorSpec
-from tracker.protocols.base import Capabilities, Direction, RotatorDriver
-from tracker.protocols.link import ByteLink
+from tracker.protocols.base import Capabilities, Direction
+from tracker.protocols.link import ByteLink, LinkDriver, driver_on_port
 from tracker.transport import Port
 
 BAUDRATE = 4800
@@ -124,7 +124,7 @@ def parse_ai_reply(buf: bytes, accept_old: bool = False) -> int | None:
     return None
 
 
-class RotorEzDriver(RotatorDriver):
+class RotorEzDriver(LinkDriver):
     """Rotor-EZ / RotorCard (``variant="rotorez"``) or DCU-1 (``variant="dcu1"``).
 
     ``set_style``: "cr" sends ``AP1ddd\\r`` (set and go, Rotor-EZ), "am" sends ``AP1ddd;``
@@ -169,15 +169,8 @@ class RotorEzDriver(RotatorDriver):
     @classmethod
     def from_url(cls, url: str, variant: Literal["rotorez", "dcu1"] = "rotorez", *,
                  baudrate: int | None = None, **kw: Any) -> RotorEzDriver:
-        from tracker.transport import open_port
-
-        port = open_port(url, baudrate=baudrate or BAUDRATE, timeout_s=0.05,
-                         clock=kw.get("clock"))
-        try:
-            return cls(port, variant, **kw)
-        except BaseException:
-            port.close()
-            raise
+        return driver_on_port(cls, url, variant, port_kw=dict(
+            baudrate=baudrate or BAUDRATE, timeout_s=0.05, clock=kw.get("clock")), **kw)
 
     # Public API --------------------------------------------------------------------------------
 
@@ -241,16 +234,6 @@ class RotorEzDriver(RotatorDriver):
             raw = self.link.collect(0.2, self.timeout_s)
         return raw.decode("ascii", "ignore").strip()
 
-    def raw(self, cmd: str | bytes, quiet_s: float = 0.2) -> bytes:
-        """Send bytes exactly as given (no terminator added) and return what came back."""
-        data = cmd.encode("ascii") if isinstance(cmd, str) else bytes(cmd)
-        with self.link.lock:
-            self.link.flush_input()
-            self.link.write(data)
-            return self.link.collect(quiet_s, self.timeout_s)
-
-    def close(self) -> None:
-        self.link.close()
 
 
 def open_rotorez(protocol: str, url: str, **kw: Any) -> RotorEzDriver:
