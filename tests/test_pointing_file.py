@@ -180,6 +180,7 @@ def test_schedule_round_trips_into_a_step_table():
     wire resolution plus the slow sweep's motion within a hold window)."""
     steptable = pytest.importorskip("tracker.steptable")
     from tracker.mount import preset
+    from tracker.protocols.gs232_tables import decode_table_line
     from tracker.skytrack import angular_separation_deg
 
     target = ScheduleTarget.load(SWEEP)
@@ -188,10 +189,10 @@ def test_schedule_round_trips_into_a_step_table():
                                      STATION, "gs232b", interval_s=10)
     points = []
     for line in program.lines():
-        kind, interval, nums = steptable.parse_table_line(line)
+        kind, interval, az, el = decode_table_line(line)
         if kind == "W":
-            assert interval == 10
-            points += list(zip(nums[0::2], nums[1::2], strict=True))
+            assert interval == 10 and el is not None
+            points += list(zip(az, el, strict=True))
     t = np.concatenate([table.command_times() for table in program.tables])
     assert len(points) == len(t) == program.points > 250  # 48 min at 10 s, one table
     az = np.array([a for a, _ in points], dtype=float) % 360.0

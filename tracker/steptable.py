@@ -35,13 +35,17 @@ from tle.textfile import read_text_file
 from tracker.controllers import find
 from tracker.errors import ConfigError, LimitError, with_advice
 from tracker.mount import AxisMotor, MotorModel, RotatorSpec
+from tracker.protocols.gs232_tables import (
+    INTERVAL_MAX_S,
+    INTERVAL_MIN_S,
+    decode_table_line,
+    encode_table_line,
+)
 from tracker.skytrack import SkyTrack, azel_to_enu
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
     from tracker.station import Station
 
-INTERVAL_MIN_S = 1
-INTERVAL_MAX_S = 999
 # Host-side margin so the pre-position finishes before AOS even with a slow first reply.
 PREPOSITION_MARGIN_S = 5.0
 BITS_PER_BYTE = 10  # 8N1: start + 8 data + stop
@@ -242,7 +246,7 @@ class StepTable:
         """The exact command lines (without CR), validated against the profile."""
         validate_table(self)
         return _encode_lines(self.kind, self.interval_s, self.az_deg, self.el_deg,
-                             self._points_per_line())
+                             self._points_per_line(), self.profile)
 
     def encode(self) -> bytes:
         return "".join(line + "\r" for line in self.lines()).encode("ascii")
@@ -280,18 +284,16 @@ class StepTable:
 
 
 def _encode_lines(kind: str, interval_s: int, az: Sequence[float] | np.ndarray,
-                  el: Sequence[float] | np.ndarray | None, per_line: int) -> list[str]:
-    az = [int(a) for a in az]
+                  el: Sequence[float] | np.ndarray | None, per_line: int,
+                  profile: TableProfile) -> list[str]:
+    """The table as long-form lines of at most ``per_line`` points (the shared GS-232 codec)."""
     lines = []
     for lo in range(0, len(az), per_line):
-        if kind == "W":
-            assert el is not None, "a W table has elevations"
-            body = "".join(f" {a:03d} {int(e):03d}"
-                           for a, e in zip(az[lo:lo + per_line], el[lo:lo + per_line],
-                                           strict=True))
-        else:
-            body = "".join(f" {a:03d}" for a in az[lo:lo + per_line])
-        lines.append(f"{kind}{int(interval_s):03d}{body}")
+        hi = lo + per_line
+        lines.append(encode_table_line(kind, interval_s, az[lo:hi],
+                                       None if el is None else el[lo:hi],
+                                       az_max_deg=profile.az_max_deg(kind),
+                                       el_max_deg=profile.el_max_deg))
     return lines
 
 
@@ -878,40 +880,25 @@ def _check_header_agrees(path: Path, header: dict, first: StepTable) -> None:
                           f"`tracker plan ... --steptable FILE`")
 
 
-def parse_table_line(line: str) -> tuple[str, int, list[int]]:
-    """``W005 010 020 ...`` -> ("W", 5, [10, 20, ...]); raises ValueError if malformed."""
-    kind = line[:1].upper()
-    parts = line[1:].split(" ")
-    if kind not in ("W", "M") or len(parts) < 2 or any(
-            len(p) != 3 or not p.isdigit() for p in parts):
-        raise ValueError(line)
-    nums = [int(p) for p in parts]
-    return kind, nums[0], nums[1:]
-
-
 def _table_from_lines(cur: dict, profile: TableProfile, path: Path, t_no: int
                       ) -> StepTable:
-    kinds, intervals, values = set(), set(), []
+    kinds, intervals, az_list, el_list = set(), set(), [], []
     where = f"{path}:{t_no}"
     for no, line in cur["lines"]:
         try:
-            kind, sss, nums = parse_table_line(line)
+            decoded = decode_table_line(line)
         except ValueError:
             raise ConfigError(f"{path}:{no}: not a long-form W/M line: {line[:40]!r}; expected "
                               f"'Wsss aaa eee ...' or 'Msss aaa ...' with 3-digit numbers"
                               ) from None
-        kinds.add(kind)
-        intervals.add(sss)
-        values += nums
+        kinds.add(decoded.kind)
+        intervals.add(decoded.interval_s)
+        az_list += decoded.az
+        el_list += decoded.el or []
     if len(kinds) != 1 or len(intervals) != 1:
         raise ConfigError(f"{where}: a table mixes W/M or intervals")
     kind, sss = kinds.pop(), intervals.pop()
-    if kind == "W":
-        if len(values) % 2:
-            raise ConfigError(f"{where}: W table has an odd number of angles")
-        az, el = np.array(values[0::2]), np.array(values[1::2])
-    else:
-        az, el = np.array(values), None
+    az, el = np.array(az_list), (np.array(el_list) if kind == "W" else None)
     table = StepTable(kind, sss, float(profile.period_s(sss)), az, el, cur["upload"],
                       cur["arrive"], cur["start"], profile)
     if table.lines() != [line for _, line in cur["lines"]]:

@@ -40,6 +40,7 @@ from tracker.errors import (
 )
 from tracker.mount import RotatorSpec
 from tracker.protocols.gs232 import is_error_reply
+from tracker.protocols.gs232_tables import decode_table_line
 from tracker.stall import STILL_DEG, TableWatch, stall_error
 from tracker.steptable import BITS_PER_BYTE, StepTable
 
@@ -163,11 +164,10 @@ class TableRunner:
     def _send_line(self, table: StepTable, line: str) -> None:
         # The driver encodes the same line from the points (shared codec) and applies the
         # profile's flow control and pacing; cross-check so what we logged is what went out.
-        from tracker.steptable import parse_table_line
-
-        kind, sss, nums = parse_table_line(line)
-        points = list(zip(nums[0::2], nums[1::2], strict=True)) if kind == "W" else nums
-        self.driver.upload_table(sss, points)
+        decoded = decode_table_line(line)
+        points = (decoded.az if decoded.el is None
+                  else list(zip(decoded.az, decoded.el, strict=True)))
+        self.driver.upload_table(decoded.interval_s, points)
 
     def _send_t(self, table: StepTable) -> None:
         self._wait_until(table.start_t_s)

@@ -53,6 +53,28 @@ def test_encode_table_forms():
         encode_table(5, [])
 
 
+def test_table_line_codec_round_trips_and_is_shared():
+    from tracker.protocols.gs232_tables import decode_table_line, encode_table_line
+
+    assert encode_table_line("W", 5, [10, 360], [20, 180]) == "W005 010 020 360 180"
+    assert encode_table_line("M", 1, [0, 450.0]) == "M001 000 450"
+    assert encode_table(5, [(10, 20), (360, 180)]) == b"W005 010 020 360 180\r"
+    assert decode_table_line("W005 010 020 360 180") == ("W", 5, [10, 360], [20, 180])
+    assert decode_table_line(b"M001 000 450") == ("M", 1, [0, 450], None)
+    with pytest.raises(LimitError, match=re.escape("outside the controller range 0..360")):
+        encode_table_line("M", 5, [361], az_max_deg=360)
+    # A plan file holds exactly the encoder's format; a controller takes 1-3 digits, any blanks.
+    for bad in ("W005 010", "W005  010 020", "M05 010", "X005 010", "M005", "M005 010 "):
+        with pytest.raises(ValueError):
+            decode_table_line(bad)
+    assert decode_table_line("M5  10 2", strict=False) == ("M", 5, [10, 2], None)
+    # Ranges are checked when the caller gives the controller's limits.
+    assert decode_table_line("W001 450 180", az_max_deg=450).az == [450]
+    for bad in ("W000 010 020", "W001 451 000", "W001 000 181", "M001 361"):
+        with pytest.raises(ValueError):
+            decode_table_line(bad, az_max_deg=360 if bad.startswith("M") else 450)
+
+
 @pytest.mark.parametrize(("line", "want"), [
     (b"AZ=143  EL=001", (143.0, 1.0)),
     (b"AZ=143 EL=001\r\n", (143.0, 1.0)),

@@ -36,12 +36,15 @@ from tracker.emulator.gs232_controller import (
 from tracker.mount import PRESETS, AxisMotor, RotatorSpec
 from tracker.protocols.azaz import AZAZ_PROFILE
 from tracker.protocols.gs232 import format_table_status
+from tracker.protocols.gs232_tables import decode_table_line
 
 AZ_360 = PRESETS["AZ-360"]
 SET3 = ("U", "D", "E", "ZB", "P36B", "P45B", "TB", "NB", "O2B", "FB", "FB2")
 
 
 class AzAzController(Gs232Controller):
+    el_field_max_deg = 360            # the second field of W is azimuth 2
+
     def __init__(self, spec: RotatorSpec | None = None, spec2: RotatorSpec | None = None,
                  clock: Clock | None = None, options: EmulatorOptions | None = None,
                  az_deg: float | None = None, az2_deg: float | None = None,
@@ -76,10 +79,6 @@ class AzAzController(Gs232Controller):
         if self.sync_offset is not None and az is not None:
             el = self._follow(self._mech_of_wire(az))
         super()._goto(t, az, el)
-
-    def _parse_ints(self, args: list[str], lo: int, hi: int) -> list[int] | None:
-        # Every 0-180 range in the base interpreter is the elevation channel: azimuth 2 here.
-        return super()._parse_ints(args, lo, 360 if hi == 180 else hi)
 
     def _with_table_b(self, fn):
         saved, self.table = self.table, self.table_b
@@ -164,14 +163,16 @@ class AzAzController(Gs232Controller):
                 self.table_b.running = False
             self.motor.el.command(v[0], t)
             return self._ack()
-        interval = self._parse_ints(args[:1], 1, 999)
-        angles = self._parse_ints(args[1:], 0, 360)
+        try:   # MBsss aaa ... is the long-form M line of antenna 2: the shared codec
+            decoded = decode_table_line("M" + " ".join(args), strict=False, az_max_deg=360)
+        except ValueError:
+            decoded = None
         p = self.profile
-        if interval is None or angles is None or not (
-                p.min_table_points <= len(angles) <= p.max_table_points):
+        if decoded is None or not (p.min_table_points <= len(decoded.az) <= p.max_table_points):
             self.table_b = None
             return self._err()
-        self.table_b = _Table(interval_s=interval[0], points=[(None, a) for a in angles])
+        angles = decoded.az
+        self.table_b = _Table(interval_s=decoded.interval_s, points=[(None, a) for a in angles])
         self.motor.el.command(angles[0], t)
         return self._ack()
 

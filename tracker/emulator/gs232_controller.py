@@ -29,6 +29,7 @@ from tracker.protocols.gs232 import (
     format_table_status,
     get_profile,
 )
+from tracker.protocols.gs232_tables import decode_table_line
 
 # What a GS-232B reads while the rotator's own control box is switched off (captured on real units).
 OFF_AZ, OFF_EL = -1, -2
@@ -92,6 +93,9 @@ class _SessionState:
 
 class Gs232Controller:
     """The controller state machine for one profile, driving :class:`MotorModel`."""
+
+    # The largest value the second field of W takes (elevation; AZ/AZ: azimuth 2).
+    el_field_max_deg = 180
 
     def __init__(self, profile: str | Gs232Profile = "gs232b", spec: RotatorSpec | None = None,
                  clock: Clock | None = None, options: EmulatorOptions | None = None,
@@ -348,7 +352,7 @@ class Gs232Controller:
             return self._data(format_table_status(p, self.table.index + 1,
                                                   len(self.table.points)))
         if head in ("M", "W"):
-            return self._set_command(head, args, t)
+            return self._set_command(line, args, t)
         return self._err()
 
     def _parse_ints(self, args: list[str], lo: int, hi: int) -> list[int] | None:
@@ -362,8 +366,9 @@ class Gs232Controller:
             out.append(v)
         return out
 
-    def _set_command(self, head: str, args: list[str], t: float) -> bytes:
-        p = self.profile
+    def _set_command(self, line: str, args: list[str], t: float) -> bytes:
+        """M/W, short form (go to) or long form (a table, the shared codec decodes it)."""
+        p, head = self.profile, line[0]
         az_max = self._wire_az_max()
         if not args:
             self.table = None               # manual: "?>" returned, memories still cleared
@@ -371,7 +376,7 @@ class Gs232Controller:
         short = (head == "M" and len(args) == 1) or (head == "W" and len(args) == 2)
         if short:
             az = self._parse_ints(args[:1], 0, az_max)
-            el = self._parse_ints(args[1:], 0, 180)
+            el = self._parse_ints(args[1:], 0, self.el_field_max_deg)
             if az is None or el is None:
                 return self._err()
             if self.table:
@@ -380,21 +385,19 @@ class Gs232Controller:
                     self.table = None
             self._goto(t, az[0], el[0] if el else None)
             return self._ack()
-        interval = self._parse_ints(args[:1], 1, 999)
-        values = args[1:]
-        if head == "M":
-            angles = self._parse_ints(values, 0, az_max)
-            ok = angles is not None and p.min_table_points <= len(values) <= p.max_table_points
-            points = [(a, None) for a in (angles or [])]
-        else:
-            ok = len(values) % 2 == 0 and 1 <= len(values) // 2 <= p.max_table_pairs
-            az = self._parse_ints(values[0::2], 0, az_max)
-            el = self._parse_ints(values[1::2], 0, 180)
-            ok = ok and az is not None and el is not None
-            points = list(zip(az or [], el or [], strict=False))
-        if interval is None or not ok:
+        try:
+            decoded = decode_table_line(line, strict=False, az_max_deg=az_max,
+                                        el_max_deg=self.el_field_max_deg)
+        except ValueError:
+            decoded = None
+        if decoded is None or not (
+                (p.min_table_points if head == "M" else 1) <= len(decoded.az)
+                <= (p.max_table_points if head == "M" else p.max_table_pairs)):
             self.table = None
             return self._err()
+        points: list[tuple[int, int | None]] = (
+            [(a, None) for a in decoded.az] if decoded.el is None
+            else list(zip(decoded.az, decoded.el, strict=True)))
         if head == "W" and p.k3ng_messages and self.table is not None \
                 and not self.table.running:
             # K3NG firmware: long-form W does not clear the list, it appends (docs/protocols.md,
@@ -403,7 +406,7 @@ class Gs232Controller:
             if len(points) > p.max_table_pairs:
                 self.table = None
                 return self._err()
-        self.table = _Table(interval_s=interval[0], points=points)
+        self.table = _Table(interval_s=decoded.interval_s, points=points)
         self._goto(t, *points[0])
         return self._ack()
 

@@ -35,6 +35,7 @@ from tracker.protocols.gs232 import (
     fmt3,
     parse_table_status,
 )
+from tracker.protocols.link import driver_on_port
 from tracker.transport import Port
 
 AZAZ_PROFILE = Gs232Profile(
@@ -65,15 +66,9 @@ class AzAzDriver(RotatorDriver):
     @classmethod
     def from_url(cls, url: str, *, baudrate: int | None = None, rtscts: bool = False,
                  **kw: Any) -> AzAzDriver:
-        from tracker.transport import open_port
-
-        port = open_port(url, baudrate=baudrate or AZAZ_PROFILE.baudrate, timeout_s=0.05,
-                         rtscts=rtscts, clock=kw.get("clock"))
-        try:
-            return cls(port, **kw)
-        except BaseException:
-            port.close()
-            raise
+        return driver_on_port(cls, url, port_kw=dict(
+            baudrate=baudrate or AZAZ_PROFILE.baudrate, timeout_s=0.05, rtscts=rtscts,
+            clock=kw.get("clock")), **kw)
 
     def axis(self, n: Literal[1, 2]) -> AzAzAxis:
         if n not in (1, 2):

@@ -14,18 +14,20 @@ from typing import Any, Literal
 from tracker.clock import Clock
 from tracker.errors import ConfigError, ProtocolError, RotatorTimeout
 from tracker.protocols import easycomm_codec as codec
-from tracker.protocols.base import Capabilities, Direction, RotatorDriver
+from tracker.protocols.base import Capabilities, Direction
 from tracker.protocols.framing import LineFramer
-from tracker.protocols.rotorez import ByteLink
+from tracker.protocols.link import ByteLink, LinkDriver, driver_on_port
 from tracker.transport import Port
 
 BAUDRATE = 9600
 DIALECTS = ("easycomm2", "easycomm3")
 
 
-class EasycommDriver(RotatorDriver):
+class EasycommDriver(LinkDriver):
     """One Easycomm controller. ``retries``: extra attempts of a query that timed out or got
     an unreadable reply (set and move commands are never repeated)."""
+
+    raw_terminator = codec.EOL
 
     def __init__(self, port: Port, protocol: str = "easycomm2", *, timeout_s: float = 1.0,
                  retries: int = 2, pace_cmd_s: float = 0.0, clock: Clock | None = None,
@@ -53,15 +55,8 @@ class EasycommDriver(RotatorDriver):
     @classmethod
     def from_url(cls, url: str, protocol: str = "easycomm2", *, baudrate: int | None = None,
                  **kw: Any) -> EasycommDriver:
-        from tracker.transport import open_port
-
-        port = open_port(url, baudrate=baudrate or BAUDRATE, timeout_s=0.05,
-                         clock=kw.get("clock"))
-        try:
-            return cls(port, protocol, **kw)
-        except BaseException:
-            port.close()
-            raise
+        return driver_on_port(cls, url, protocol, port_kw=dict(
+            baudrate=baudrate or BAUDRATE, timeout_s=0.05, clock=kw.get("clock")), **kw)
 
     # Requests ----------------------------------------------------------------------------------
 
@@ -123,17 +118,6 @@ class EasycommDriver(RotatorDriver):
     def move(self, direction: Direction) -> None:
         self._send(codec.MOVE[direction])
 
-    def raw(self, cmd: str | bytes, quiet_s: float = 0.2) -> bytes:
-        data = cmd.encode("ascii") if isinstance(cmd, str) else bytes(cmd)
-        if not data.endswith(codec.EOL):
-            data += codec.EOL
-        with self.link.lock:
-            self.link.flush_input()
-            self.link.write(data)
-            return self.link.collect(quiet_s, self.timeout_s)
-
-    def close(self) -> None:
-        self.link.close()
 
 
 def open_easycomm(protocol: str, url: str, **kw: Any) -> EasycommDriver:

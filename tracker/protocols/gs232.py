@@ -10,37 +10,25 @@ from __future__ import annotations
 import math
 import numbers
 import re
-import threading
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any, Literal
 
-import serial
-
-from tracker.clock import Clock, SystemClock
+from tracker.clock import Clock
 from tracker.errors import (
     ConfigError,
     LimitError,
-    PortLostError,
     ProtocolError,
     RotatorTimeout,
 )
-from tracker.protocols.base import Capabilities, Direction, RotatorDriver
+from tracker.protocols.base import Capabilities, Direction
 from tracker.protocols.framing import LineFramer
-from tracker.transport import Port, io_clock
+from tracker.protocols.gs232_tables import encode_table_line, field3
+from tracker.protocols.link import ByteLink, LinkDriver, driver_on_port
+from tracker.transport import Port
 
 CR = b"\r"
 ERROR_REPLY = b"?>"
-
-try:  # tcflush/tcsetattr on a vanished tty raise termios.error, which is not an OSError
-    import termios
-
-    _PORT_ERRORS: tuple[type[BaseException], ...] = (serial.SerialException, OSError,
-                                                     termios.error)
-except ImportError:  # Windows
-    _PORT_ERRORS = (serial.SerialException, OSError)
-
 
 # Profiles -------------------------------------------------------------------------------------
 
@@ -135,14 +123,7 @@ def get_profile(name: str | Gs232Profile) -> Gs232Profile:
 
 def fmt3(value: float, what: str, lo: float, hi: float) -> bytes:
     """``value`` rounded (half to even, like Hamlib's rint) as 3 zero-padded digits."""
-    try:
-        n = round(float(value))
-    except (TypeError, ValueError, OverflowError) as e:
-        raise LimitError(f"{what} {value!r} is not a number") from e
-    if not (lo <= n <= hi):
-        raise LimitError(f"{what} {value!r} deg is outside the controller range "
-                         f"{lo:g}..{hi:g} deg; nothing was sent")
-    return b"%03d" % n
+    return b"%03d" % field3(value, what, lo, hi)
 
 
 def encode_goto(az_deg: float, el_deg: float | None = None, *, az_max_deg: float = 450.0,
@@ -157,20 +138,15 @@ def encode_goto(az_deg: float, el_deg: float | None = None, *, az_max_deg: float
 def encode_table(interval_s: float, points: Sequence, *, az_max_deg: float = 450.0,
                  el_max_deg: float = 180.0) -> bytes:
     """Long form: ``Msss aaa bbb ...\\r`` for a list of azimuths, ``Wsss aaa eee ...\\r`` for a
-    list of (az, el) pairs."""
-    if isinstance(interval_s, float) and not interval_s.is_integer():
-        raise LimitError(f"table interval {interval_s!r} s must be a whole number of seconds")
-    parts = [fmt3(interval_s, "table interval", 1, 999)]
-    if not len(points):
-        raise LimitError("a step table needs at least one point")
-    pairs = not isinstance(points[0], (int, float))
-    for p in points:
-        if pairs:
-            az, el = p
-            parts += [fmt3(az, "azimuth", 0, az_max_deg), fmt3(el, "elevation", 0, el_max_deg)]
-        else:
-            parts.append(fmt3(p, "azimuth", 0, az_max_deg))
-    return (b"W" if pairs else b"M") + b" ".join(parts) + CR
+    list of (az, el) pairs. The line itself is ``gs232_tables.encode_table_line``'s."""
+    if len(points) and not isinstance(points[0], (int, float)):
+        pairs = [(a, e) for a, e in points]
+        az, el = [a for a, _ in pairs], [e for _, e in pairs]
+        line = encode_table_line("W", interval_s, az, el, az_max_deg=az_max_deg,
+                                 el_max_deg=el_max_deg)
+    else:
+        line = encode_table_line("M", interval_s, points, az_max_deg=az_max_deg)
+    return line.encode("ascii") + CR
 
 
 # Codec: replies --------------------------------------------------------------------------------
@@ -276,7 +252,7 @@ _DIRECTIONS: dict[str, bytes] = {"cw": b"R", "ccw": b"L", "up": b"U", "down": b"
                                  "right": b"R", "left": b"L"}
 
 
-class Gs232Driver(RotatorDriver):
+class Gs232Driver(LinkDriver):
     """Driver for one GS-232-class controller on an open port.
 
     One request at a time (a lock); stale input is flushed before each request; each read is
@@ -286,6 +262,8 @@ class Gs232Driver(RotatorDriver):
     harmless). Profiles without handshake get at least ``pace_cmd_s`` between commands and
     optionally ``pace_char_s`` between bytes.
     """
+
+    raw_terminator = CR
 
     def __init__(self, port: Port, profile: str | Gs232Profile = "gs232b", *,
                  timeout_s: float = 1.0, retries: int = 2, has_elevation: bool = True,
@@ -307,35 +285,26 @@ class Gs232Driver(RotatorDriver):
         self.az_max_deg = float(az_max_deg)
         self._az_max_configured_deg = self.az_max_deg
         self.el_max_deg = float(el_max_deg)
-        self.pace_cmd_s = self.profile.pace_cmd_s if pace_cmd_s is None else float(pace_cmd_s)
-        self.pace_char_s = float(pace_char_s)
+        self.link = ByteLink(port, clock, (self.profile.pace_cmd_s if pace_cmd_s is None
+                                           else float(pace_cmd_s)), float(pace_char_s))
         self.ack_timeout_s = float(ack_timeout_s)
-        self.clock = clock or SystemClock()
-        self.io_clock = io_clock(port)      # deadlines and pacing: the wire's time
+        self.clock = self.link.clock
+        self.io_clock = self.link.io_clock      # deadlines and pacing: the wire's time
         self.capabilities = self.profile.capabilities(has_elevation, az_max_deg, el_max_deg)
         self.stop_on_exit = True
-        self._lock = threading.RLock()
+        self._lock = self.link.lock
         self._framer = LineFramer(b"\r\n", keep_empty=True)
         self._lines: list[bytes] = []
-        self._last_write = -1e9
-        self._closed = False
 
     @classmethod
     def from_url(cls, url: str, profile: str | Gs232Profile = "gs232b", *,
                  baudrate: int | None = None, rtscts: bool | None = None,
                  autobaud: bool = False, **kw: Any) -> Gs232Driver:
         """Open ``url`` (any pyserial URL) with the profile's serial settings."""
-        from tracker.transport import open_port
-
         prof = get_profile(profile)
-        port = open_port(url, baudrate=baudrate or prof.baudrate, timeout_s=0.05,
-                         rtscts=prof.rtscts if rtscts is None else rtscts,
-                         clock=kw.get("clock"))
-        try:
-            drv = cls(port, prof, **kw)
-        except BaseException:
-            port.close()
-            raise
+        drv = driver_on_port(cls, url, prof, port_kw=dict(
+            baudrate=baudrate or prof.baudrate, timeout_s=0.05,
+            rtscts=prof.rtscts if rtscts is None else rtscts, clock=kw.get("clock")), **kw)
         if autobaud:
             try:
                 drv.autobaud()
@@ -344,44 +313,24 @@ class Gs232Driver(RotatorDriver):
                 raise
         return drv
 
-    # Low-level I/O: the only place pyserial errors are translated --------------------------
+    @property
+    def pace_cmd_s(self) -> float:
+        return self.link.pace_cmd_s
 
-    @contextmanager
-    def _io(self, what: str) -> Iterator[None]:
-        if self._closed:
-            raise PortLostError(f"{what}: the port is closed")
-        try:
-            yield
-        except serial.SerialTimeoutException as e:
-            raise RotatorTimeout(f"{what}: write timed out (flow control holding? cable?)") \
-                from e
-        except _PORT_ERRORS as e:
-            raise PortLostError(f"{what}: port lost: {e}") from e
+    @property
+    def pace_char_s(self) -> float:
+        return self.link.pace_char_s
+
+    # Low-level I/O: the shared link (tracker.protocols.link) translates pyserial errors -------
 
     def _write(self, data: bytes) -> None:
-        wait = self._last_write + self.pace_cmd_s - self.io_clock.monotonic()
-        if wait > 0:
-            self.io_clock.sleep(wait)
-        with self._io(f"writing {data!r}"):
-            if self.pace_char_s > 0:
-                for i in range(len(data)):
-                    self.port.write(data[i:i + 1])
-                    self.port.flush()
-                    self.io_clock.sleep(self.pace_char_s)
-            else:
-                self.port.write(data)
-                self.port.flush()
-        self._last_write = self.io_clock.monotonic()
+        self.link.write(data)
 
     def _read_some(self, remaining_s: float) -> bytes:
-        with self._io("reading"):
-            self.port.timeout = max(0.001, min(remaining_s, 0.05))
-            n = self.port.in_waiting
-            return self.port.read(n if n > 0 else 1)
+        return self.link.read_some(remaining_s)
 
-    def _flush(self) -> None:
-        with self._io("flushing input"):
-            self.port.reset_input_buffer()
+    def _flush_input(self) -> None:
+        self.link.flush_input()
         self._framer.clear()
         self._lines.clear()
 
@@ -407,7 +356,7 @@ class Gs232Driver(RotatorDriver):
         last: Exception | None = None
         with self._lock:
             for _attempt in range(1 + self.retries):
-                self._flush()
+                self._flush_input()
                 self._write(cmd + CR)
                 line = self._next_line(self.io_clock.monotonic() + self.timeout_s)
                 if line is None:
@@ -431,7 +380,7 @@ class Gs232Driver(RotatorDriver):
     def _command(self, cmd: bytes) -> None:
         """Send a set/move command; profiles that acknowledge get their ack consumed."""
         with self._lock:
-            self._flush()
+            self._flush_input()
             self._write(cmd + CR)
             if not self.profile.set_ack and not self.profile.k3ng_messages:
                 return
@@ -526,40 +475,16 @@ class Gs232Driver(RotatorDriver):
     def table_status(self) -> tuple[int | None, int]:
         return parse_table_status(self._query(b"N"))
 
-    def _collect(self, cmd: bytes, quiet_s: float) -> bytes:
-        """Send ``cmd`` and gather raw bytes until ``quiet_s`` without input or the timeout."""
-        with self._lock:
-            self._flush()
-            self._write(cmd)
-            out = bytearray()
-            start = self.io_clock.monotonic()
-            last = start
-            while True:
-                now = self.io_clock.monotonic()
-                if now - start >= self.timeout_s or (out and now - last >= quiet_s):
-                    return bytes(out)
-                chunk = self._read_some(min(quiet_s, self.timeout_s - (now - start)))
-                if chunk:
-                    out += chunk
-                    last = self.io_clock.monotonic()
-
     def help(self, page: int = 1) -> str:
         if page not in (1, 2, 3):
             raise ValueError("help page must be 1, 2 or 3")
         cmd = b"H" if page == 1 else b"H%d" % page
         return self._collect(cmd + CR, 0.2).decode("ascii", "replace")
 
-    def raw(self, cmd: str | bytes, quiet_s: float = 0.2) -> bytes:
-        """Send one command line (CR added) and return whatever came back, maybe b''."""
-        data = cmd.encode("ascii") if isinstance(cmd, str) else bytes(cmd)
-        if not data.endswith(CR):
-            data += CR
-        return self._collect(data, quiet_s)
-
     def autobaud(self, attempts: int = 10, interval_s: float = 0.3) -> None:
         """GS-232B power-up autobaud: send CR until the unit says Connect OK (bounded)."""
         with self._lock:
-            self._flush()
+            self._flush_input()
             seen = bytearray()
             for _ in range(attempts):
                 self._write(CR)
@@ -567,20 +492,10 @@ class Gs232Driver(RotatorDriver):
                 while self.io_clock.monotonic() < deadline:
                     seen += self._read_some(deadline - self.io_clock.monotonic())
                     if b"CONNECT OK" in seen.upper():
-                        self._flush()
+                        self._flush_input()
                         return
             raise RotatorTimeout(f"no 'Connect OK' after {attempts} CRs; power-cycle the "
                                  f"GS-232B and retry within 15 s (received {bytes(seen)!r})")
-
-    def close(self) -> None:
-        if self._closed:
-            return
-        self._closed = True
-        try:
-            self.port.close()
-        except _PORT_ERRORS:
-            # The port is already gone (unplugged, peer closed); closing cannot fail usefully.
-            return
 
 
 def open_gs232(protocol: str, url: str, **kw: Any) -> Gs232Driver:

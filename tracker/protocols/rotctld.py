@@ -26,8 +26,8 @@ from tracker.errors import (
     RotatorIOError,
     RotatorTimeout,
 )
-from tracker.protocols.base import Capabilities, Direction, RotatorDriver
-from tracker.protocols.rotorez import ByteLink
+from tracker.protocols.base import Capabilities, Direction
+from tracker.protocols.link import ByteLink, LinkDriver, driver_on_port
 from tracker.transport import Port
 
 DEFAULT_PORT = 4533
@@ -80,9 +80,11 @@ def rprt_error(code: int, what: str) -> Exception:
 
 
 
-class RotctldDriver(RotatorDriver):
+class RotctldDriver(LinkDriver):
     """A rotctld client. ``has_elevation`` False: ``p`` elevation is dropped and ``P`` sends
     elevation 0 (Hamlib's az-only backends ignore it)."""
+
+    raw_terminator = b"\n"
 
     def __init__(self, port: Port, *, timeout_s: float = 2.0, has_elevation: bool = True,
                  az_min_deg: float = -180.0, az_max_deg: float = 450.0,
@@ -113,14 +115,7 @@ class RotctldDriver(RotatorDriver):
 
     @classmethod
     def from_url(cls, url: str, *, baudrate: int | None = None, **kw: Any) -> RotctldDriver:
-        from tracker.transport import open_port
-
-        port = open_port(rotctld_url(url), timeout_s=0.05)
-        try:
-            return cls(port, **kw)
-        except BaseException:
-            port.close()
-            raise
+        return driver_on_port(cls, rotctld_url(url), port_kw=dict(timeout_s=0.05), **kw)
 
     # Requests ----------------------------------------------------------------------------------
 
@@ -213,22 +208,13 @@ class RotctldDriver(RotatorDriver):
     def info(self) -> str:
         return self._request("_", 1)[0].decode("ascii", "replace").strip()
 
-    def raw(self, cmd: str | bytes, quiet_s: float = 0.2) -> bytes:
-        data = cmd.encode("ascii") if isinstance(cmd, str) else bytes(cmd)
-        if not data.endswith(b"\n"):
-            data += b"\n"
-        with self.link.lock:
-            self.link.flush_input()
-            self.link.write(data)
-            return self.link.collect(quiet_s, self.timeout_s)
-
     def close(self) -> None:
         if not self.link.closed:
             try:
                 self.link.write(b"q\n")   # polite goodbye; rotctld closes its side
             except RotatorIOError:
                 pass
-        self.link.close()
+        super().close()
 
 
 def open_rotctld(protocol: str, url: str, **kw: Any) -> RotctldDriver:

@@ -12,36 +12,21 @@ The DCU-1 has no position query: :class:`OpenLoopAz` keeps the motor model's est
 where the antenna is, and ``capabilities.has_position_query`` is False so callers know the
 position is an estimate.
 
-Also home of :class:`ByteLink` (bounded, lock-protected byte I/O with pyserial errors turned
-into the project's errors) and :class:`OpenLoopAz`, used by the SAK-232, AZ/AZ and rotctld
-drivers too.
+Also home of :class:`OpenLoopAz`, used by the SAK-232, AZ/AZ and rotctld drivers too. The
+byte I/O (:class:`ByteLink`) is :mod:`tracker.protocols.link`'s, shared by every driver.
 """
 
 from __future__ import annotations
 
 import re
-import threading
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
-from typing import Any, Literal, TypeVar
+from typing import Any, Literal
 
-import serial
-
-from tracker.clock import Clock, SystemClock
-from tracker.errors import ConfigError, LimitError, PortLostError, RotatorTimeout
+from tracker.clock import Clock
+from tracker.errors import ConfigError, LimitError, RotatorTimeout
 from tracker.mount import AxisMotor, RotatorSpec
-from tracker.protocols.base import Capabilities, Direction, RotatorDriver
-from tracker.transport import Port, io_clock
-
-try:  # tcflush/tcsetattr on a vanished tty raise termios.error, which is not an OSError
-    import termios
-
-    PORT_ERRORS: tuple[type[BaseException], ...] = (serial.SerialException, OSError,
-                                                    termios.error)
-except ImportError:  # Windows
-    PORT_ERRORS = (serial.SerialException, OSError)
-
-T = TypeVar("T")
+from tracker.protocols.base import Capabilities, Direction
+from tracker.protocols.link import ByteLink, LinkDriver, driver_on_port
+from tracker.transport import Port
 
 BAUDRATE = 4800
 BANNER = b"C2000 IDIOM V1.4S "
@@ -49,92 +34,6 @@ OPTION_BYTES = {"endpoint": (b"E", b"e"), "overshoot": (b"O", b"o"),
                 "unstick": (b"S", b"s"), "jam": (b"J", b"j")}
 _AI_RE = re.compile(rb";(\d{3})")
 _AI_OLD_RE = re.compile(rb"(?<![\d;])(\d{3});")   # old ERC / "DCU-1 Plus": ddd;
-
-
-class ByteLink:
-    """One port, one request at a time: paced writes, bounded reads, errors translated.
-
-    Every read is bounded by a deadline on the port's time
-    (:func:`tracker.transport.io_clock`, real time for a real port, never a faster simulation
-    clock); pyserial/OS errors become
-    :class:`PortLostError`, write timeouts :class:`RotatorTimeout`.
-    """
-
-    def __init__(self, port: Port, clock: Clock | None = None, pace_cmd_s: float = 0.0):
-        self.port = port
-        self.clock = clock or SystemClock()     # the caller's (simulation) time
-        self.io_clock = io_clock(port)          # deadlines and pacing: the wire's time
-        self.pace_cmd_s = float(pace_cmd_s)
-        self.lock = threading.RLock()
-        self.closed = False
-        self._last_write = -1e9
-
-    @contextmanager
-    def io(self, what: str) -> Iterator[None]:
-        if self.closed:
-            raise PortLostError(f"{what}: the port is closed")
-        try:
-            yield
-        except serial.SerialTimeoutException as e:
-            raise RotatorTimeout(f"{what}: write timed out (cable? flow control?)") from e
-        except PORT_ERRORS as e:
-            raise PortLostError(f"{what}: port lost: {e}") from e
-
-    def write(self, data: bytes) -> None:
-        wait = self._last_write + self.pace_cmd_s - self.io_clock.monotonic()
-        if wait > 0:
-            self.io_clock.sleep(wait)
-        with self.io(f"writing {data!r}"):
-            self.port.write(data)
-            self.port.flush()
-        self._last_write = self.io_clock.monotonic()
-
-    def flush_input(self) -> None:
-        with self.io("flushing input"):
-            self.port.reset_input_buffer()
-
-    def read_some(self, remaining_s: float) -> bytes:
-        with self.io("reading"):
-            self.port.timeout = max(0.001, min(remaining_s, 0.05))
-            n = self.port.in_waiting
-            return self.port.read(n if n > 0 else 1)
-
-    def read_until(self, done: Callable[[bytes], T | None],
-                   timeout_s: float) -> tuple[bytes, T | None]:
-        """Read until ``done(buffer)`` is truthy (returns ``(buffer, result)``) or the timeout
-        (returns ``(buffer, None)``)."""
-        buf = bytearray()
-        deadline = self.io_clock.monotonic() + timeout_s
-        while True:
-            result = done(bytes(buf))
-            if result:
-                return bytes(buf), result
-            remaining = deadline - self.io_clock.monotonic()
-            if remaining <= 0:
-                return bytes(buf), None
-            buf += self.read_some(remaining)
-
-    def collect(self, quiet_s: float, timeout_s: float) -> bytes:
-        """Everything that arrives until ``quiet_s`` of silence (after some data) or timeout."""
-        out = bytearray()
-        start = last = self.io_clock.monotonic()
-        while True:
-            now = self.io_clock.monotonic()
-            if now - start >= timeout_s or (out and now - last >= quiet_s):
-                return bytes(out)
-            chunk = self.read_some(min(quiet_s, timeout_s - (now - start)))
-            if chunk:
-                out += chunk
-                last = self.io_clock.monotonic()
-
-    def close(self) -> None:
-        if self.closed:
-            return
-        self.closed = True
-        try:
-            self.port.close()
-        except PORT_ERRORS:
-            return  # already gone (unplugged, peer closed): nothing left to release
 
 
 class OpenLoopAz:
@@ -225,7 +124,7 @@ def parse_ai_reply(buf: bytes, accept_old: bool = False) -> int | None:
     return None
 
 
-class RotorEzDriver(RotatorDriver):
+class RotorEzDriver(LinkDriver):
     """Rotor-EZ / RotorCard (``variant="rotorez"``) or DCU-1 (``variant="dcu1"``).
 
     ``set_style``: "cr" sends ``AP1ddd\\r`` (set and go, Rotor-EZ), "am" sends ``AP1ddd;``
@@ -270,15 +169,8 @@ class RotorEzDriver(RotatorDriver):
     @classmethod
     def from_url(cls, url: str, variant: Literal["rotorez", "dcu1"] = "rotorez", *,
                  baudrate: int | None = None, **kw: Any) -> RotorEzDriver:
-        from tracker.transport import open_port
-
-        port = open_port(url, baudrate=baudrate or BAUDRATE, timeout_s=0.05,
-                         clock=kw.get("clock"))
-        try:
-            return cls(port, variant, **kw)
-        except BaseException:
-            port.close()
-            raise
+        return driver_on_port(cls, url, variant, port_kw=dict(
+            baudrate=baudrate or BAUDRATE, timeout_s=0.05, clock=kw.get("clock")), **kw)
 
     # Public API --------------------------------------------------------------------------------
 
@@ -342,16 +234,6 @@ class RotorEzDriver(RotatorDriver):
             raw = self.link.collect(0.2, self.timeout_s)
         return raw.decode("ascii", "ignore").strip()
 
-    def raw(self, cmd: str | bytes, quiet_s: float = 0.2) -> bytes:
-        """Send bytes exactly as given (no terminator added) and return what came back."""
-        data = cmd.encode("ascii") if isinstance(cmd, str) else bytes(cmd)
-        with self.link.lock:
-            self.link.flush_input()
-            self.link.write(data)
-            return self.link.collect(quiet_s, self.timeout_s)
-
-    def close(self) -> None:
-        self.link.close()
 
 
 def open_rotorez(protocol: str, url: str, **kw: Any) -> RotorEzDriver:

@@ -15,8 +15,9 @@ from typing import Any
 from tracker.clock import Clock
 from tracker.errors import LimitError
 from tracker.mount import RotatorSpec
-from tracker.protocols.base import Capabilities, Direction, RotatorDriver
-from tracker.protocols.rotorez import ByteLink, open_loop_estimate
+from tracker.protocols.base import Capabilities, Direction
+from tracker.protocols.link import ByteLink, LinkDriver, driver_on_port
+from tracker.protocols.rotorez import open_loop_estimate
 from tracker.transport import Port
 
 BAUDRATE = 9600
@@ -41,7 +42,9 @@ def check_gear(pulses: int, degrees: int) -> None:
                          f"1-999 pulses, 1-24 degrees, 1..24 pulses per degree")
 
 
-class Sak232Driver(RotatorDriver):
+class Sak232Driver(LinkDriver):
+
+    raw_terminator = b"\r"
     def __init__(self, port: Port, *, timeout_s: float = 1.0, pace_cmd_s: float = 0.05,
                  clock: Clock | None = None, rate_deg_s: float = 4.0,
                  start_az_deg: float = 0.0, start_delay_s: float = 0.2,
@@ -64,15 +67,8 @@ class Sak232Driver(RotatorDriver):
 
     @classmethod
     def from_url(cls, url: str, *, baudrate: int | None = None, **kw: Any) -> Sak232Driver:
-        from tracker.transport import open_port
-
-        port = open_port(url, baudrate=baudrate or BAUDRATE, timeout_s=0.05,
-                         clock=kw.get("clock"))
-        try:
-            return cls(port, **kw)
-        except BaseException:
-            port.close()
-            raise
+        return driver_on_port(cls, url, port_kw=dict(
+            baudrate=baudrate or BAUDRATE, timeout_s=0.05, clock=kw.get("clock")), **kw)
 
     def _send(self, line: str) -> None:
         with self.link.lock:
@@ -116,17 +112,6 @@ class Sak232Driver(RotatorDriver):
     def move(self, direction: Direction) -> None:
         raise LimitError("the SAK-232 has no manual-move command; use goto or move_relative")
 
-    def raw(self, cmd: str | bytes, quiet_s: float = 0.2) -> bytes:
-        data = cmd.encode("ascii") if isinstance(cmd, str) else bytes(cmd)
-        if not data.endswith(b"\r"):
-            data += b"\r"
-        with self.link.lock:
-            self.link.flush_input()
-            self.link.write(data)
-            return self.link.collect(quiet_s, self.timeout_s)
-
-    def close(self) -> None:
-        self.link.close()
 
 
 def open_sak232(protocol: str, url: str, **kw: Any) -> Sak232Driver:
