@@ -48,8 +48,8 @@ def test_stop_one_axis(rig):
         d.stop_axis("el")
         el1 = d.position()[1]
         assert wait_until(lambda: rig.ctrl.antenna()[0] > 100, 5)
-        az2, el2 = d.position()
-        assert el2 == el1 and az2 > 100
+        az2, el2 = d.position()        # whole degrees: 100.4 reads back as 100
+        assert el2 == el1 and az2 >= 100
         assert rig.seen(b"E")
 
 
