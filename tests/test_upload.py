@@ -21,7 +21,7 @@ from test_steptable_fixtures import iss_passes, iss_track, low_pass
 
 from tracker.clock import SimClock
 from tracker.emulator import Gs232Controller, serve_pty, serve_tcp
-from tracker.errors import LimitError, StallError
+from tracker.errors import LimitError, RotatorTimeout, StallError
 from tracker.mount import preset
 from tracker.protocols.gs232 import Gs232Driver
 from tracker.steptable import (
@@ -63,7 +63,7 @@ class Rig:
     (a SimClock at SPEED, a sampler thread)."""
 
     def __init__(self, program, protocol="gs232b", spec=G5500, transport="emu",
-                 start_s=None, az_deg=None):
+                 start_s=None, az_deg=None, faults=()):
         first = program.tables[0]
         t0 = first.upload_t_s - 2.0 if start_s is None else start_s
         self.transport = transport
@@ -72,8 +72,8 @@ class Rig:
         az0 = float(program.tables[0].az_deg[0]) if az_deg is None else az_deg
         el0 = None if spec.el_max_deg is None else float(program.tables[0].el_deg[0])
         self.ctrl = Gs232Controller(protocol, spec, clock=self.clock, az_deg=az0, el_deg=el0)
-        self.server = {"pty": serve_pty, "tcp": serve_tcp, "emu": virtual_rig}[transport](
-            self.ctrl)
+        self.server = virtual_rig(self.ctrl, faults) if transport == "emu" else \
+            {"pty": serve_pty, "tcp": serve_tcp}[transport](self.ctrl)
         self.url = self.server.url
         self.protocol = protocol
         self.samples: list[tuple[float, float, float]] = []
@@ -292,6 +292,16 @@ def test_detach_exits_after_t_and_leaves_the_controller_stepping():
         idx = rig.ctrl.table.index
         rig.clock.sleep(5.0)
         assert rig.ctrl.table.index > idx
+
+
+def test_detach_sends_t_only_to_a_controller_that_holds_the_table():
+    """Nobody watches after detach: a controller that does not answer N gets no T."""
+    _, prog = compile_mid(half_s=30.0, interval_s=2)
+    with Rig(prog, faults=("silent=100000@0",)) as rig:
+        with pytest.raises(RotatorTimeout, match="no reply to N"):
+            TableRunner(rig.driver(), rig.clock).run(prog.tables, detach=True)
+        sent = [line for _t, line, _r in rig.ctrl.log]
+        assert any(line.startswith(b"W") for line in sent) and b"T" not in sent, sent[-4:]
 
 
 def test_rotator_not_following_is_stopped_and_reported():

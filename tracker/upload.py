@@ -132,6 +132,8 @@ class TableRunner:
                  next_upload_t_s: float | None) -> None:
         self._wait_until(table.upload_t_s)
         self._upload(table, f"table {k + 1}/{n}")
+        if detach:
+            self._confirm_loaded(table)
         self._send_t(table)
         if detach:
             self.report.detached = True
@@ -160,6 +162,17 @@ class TableRunner:
         self._off_deg = None
         self.log(f"uploaded {what}: {len(table)} points, {nbytes} bytes in "
                  f"{upload_s:.2f} s (wire time at {self.baud} baud {wire_s:.2f} s)")
+
+    def _confirm_loaded(self, table: StepTable) -> None:
+        """Before a T that nobody will watch: the controller must say it holds the whole
+        table. A silent or garbled line raises here (the driver asks again first), and the
+        run ends with all-stop instead of leaving a controller in an unknown state."""
+        _current, total = self.driver.table_status()
+        if total != len(table):
+            raise ProtocolError(f"the controller holds {total} points of the {len(table)} "
+                                f"uploaded; not sending T (detach needs a table that arrived "
+                                f"whole)")
+        self.log(f"N: the controller holds all {total} points")
 
     def _send_line(self, table: StepTable, line: str) -> None:
         # The driver encodes the same line from the points (shared codec) and applies the

@@ -175,3 +175,4 @@ def test_from_file_is_checked_against_this_station_and_rotator(tmp_path, capsys)
     err = capsys.readouterr().err
     assert rc == 2 and "point 1 (010 005) is below the horizon mask" in err, err
     assert err.count("\n") == 1 and "Traceback" not in err
+
