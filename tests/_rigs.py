@@ -127,6 +127,27 @@ class EmulateProcess:
 
 
 ROTCTLD = shutil.which("rotctld")
+ROTCTL = shutil.which("rotctl")
+
+
+def require_rotctl() -> None:
+    """At module level: skip the module without Hamlib's rotctl, except in CI, where
+    ``.ci/run`` installs it and a missing one is a failure, not a skip."""
+    if ROTCTL is not None:
+        return
+    if os.environ.get("CI", "").lower() == "true":
+        raise RuntimeError("rotctl not found but CI=true: install Debian's libhamlib-utils")
+    pytest.skip("Hamlib rotctl not installed (apt install libhamlib-utils)",
+                allow_module_level=True)
+
+
+def rotctl(model: str, url: str, *cmds: str, ok: bool = True) -> subprocess.CompletedProcess:
+    """``rotctl -m MODEL -r URL CMDS...``; with ``ok``, it must succeed."""
+    r = subprocess.run([ROTCTL, "-m", model, "-r", url, *cmds], capture_output=True,
+                       text=True, timeout=30)
+    if ok:
+        assert r.returncode == 0, f"rotctl -m {model} {cmds}: {r.stdout} {r.stderr[-500:]}"
+    return r
 
 
 def free_port() -> int:

@@ -3,25 +3,18 @@
 
 from __future__ import annotations
 
-import shutil
-import subprocess
-
 import pytest
 from _gs232_helpers import WAIT_S, wait_until
+from _rigs import require_rotctl
+from _rigs import rotctl as run_rotctl
 
 pytestmark = pytest.mark.hamlib
 
-ROTCTL = shutil.which("rotctl")
-if ROTCTL is None:
-    pytest.skip("Hamlib rotctl not installed (apt install libhamlib-utils)",
-                allow_module_level=True)
+require_rotctl()
 
 
 def rotctl(model: str, url: str, *cmds: str) -> str:
-    r = subprocess.run([ROTCTL, "-m", model, "-r", url, *cmds], capture_output=True,
-                       text=True, timeout=20)
-    assert r.returncode == 0, f"rotctl -m {model} {cmds} failed: {r.stdout} {r.stderr}"
-    return r.stdout
+    return run_rotctl(model, url, *cmds).stdout
 
 
 @pytest.mark.parametrize(("model", "protocol"), [("202", "easycomm2"), ("204", "easycomm3")])

@@ -3,23 +3,14 @@ against the emulator on a real pty, and the emulated antenna really moves there.
 
 from __future__ import annotations
 
-import os
-import shutil
-import subprocess
-
 import pytest
 from _gs232_helpers import wait_until
-from _rigs import EmulatedRig
+from _rigs import EmulatedRig, require_rotctl
+from _rigs import rotctl as run_rotctl
 
 pytestmark = pytest.mark.hamlib
 
-ROTCTL = shutil.which("rotctl")
-if ROTCTL is None:
-    if os.environ.get("CI", "").lower() == "true":
-        # CI installs libhamlib-utils (.ci/run); missing there is a failure, not a skip.
-        raise RuntimeError("rotctl not found but CI=true: install Debian's libhamlib-utils")
-    pytest.skip("Hamlib rotctl not installed (apt install libhamlib-utils)",
-                allow_module_level=True)
+require_rotctl()
 
 # (Hamlib model, emulator profile, transport). Hamlib 4.5.4's models: 603 GS-232B, 601
 # GS-232A, 605 GS-23 and 606 GS-232 (both parse C2 as +0aaa+0eee, like 601). Hamlib opens
@@ -30,10 +21,7 @@ MODELS = [("603", "gs232b", "pty"), ("601", "gs232a", "pty"), ("605", "gs23", "p
 
 
 def rotctl(model: str, url: str, *cmds: str) -> str:
-    r = subprocess.run([ROTCTL, "-m", model, "-r", url, *cmds], capture_output=True,
-                       text=True, timeout=20)
-    assert r.returncode == 0, f"rotctl -m {model} {cmds} failed: {r.stdout} {r.stderr}"
-    return r.stdout
+    return run_rotctl(model, url, *cmds).stdout
 
 
 @pytest.fixture

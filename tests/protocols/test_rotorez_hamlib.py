@@ -4,30 +4,13 @@ and the emulated antenna really moves."""
 
 from __future__ import annotations
 
-import os
-import shutil
-import subprocess
-
 import pytest
 from _gs232_helpers import advance_until, wait_until
-from _rigs import EmulatedRig
+from _rigs import EmulatedRig, require_rotctl, rotctl
 
 pytestmark = pytest.mark.hamlib
 
-ROTCTL = shutil.which("rotctl")
-if ROTCTL is None:
-    if os.environ.get("CI", "").lower() == "true":
-        raise RuntimeError("rotctl not found but CI=true: install Debian's libhamlib-utils")
-    pytest.skip("Hamlib rotctl not installed (apt install libhamlib-utils)",
-                allow_module_level=True)
-
-
-def rotctl(model: str, url: str, *cmds: str, ok: bool = True) -> subprocess.CompletedProcess:
-    r = subprocess.run([ROTCTL, "-m", model, "-r", url, *cmds], capture_output=True,
-                       text=True, timeout=30)
-    if ok:
-        assert r.returncode == 0, f"rotctl -m {model} {cmds}: {r.stdout} {r.stderr[-500:]}"
-    return r
+require_rotctl()
 
 
 @pytest.fixture

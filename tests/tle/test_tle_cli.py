@@ -6,26 +6,11 @@ import re
 
 import pytest
 from _paths import DATA
-from test_tle_store import FakeCelestrak
 
 from tracker.cli import main
 
 TLE_DATA = DATA / "tle"
 AT = "2026-08-25T00:00Z"
-
-
-@pytest.fixture
-def celestrak():
-    fake = FakeCelestrak()
-    yield fake
-    fake.close()
-
-
-@pytest.fixture
-def cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("TRACKER_CACHE_DIR", str(tmp_path))
-    monkeypatch.delenv("TRACKER_CELESTRAK_URL", raising=False)
-    return tmp_path / "tle"
 
 
 def one_line_error(capsys) -> str:

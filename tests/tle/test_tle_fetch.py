@@ -104,13 +104,6 @@ def server():
     fake.close()
 
 
-@pytest.fixture
-def cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("TRACKER_CACHE_DIR", str(tmp_path))
-    monkeypatch.delenv("TRACKER_CELESTRAK_URL", raising=False)
-    return tmp_path / "tle"
-
-
 def update(server, *extra: str) -> int:
     return main(["tle", "update", "amateur", "--base-url", server.base_url, "--force", *extra])
 

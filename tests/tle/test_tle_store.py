@@ -93,13 +93,6 @@ class FakeCelestrak:
 
 
 @pytest.fixture
-def celestrak():
-    fake = FakeCelestrak()
-    yield fake
-    fake.close()
-
-
-@pytest.fixture
 def clock():
     return ManualClock(T0)
 
