@@ -103,8 +103,8 @@ def print_table(results: dict[str, dict], n_passes: int) -> None:
 
 
 def motor_model_speed(suite: list[SuitePass], spec, repeats: int = 3) -> None:
-    """predict_axis (closed form + AxisMotor for overlaps) vs stepping AxisMotor per command."""
-    from tracker.mount import AxisMotor, predict_axis, simulate_commands
+    """drive_axis in closed form (AxisMotor for overlaps) vs stepping AxisMotor per command."""
+    from tracker.mount import AxisMotor, drive_axis
 
     plans = [plan_pass(sp.track, spec, sp.station) for sp in suite[:40]]
     streams = [(*plan.commands()[:2], plan.t_s) for plan in plans]
@@ -115,15 +115,15 @@ def motor_model_speed(suite: list[SuitePass], spec, repeats: int = 3) -> None:
 
     t0 = time.perf_counter()
     for _ in range(repeats):
-        fast = [predict_axis(axis(a[0]), t, a, te)[0] for t, a, te in streams]
+        fast = [drive_axis(axis(a[0]), t, a, te)[0] for t, a, te in streams]
     t_fast = time.perf_counter() - t0
     t0 = time.perf_counter()
-    slow = [simulate_commands(axis(a[0]), t, a, te) for t, a, te in streams
+    slow = [drive_axis(axis(a[0]), t, a, te, closed_form=False)[0] for t, a, te in streams
             for _ in range(repeats)][::repeats]
     t_slow = time.perf_counter() - t0
     diff = max(float(np.max(np.abs(f - s))) for f, s in zip(fast, slow, strict=True))
-    print(f"\nmotor model on {len(streams)} az command streams: predict_axis "
-          f"{1000 * t_fast / (repeats * len(streams)):.3f} ms/pass, simulate_commands "
+    print(f"\nmotor model on {len(streams)} az command streams: closed form "
+          f"{1000 * t_fast / (repeats * len(streams)):.3f} ms/pass, stepping "
           f"{1000 * t_slow / (repeats * len(streams)):.3f} ms/pass (x{t_slow / t_fast:.0f}); "
           f"max difference {diff:.2e} deg")
 

@@ -33,14 +33,11 @@ from passsuite import pass_suite
 
 from tracker.clock import ManualClock, SimClock
 from tracker.emulator import Gs232Controller, serve_pty
+from tracker.geometry import MountPath, pointing_error_deg
 from tracker.mount import preset
 from tracker.protocols.gs232 import Gs232Driver
-from tracker.steptable import (
-    MountPath,
-    compile_pass,
-    pointing_error_deg,
-    tables_from_points,
-)
+from tracker.skytrack import azel_to_enu
+from tracker.steptable import compile_pass, tables_from_points
 from tracker.upload import TableRunner
 
 INTERVALS = (1, 2, 5, 10, 20, 30)
@@ -70,7 +67,8 @@ def measure_on_emulator(program, path: MountPath, protocol: str, step_s: float =
         clock.advance(t - clock.timestamp())
         a, e = ctrl.antenna()
         az[i], el[i] = a, (0.0 if e is None else e)
-    err = pointing_error_deg(spec, path, t_eval, az, el if spec.has_elevation else None)
+    err = pointing_error_deg(spec, az, el if spec.has_elevation else None,
+                             path.target_enu(t_eval))
     return err
 
 
@@ -112,7 +110,7 @@ def _path_of(prog, track) -> MountPath:
     # The error is measured against the satellite over the compiled span (AOS..LOS).
     t = np.arange(prog.pass_start_t_s, prog.pass_end_t_s + 1e-9, 1.0)
     taz, tel = track.direction_at(t)
-    return MountPath(t, np.zeros_like(t), np.zeros_like(t), taz, tel)
+    return MountPath(t, np.zeros_like(t), np.zeros_like(t), sky_enu=azel_to_enu(taz, tel))
 
 
 def section_pty(suite, protocol: str, rotator: str, speed: float) -> None:
@@ -149,7 +147,7 @@ def section_pty(suite, protocol: str, rotator: str, speed: float) -> None:
             th.join()
         s = np.array(samples)
         s = s[(s[:, 0] >= path.t_s[0]) & (s[:, 0] <= path.t_s[-1])]
-        err = pointing_error_deg(spec, path, s[:, 0], s[:, 1], s[:, 2])
+        err = pointing_error_deg(spec, s[:, 1], s[:, 2], path.target_enu(s[:, 0]))
         name = f"{sp.meta.get('target', '')[:14]} {sp.meta.get('max_el_deg', 0):4.0f}deg"
         print(f"{name:<28} {prog.prediction.max_error_deg:8.2f} {err.max():8.2f} "
               f"{1000 * report.t_late_s[0]:9.0f} {report.polls:7d} {len(report.resyncs):7d} "

@@ -32,10 +32,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from passsuite import pass_suite
 
-from tracker.aim import AimPath, gpredict_aim
-from tracker.mount import AxisMotor, MotorModel, predict_axis, preset
+from tracker.aim import gpredict_aim
+from tracker.geometry import MountPath, pointing_error_deg
+from tracker.mount import AxisMotor, MotorModel, drive_axis, preset
 from tracker.planner import gpredict_plan, plan_pass
-from tracker.skytrack import angular_separation_deg
 from tracker.stream import StreamSettings, TrackCore, pass_window
 
 LOST_DEG = 5.0
@@ -70,7 +70,7 @@ def fly_gpredict(track, spec, station, threshold_deg: float = 5.0, cycle_s: floa
                  t_start: float | None = None):
     """Gpredict's rot_ctrl_timeout_cb loop (gtk-rot-ctrl.c) on the Gpredict path rule."""
     plan = gpredict_plan(track, spec, station, current=(spec.park_az_deg, spec.park_el_deg))
-    path = AimPath.from_plan(plan, spec, track)
+    path = MountPath.exact_from_plan(plan, track, spec)
     aos_s, los_s = pass_window(track, station)
     t = float(track.t_s[0]) if t_start is None else t_start
     truth = MotorModel(spec, spec.park_az_deg, spec.park_el_deg, t)
@@ -82,7 +82,7 @@ def fly_gpredict(track, spec, station, threshold_deg: float = 5.0, cycle_s: floa
 
     cmds = []
     while t <= los_s:
-        set_az, set_el = path.at(max(t, path.start_s))
+        set_az, set_el = path.mount_at(max(t, path.start_s))
         rot_az, rot_el = _readback(truth, t)
         if abs(set_az - rot_az) > threshold_deg or abs(set_el - rot_el) > threshold_deg:
             if t >= aos_s:
@@ -141,12 +141,12 @@ def axis_start_bound(t_s: np.ndarray, path_deg: np.ndarray, weight: np.ndarray, 
 def start_bound(track, spec, station, bound_deg: float) -> int | None:
     """:func:`axis_start_bound` summed over both axes on the planner's path, AOS..LOS."""
     plan = plan_pass(track, spec, station, current=(spec.park_az_deg, spec.park_el_deg))
-    path = AimPath.from_plan(plan, spec)
+    path = MountPath.exact_from_plan(plan, None, spec)
     aos_s, los_s = pass_window(track, station)
     ts = np.arange(aos_s, los_s + 1e-9, SAMPLE_S)
     if len(ts) < 2:
         return 0
-    az, el = path.at(ts)
+    az, el = path.mount_at(ts)
     n_az = axis_start_bound(ts, az, np.abs(np.cos(np.radians(el))), spec.az_rate_deg_s,
                             spec.start_delay_s, bound_deg)
     n_el = axis_start_bound(ts, el, np.ones_like(el), spec.el_rate_deg_s, spec.start_delay_s,
@@ -164,13 +164,13 @@ def measure(track, spec, station, cmds, t_start: float) -> dict:
     el_axis = AxisMotor(spec.el_min_deg, spec.el_max_deg, spec.el_rate_deg_s,
                         spec.start_delay_s, spec.resolution_deg, spec.park_el_deg, t_start)
     if len(c):
-        az, starts_az = predict_axis(az_axis, c[:, 0], c[:, 1], ts)
-        el, starts_el = predict_axis(el_axis, c[:, 0], c[:, 2], ts)
+        az, starts_az = drive_axis(az_axis, c[:, 0], c[:, 1], ts)
+        el, starts_el = drive_axis(el_axis, c[:, 0], c[:, 2], ts)
     else:
         az, el, starts_az, starts_el = np.full(ts.shape, spec.park_az_deg), np.full(
             ts.shape, spec.park_el_deg), 0, 0
     taz, tel = track.direction_at(ts)
-    err = angular_separation_deg(spec.bearing_of(az), el, taz, tel)
+    err = pointing_error_deg(spec, az, el, (taz, tel))
     return {"err": err, "lost_s": float(np.sum(err > LOST_DEG) * SAMPLE_S),
             "starts": int(starts_az + starts_el), "commands": len(cmds)}
 

@@ -269,8 +269,9 @@ def _stations(data: bytes) -> None:
 
 
 def _plan_seed() -> bytes:
+    from tracker.geometry import MountPath
     from tracker.mount import preset
-    from tracker.steptable import MountPath, compile_program, format_plan_file
+    from tracker.steptable import compile_program, format_plan_file
     from tracker.testing import synthetic_pass
 
     spec = preset("G-5500")

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tracker.aim import AimPath, choose_aim, gpredict_aim, needs_command, predicted_error
+from tracker.aim import choose_aim, gpredict_aim, needs_command, predicted_error
+from tracker.geometry import MountPath
 from tracker.mount import MotorModel, preset
 
 SPEC = preset("G-5500", 50)
@@ -14,12 +15,12 @@ SPEC = preset("G-5500", 50)
 def arc_path(spec=SPEC, duration_s=600.0, az0=100.0, az1=260.0, max_el=60.0):
     t = np.arange(0.0, duration_s + 0.5, 1.0)
     f = t / duration_s
-    return AimPath.from_arrays(t, az0 + (az1 - az0) * f, max_el * np.sin(np.pi * f), spec)
+    return MountPath.from_arrays(t, az0 + (az1 - az0) * f, max_el * np.sin(np.pi * f), spec)
 
 
 def follow(path, spec, deadband_deg, policy, cycle_s=0.5):
     """Drive the motor model through the pass with ``policy``; error sampled every 0.1 s."""
-    az0, el0 = path.at(path.start_s)
+    az0, el0 = path.mount_at(path.start_s)
     motor = MotorModel(spec, float(az0), float(el0), path.start_s)
     cmds, errs = 0, []
     hold_until, level = -np.inf, deadband_deg
@@ -33,7 +34,7 @@ def follow(path, spec, deadband_deg, policy, cycle_s=0.5):
                 cmds += 1
                 hold_until, level = t + a.hold_s, max(deadband_deg, a.peak_error_deg + 0.5)
         else:  # Gpredict: threshold on the current target, lead within the threshold
-            az_now, el_now = path.at(t)
+            az_now, el_now = path.mount_at(t)
             ant_az, ant_el = motor.position(t)
             if abs(az_now - ant_az) > deadband_deg or abs(el_now - ant_el) > deadband_deg:
                 az, el = gpredict_aim(path, t, deadband_deg, cycle_s)
@@ -58,7 +59,7 @@ def test_lagging_antenna_aims_where_the_target_will_be_on_arrival():
     path = arc_path()
     motor = MotorModel(SPEC, 100.0, 0.0, 0.0)     # 50 s late: target at ~113/15
     aim = choose_aim(path, motor.az, motor.el, 50.0, 3.0)
-    target_at_arrival = path.at(aim.arrival_s)
+    target_at_arrival = path.mount_at(aim.arrival_s)
     assert aim.aim_t_s > aim.arrival_s - 1.0      # not where the target was when commanded
     assert abs(aim.az_m_deg - target_at_arrival[0]) < 6.0
     assert abs(aim.el_deg - target_at_arrival[1]) < 6.0
@@ -86,7 +87,7 @@ def test_whole_pass_error_bounded_and_fewer_moves_than_gpredict_lead(deadband):
 def test_azimuth_only_rotator():
     spec = preset("G-5500").with_(name="az-only", el_max_deg=None, el_rate_deg_s=None)
     t = np.arange(0.0, 301.0, 1.0)
-    path = AimPath.from_arrays(t, 40.0 + 0.5 * t, None, spec)
+    path = MountPath.from_arrays(t, 40.0 + 0.5 * t, None, spec)
     motor = MotorModel(spec, 40.0, None, 0.0)
     assert motor.el is None
     aim = choose_aim(path, motor.az, None, 20.0, 4.0)
@@ -96,7 +97,7 @@ def test_azimuth_only_rotator():
 
 def test_over_the_top_pointing_counts_as_pointing():
     # A flipped mount (az + 180, 180 - el) points at the same sky: no error.
-    path = AimPath.from_arrays([0.0, 10.0], [10.0, 10.0], [60.0, 60.0], SPEC)
+    path = MountPath.from_arrays([0.0, 10.0], [10.0, 10.0], [60.0, 60.0], SPEC)
     motor = MotorModel(SPEC, 190.0, 120.0, 0.0)
     err = predicted_error(path, motor.az, motor.el, 0.0, np.array([0.0, 5.0]))
     assert np.all(err < 1e-6)
@@ -128,8 +129,8 @@ def test_approximate_path_is_scored_against_the_real_target():
     plan = SimpleNamespace(t_s=t, cmd_az_deg=100.0 + 0.5 * t, cmd_el_deg=np.full_like(t, 42.0),
                            lead_s=0.0, mode="keyhole", track=track,
                            visible=np.ones_like(t, dtype=bool))
-    path = AimPath.from_plan(plan, SPEC)
+    path = MountPath.exact_from_plan(plan, None, SPEC)
     motor = MotorModel(SPEC, 110.0, 42.0, 0.0)          # on the path at t = 20 s
     err = predicted_error(path, motor.az, motor.el, 20.0, np.array([20.0]))
     assert err[0] == pytest.approx(2.0, abs=0.05)
-    assert np.allclose(path.at(20.0), (110.0, 42.0))    # still follows the planned path
+    assert np.allclose(path.mount_at(20.0), (110.0, 42.0))    # still follows the planned path

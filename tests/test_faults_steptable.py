@@ -16,8 +16,8 @@ from test_upload import G5500, compile_mid
 
 from tracker.emulator import Gs232Controller
 from tracker.errors import PortLostError, RotatorIOError, RotatorTimeout, StallError
+from tracker.geometry import pointing_error_deg
 from tracker.protocols.gs232 import Gs232Driver
-from tracker.steptable import pointing_error_deg
 from tracker.upload import TableRunner, resume_schedule
 
 DRIVER_TIMEOUT_S = 1.0
@@ -77,7 +77,7 @@ class TableBench:
         hi = path.t_s[-1] if t_to is None else t_to
         s = s[(s[:, 0] >= lo) & (s[:, 0] <= hi)]
         assert len(s) > 50
-        return pointing_error_deg(G5500, path, s[:, 0], s[:, 1], s[:, 2])
+        return pointing_error_deg(G5500, s[:, 1], s[:, 2], path.target_enu(s[:, 0]))
 
     def assert_tables_in_limits(self) -> int:
         n = 0

@@ -8,11 +8,18 @@ import random
 import pytest
 
 from tracker.errors import ConfigError
+from tracker.geometry import slew_s
 from tracker.mount import RotatorSpec, preset
-from tracker.pass_schedule import build_schedule, parse_priorities, slew_s
+from tracker.pass_schedule import build_schedule, parse_priorities
 
 SPEC = RotatorSpec(name="test", az_span_deg=360, stop_bearing_deg=180, el_max_deg=90,
                    az_rate_deg_s=6.0, el_rate_deg_s=3.0, start_delay_s=1.0)
+
+
+def bearing_slew_s(spec, from_bearing, from_el, to_bearing, to_el):
+    """The schedule's slew between passes: the closest mechanical positions of two bearings."""
+    return slew_s(spec, spec.mech_candidates(from_bearing), from_el,
+                  spec.mech_candidates(to_bearing), to_el)
 
 
 def rec(name, aos, los, aos_az=0.0, los_az=0.0, el=30.0, station="S"):
@@ -23,17 +30,18 @@ def rec(name, aos, los, aos_az=0.0, los_az=0.0, el=30.0, station="S"):
 
 def compatible(a, b, spec=SPEC):
     first, second = (a, b) if a["los_s"] <= b["los_s"] else (b, a)
-    return first["los_s"] + slew_s(spec, first["los_az_deg"], 0, second["aos_az_deg"],
-                                   0) <= second["aos_s"]
+    return first["los_s"] + bearing_slew_s(spec, first["los_az_deg"], 0,
+                                           second["aos_az_deg"], 0) <= second["aos_s"]
 
 
 def test_slew_uses_the_mechanical_frame():
     # South stop: 170 -> 190 deg true is 340 deg the long way round the stop.
-    assert slew_s(SPEC, 170, 0, 190, 0) == pytest.approx(1.0 + 340 / 6.0)
-    assert slew_s(SPEC, 190, 0, 200, 0) == pytest.approx(1.0 + 10 / 6.0)
+    assert bearing_slew_s(SPEC, 170, 0, 190, 0) == pytest.approx(1.0 + 340 / 6.0)
+    assert bearing_slew_s(SPEC, 190, 0, 200, 0) == pytest.approx(1.0 + 10 / 6.0)
     g5500 = preset("G-5500")  # 450 deg: the overlap gives a short way
-    assert slew_s(g5500, 350, 0, 10, 0) < slew_s(SPEC, 350, 0, 10, 0) + 60
-    assert slew_s(SPEC, 0, 0, 0, 90) == pytest.approx(1.0 + 30.0)
+    assert bearing_slew_s(g5500, 350, 0, 10, 0) < bearing_slew_s(SPEC, 350, 0, 10, 0) + 60
+    assert bearing_slew_s(SPEC, 0, 0, 0, 90) == pytest.approx(1.0 + 30.0)
+    assert slew_s(SPEC, 10.0, None, 70.0, None) == pytest.approx(1.0 + 60 / 6.0)
 
 
 def test_priority_wins_an_overlap():

@@ -11,14 +11,9 @@ import pytest
 from _paths import REPO
 
 from tracker.errors import LimitError
+from tracker.geometry import boresight_horizon_ok, pointing_error_deg
 from tracker.mount import preset
-from tracker.planner import (
-    MountPlan,
-    boresight_horizon_ok,
-    gpredict_plan,
-    plan_pass,
-    pointing_error_deg,
-)
+from tracker.planner import MountPlan, gpredict_plan, plan_pass
 from tracker.skytrack import SkyTrack
 from tracker.station import HorizonMask, Station
 from tracker.testing import synthetic_pass
@@ -248,7 +243,7 @@ def test_az_only_rotator_error_is_azimuth_only():
     plan = plan_pass(synthetic_pass(50, 200), spec, STATION)
     assert np.all(plan.cmd_el_deg == 0)
     assert plan.max_error_deg <= 1.0  # the elevation of the target is not an error
-    assert pointing_error_deg(spec, 10.0, 0.0, 20.0, 60.0) == pytest.approx(10.0)
+    assert pointing_error_deg(spec, 10.0, 0.0, (20.0, 60.0)) == pytest.approx(10.0)
 
 
 def test_current_position_outside_the_limits_is_refused():

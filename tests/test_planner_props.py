@@ -6,8 +6,9 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from tracker.geometry import boresight_horizon_ok
 from tracker.mount import RotatorSpec
-from tracker.planner import OTHER_WAY, boresight_horizon_ok, plan_pass
+from tracker.planner import OTHER_WAY, plan_pass
 from tracker.station import HorizonMask, Station
 from tracker.testing import synthetic_pass
 

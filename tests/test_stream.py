@@ -293,7 +293,7 @@ def test_near_overhead_pass_stays_within_plan_error_and_deadband():
 
 
 def test_move_clears_mask_follows_both_axes_at_their_rates():
-    from tracker.stream import move_clears_mask
+    from tracker.geometry import move_clears_mask
 
     wall = Station(mask=HorizonMask((0.0, 45.0, 50.0, 60.0, 90.0), (0.0, 0.0, 20.0, 0.0, 0.0)))
     # Elevation (2.24 deg/s) lags azimuth (5.17 deg/s): sweeping 30 -> 70 at el 5 -> 25

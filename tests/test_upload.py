@@ -22,15 +22,10 @@ from test_steptable_fixtures import iss_passes, iss_track, low_pass
 from tracker.clock import SimClock
 from tracker.emulator import Gs232Controller, serve_pty, serve_tcp
 from tracker.errors import LimitError, RotatorTimeout, StallError
+from tracker.geometry import MountPath, pointing_error_deg
 from tracker.mount import preset
 from tracker.protocols.gs232 import Gs232Driver
-from tracker.steptable import (
-    PROFILES,
-    MountPath,
-    compile_program,
-    pointing_error_deg,
-    tables_from_points,
-)
+from tracker.steptable import PROFILES, compile_program, tables_from_points
 from tracker.upload import TableRunner
 
 G5500 = preset("G-5500")
@@ -126,7 +121,7 @@ class Rig:
         s = s[(s[:, 0] >= lo) & (s[:, 0] <= hi)]
         assert len(s) > 100
         el = s[:, 2] if spec.has_elevation else None
-        return pointing_error_deg(spec, path, s[:, 0], s[:, 1], el)
+        return pointing_error_deg(spec, s[:, 1], el, path.target_enu(s[:, 0]))
 
 
 def compile_mid(half_s=60.0, interval_s=2, spec=G5500, protocol="gs232b", max_el=(40, 70)):

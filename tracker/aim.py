@@ -29,115 +29,17 @@ from __future__ import annotations
 import copy
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from tracker.mount import AxisMotor, RotatorSpec
-from tracker.skytrack import SkyTrack, azel_to_enu
-
-if TYPE_CHECKING:  # pragma: no cover - typing only
-    from tracker.planner import MountPlan
+from tracker.geometry import MountPath, pointing_enu
+from tracker.mount import AxisMotor, drive_axis
+from tracker.skytrack import angle_between_deg
 
 # What one command costs besides its motor starts, in starts: the bytes and the read-back
 # disturbance of a command that starts nothing (a retarget of a running motor).
 COMMAND_COST_STARTS = 0.3
-
-
-@dataclass(frozen=True)
-class AimPath:
-    """A mount path to follow: mechanical azimuth and elevation at UTC POSIX seconds."""
-
-    t_s: np.ndarray
-    az_m_deg: np.ndarray
-    el_deg: np.ndarray
-    stop_bearing_deg: float = 0.0
-    # Where the target really is (east-north-up at t_s) when that differs from the path:
-    # keyhole and unwind paths are approximations, and the error that matters is the error
-    # to the target, not to the path.
-    sky_enu: np.ndarray | None = None
-
-    @classmethod
-    def from_arrays(cls, t_s: ArrayLike, az_m_deg: ArrayLike, el_deg: ArrayLike | None,
-                    spec: RotatorSpec) -> AimPath:
-        t = np.asarray(t_s, dtype=float)
-        az = np.asarray(az_m_deg, dtype=float)
-        el = np.zeros_like(t) if el_deg is None else np.asarray(el_deg, dtype=float)
-        return cls(t, az, el, float(spec.stop_bearing_deg))
-
-    @classmethod
-    def from_plan(cls, plan: MountPlan, spec: RotatorSpec,
-                  track: SkyTrack | None = None) -> AimPath:
-        """The path to follow from a :class:`tracker.planner.MountPlan`.
-
-        The plan's commands are quantised and already led by ``plan.lead_s``; the aim policy
-        does its own lead, so the lead is undone. Where the target is visible in an exact mode
-        (normal, overlap, flip) the path is the exact mechanical pointing at the target on the
-        plan's branch (no 1-degree staircase); keyhole and unwind paths are approximations by
-        design and are followed as planned.
-        """
-        t = np.asarray(plan.t_s, dtype=float)
-        lead = float(getattr(plan, "lead_s", 0.0) or 0.0)
-        az = np.interp(t - lead, t, np.asarray(plan.cmd_az_deg, dtype=float))
-        el_cmd = getattr(plan, "cmd_el_deg", None)
-        el = (np.zeros_like(t) if el_cmd is None or not spec.has_elevation
-              else np.interp(t - lead, t, np.asarray(el_cmd, dtype=float)))
-        track = track if track is not None else getattr(plan, "track", None)
-        mode = str(getattr(plan, "mode", "normal"))
-        if track is not None and mode in ("normal", "overlap", "flip") and len(track) == len(t):
-            flip = mode == "flip"
-            bearing = np.mod(track.az_deg + (180.0 if flip else 0.0), 360.0)
-            exact_m = az + (np.mod(spec.mech_of(bearing) - az + 180.0, 360.0) - 180.0)
-            vis = np.asarray(getattr(plan, "visible", track.el_deg >= 0.0), dtype=bool)
-            az = np.where(vis, np.clip(exact_m, 0.0, spec.az_span_deg), az)
-            if spec.has_elevation:
-                exact_e = 180.0 - track.el_deg if flip else track.el_deg
-                el = np.where(vis, np.clip(exact_e, spec.el_min_deg, spec.el_max_deg), el)
-        sky = None
-        if track is not None and len(track) == len(t):
-            vis = np.asarray(getattr(plan, "visible", track.el_deg >= 0.0), dtype=bool)
-            if vis.any():
-                # An azimuth-only rotator is judged on azimuth alone (as its plan is).
-                sky_el = track.el_deg if spec.has_elevation else np.zeros_like(t)
-                sky = np.where(vis[:, None], azel_to_enu(track.az_deg, sky_el),
-                               pointing_enu(az, el, spec.stop_bearing_deg))
-        return cls(t, az, el, float(spec.stop_bearing_deg), sky)
-
-    @property
-    def start_s(self) -> float:
-        return float(self.t_s[0])
-
-    @property
-    def end_s(self) -> float:
-        return float(self.t_s[-1])
-
-    def at(self, t_s: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Mechanical az and el at ``t_s`` (linear: the mechanical frame has no wrap)."""
-        return (np.interp(t_s, self.t_s, self.az_m_deg), np.interp(t_s, self.t_s, self.el_deg))
-
-    def direction(self, t_s: float | np.ndarray) -> np.ndarray:
-        """Where the path points (east-north-up unit vectors), shape ``(..., 3)``."""
-        if self.sky_enu is None:
-            az, el = self.at(t_s)
-            return pointing_enu(az, el, self.stop_bearing_deg)
-        v = np.stack([np.interp(t_s, self.t_s, self.sky_enu[:, k]) for k in range(3)],
-                     axis=-1)
-        return v / np.linalg.norm(v, axis=-1, keepdims=True)
-
-
-def pointing_enu(az_m_deg: ArrayLike, el_deg: ArrayLike,
-                 stop_bearing_deg: float = 0.0) -> np.ndarray:
-    """Boresight unit vectors of a mount at mechanical az / el (el > 90 points over the top)."""
-    bearing = np.mod(np.asarray(az_m_deg, dtype=float) + stop_bearing_deg, 360.0)
-    return azel_to_enu(bearing, el_deg)
-
-
-def angle_between_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Great-circle angle between unit vectors (last axis 3), robust near 0 and 180."""
-    cross = np.linalg.norm(np.cross(a, b), axis=-1)
-    dot = np.sum(a * b, axis=-1)
-    return np.degrees(np.arctan2(cross, dot))
 
 
 @dataclass(frozen=True)
@@ -156,25 +58,29 @@ class Aim:
 
 def _predict(axis: AxisMotor, target_deg: float, t0_s: float,
              ts: np.ndarray) -> tuple[np.ndarray, float, int]:
-    """``(positions over ts, arrival time, 1 if the motor starts else 0)`` if ``target_deg``
-    is commanded at ``t0_s`` (on a copy: ``axis`` is not changed)."""
+    """``(positions over ts, arrival time, motor starts)`` if ``target_deg`` is commanded at
+    ``t0_s`` (on a copy: ``axis`` is not changed)."""
     a = copy.copy(axis)
-    was = a.direction(t0_s)
-    a.command(target_deg, t0_s)
-    now = a.direction(t0_s)
-    return a.position(ts), a.arrival_s(), int(now != 0 and now != was)
+    pos, starts = drive_axis(a, [t0_s], [target_deg], ts)
+    return pos, a.arrival_s(), starts
 
 
-def predicted_error(path: AimPath, az_axis: AxisMotor, el_axis: AxisMotor | None,
+def _at(path: MountPath, t_s: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The path's mechanical az and el at ``t_s`` (el 0 on an azimuth-only path)."""
+    az, el = path.mount_at(t_s)
+    return az, np.zeros_like(az) if el is None else el
+
+
+def predicted_error(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None,
                     t0_s: float, ts: ArrayLike) -> np.ndarray:
     """Error (deg) over ``ts`` if nothing new is commanded: the motors finish what they do."""
     ts = np.asarray(ts, dtype=float)
     az = az_axis.position(ts)
     el = el_axis.position(ts) if el_axis is not None else np.zeros_like(ts)
-    return angle_between_deg(pointing_enu(az, el, path.stop_bearing_deg), path.direction(ts))
+    return angle_between_deg(pointing_enu(az, el, path.stop_bearing_deg), path.target_enu(ts))
 
 
-def needs_command(path: AimPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t0_s: float,
+def needs_command(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t0_s: float,
                   deadband_deg: float, lookahead_s: float, step_s: float = 0.25) -> bool:
     """True when the antenna, left alone, would leave the deadband within ``lookahead_s``.
 
@@ -188,7 +94,7 @@ def needs_command(path: AimPath, az_axis: AxisMotor, el_axis: AxisMotor | None, 
     return bool(np.max(predicted_error(path, az_axis, el_axis, t0_s, ts)) > deadband_deg)
 
 
-def choose_aim(path: AimPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t0_s: float,
+def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t0_s: float,
                deadband_deg: float, step_s: float = 0.5, horizon_s: float = 180.0,
                min_window_s: float | None = None, peak_slack_deg: float = 0.25,
                hold_fraction: float = 0.9) -> Aim:
@@ -203,11 +109,11 @@ def choose_aim(path: AimPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t0_
     ts = np.arange(t0_s, max(t_end, t0_s) + 1e-9, step_s)
     if len(ts) < 2:
         ts = np.array([t0_s, t0_s + step_s])
-    target_dir = path.direction(ts)                       # (n, 3)
-    cand_az, cand_el = path.at(ts)
+    target_dir = path.target_enu(ts)                       # (n, 3)
+    cand_az, cand_el = _at(path, ts)
     # Candidates beyond where the target will be once it has moved well past the deadband
     # cannot be the best; cut them to keep the loop cheap.
-    cur_dir = path.direction(t0_s)
+    cur_dir = path.target_enu(t0_s)
     here = pointing_enu(az_axis.position(t0_s),
                         el_axis.position(t0_s) if el_axis is not None else 0.0,
                         path.stop_bearing_deg)
@@ -289,7 +195,7 @@ def choose_aim(path: AimPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t0_
                candidates=len(c_az), starts=int(starts[pick]))
 
 
-def gpredict_aim(path: AimPath, t0_s: float, threshold_deg: float, cycle_s: float,
+def gpredict_aim(path: MountPath, t0_s: float, threshold_deg: float, cycle_s: float,
                  quantise: Callable[[float, float], tuple[float, float]] | None = None
                  ) -> tuple[float, float]:
     """Gpredict's lead (its gtk-rot-ctrl.c): the furthest future path point whose az and el are each
@@ -297,18 +203,18 @@ def gpredict_aim(path: AimPath, t0_s: float, threshold_deg: float, cycle_s: floa
 
     Slew time is ignored, as in Gpredict; returns mechanical ``(az, el)``.
     """
-    az0, el0 = path.at(t0_s)
+    az0, el0 = _at(path, t0_s)
     lo, hi = 0.0, max(0.0, path.end_s - t0_s)
     # Gpredict bisects on the time delta; the path may come back within the threshold
     # later (it is not monotone), so this is the same heuristic, not a global search.
     while hi - lo > cycle_s / 4.0:
         mid = 0.5 * (lo + hi)
-        az, el = path.at(t0_s + mid)
+        az, el = _at(path, t0_s + mid)
         if abs(az - az0) <= threshold_deg and abs(el - el0) <= threshold_deg:
             lo = mid
         else:
             hi = mid
-    az_end, el_end = path.at(t0_s + lo)
+    az_end, el_end = _at(path, t0_s + lo)
     aim = float(az_end), float(el_end)
     if quantise is not None:
         aim = quantise(*aim)

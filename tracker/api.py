@@ -78,6 +78,7 @@ from tracker.errors import (
 )
 from tracker.export import pass_records, to_csv, to_ics, to_json, to_table
 from tracker.files import write_atomic
+from tracker.geometry import MountPath
 from tracker.mount import PRESETS, MotorModel, RotatorSpec, preset
 from tracker.pass_schedule import Schedule, build_schedule, parse_priorities
 from tracker.passes import Pass, find_passes
@@ -88,7 +89,6 @@ from tracker.session import ControllerSession, EffectiveLimits, Interrupted, dri
 from tracker.skytrack import SkyTrack
 from tracker.station import HorizonMask, Station
 from tracker.steptable import (
-    MountPath,
     StepProgram,
     StepTable,
     TableProfile,

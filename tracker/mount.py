@@ -394,48 +394,39 @@ class MotorModel:
         return self.az.moving(t_s) or (self.el is not None and self.el.moving(t_s))
 
 
-def simulate_commands(axis: AxisMotor, cmd_t_s: ArrayLike, cmd_deg: ArrayLike,
-                      t_eval_s: ArrayLike) -> np.ndarray:
-    """Positions of ``axis`` at ``t_eval_s`` when it receives ``cmd_deg`` at ``cmd_t_s``.
-
-    Loops over commands (tens to hundreds per pass), vectorised over the evaluation samples
-    between them. ``axis`` is advanced (mutated) through every command. Samples before the
-    first command get the axis's current position.
-    """
-    cmd_t_s = np.asarray(cmd_t_s, dtype=float)
-    cmd_deg = np.asarray(cmd_deg, dtype=float)
-    t_eval_s = np.asarray(t_eval_s, dtype=float)
-    out = np.empty(t_eval_s.shape)
-    first = np.searchsorted(t_eval_s, cmd_t_s[0], side="left") if len(cmd_t_s) else len(
-        t_eval_s)
-    out[:first] = axis.position(t_eval_s[:first]) if first else out[:first]
-    bounds = np.searchsorted(t_eval_s, cmd_t_s, side="left")
-    for i, (tc, target) in enumerate(zip(cmd_t_s, cmd_deg, strict=True)):
-        axis.command(target, tc)
-        lo = bounds[i]
-        hi = bounds[i + 1] if i + 1 < len(bounds) else len(t_eval_s)
-        if hi > lo:
-            out[lo:hi] = axis.position(t_eval_s[lo:hi])
-    return out
+def move_from_rest(start_deg: ArrayLike, target_deg: ArrayLike, dt_s: ArrayLike,
+                   rate_deg_s: float, start_delay_s: float) -> np.ndarray:
+    """Where an axis at rest on ``start_deg`` is ``dt_s`` after being told to go to
+    ``target_deg``: :class:`AxisMotor`'s kinematics (start delay, then constant rate),
+    broadcast over any shapes."""
+    dist = np.asarray(target_deg, dtype=float) - start_deg
+    moving = np.abs(dist) > 1e-9
+    travelled = np.clip((dt_s - np.where(moving, start_delay_s, 0.0)) * rate_deg_s, 0.0,
+                        np.abs(dist))
+    return start_deg + np.sign(dist) * travelled
 
 
-def predict_axis(axis: AxisMotor, cmd_t_s: ArrayLike, cmd_deg: ArrayLike,
-                 t_eval_s: ArrayLike) -> tuple[np.ndarray, int]:
-    """Fast, exact :func:`simulate_commands` for a dense command stream; also counts starts.
+def drive_axis(axis: AxisMotor, cmd_t_s: ArrayLike, cmd_deg: ArrayLike, t_eval_s: ArrayLike,
+               *, closed_form: bool = True) -> tuple[np.ndarray, int]:
+    """Drive ``axis`` through ``cmd_deg`` commanded at ``cmd_t_s``: ``(positions at
+    t_eval_s, motor starts)``.
 
-    Returns ``(positions at t_eval_s, motor starts)``. ``axis`` must be at rest at its
-    position before the first command and is advanced through every command, as in
-    :func:`simulate_commands`. While each move ends before the next command (the normal case
-    when tracking with small steps) every command is a start from rest, so positions follow
-    in closed form for all samples at once; only the stretches where the motor is still
-    running when the next command arrives (a long slew, an unwind) are stepped through
-    :meth:`AxisMotor.command` itself, so both paths are the one motor model.
+    A start is a command that sets a resting (or reversing) axis moving: the relay closes.
+    ``axis`` is advanced (mutated) through every command; samples before the first command get
+    its position then. While each move ends before the next command (the normal case when
+    tracking with small steps) every command is a start from rest, so positions follow in
+    closed form for all samples at once; the stretches where the motor is still running when
+    the next command arrives (a long slew, an unwind), an axis already moving at the first
+    command, and ``closed_form=False`` (the reference the closed form is tested against) step
+    through :meth:`AxisMotor.command` itself, so both ways are the one motor model.
     """
     cmd_t = np.asarray(cmd_t_s, dtype=float)
     cmd = np.asarray(cmd_deg, dtype=float)
     t_eval = np.asarray(t_eval_s, dtype=float)
-    out = np.empty(t_eval.shape)
     n = len(cmd_t)
+    if not closed_form or (n and axis.moving(float(cmd_t[0]))):
+        return _step_commands(axis, cmd_t, cmd, t_eval)
+    out = np.empty(t_eval.shape)
     p0 = float(axis.position(cmd_t[0] if n else 0.0))
     if n == 0:
         out[:] = p0
@@ -456,9 +447,8 @@ def predict_axis(axis: AxisMotor, cmd_t_s: ArrayLike, cmd_deg: ArrayLike,
     idx = np.searchsorted(cmd_t, t_eval, side="right") - 1
     before = idx < 0
     i = np.clip(idx, 0, n - 1)
-    travelled = np.clip((t_eval - cmd_t[i] - delay[i]) * axis.rate_deg_s, 0.0,
-                        np.abs(step[i]))
-    out[:] = prev[i] + np.sign(step[i]) * travelled
+    out[:] = move_from_rest(prev[i], cmd[i], t_eval - cmd_t[i], axis.rate_deg_s,
+                            axis.start_delay_s)
     out[before] = p0
     starts = int(np.count_nonzero(moving & ~overlap))
 
@@ -487,9 +477,30 @@ def predict_axis(axis: AxisMotor, cmd_t_s: ArrayLike, cmd_deg: ArrayLike,
         while k < len(overlap_idx) and overlap_idx[k] < last:
             k += 1
     if not overlap[n - 1]:
-        # Leave the axis where the last command put it, as simulate_commands would.
+        # Leave the axis where the last command put it, as stepping would.
         _rest_at(axis, float(prev[-1]), float(cmd_t[-1]))
         axis.command(float(cmd[-1]), float(cmd_t[-1]))
+    return out, starts
+
+
+def _step_commands(axis: AxisMotor, cmd_t: np.ndarray, cmd: np.ndarray,
+                   t_eval: np.ndarray) -> tuple[np.ndarray, int]:
+    """:func:`drive_axis` one :meth:`AxisMotor.command` at a time, vectorised over the
+    samples between commands."""
+    out = np.empty(t_eval.shape)
+    bounds = np.searchsorted(t_eval, cmd_t, side="left")
+    first = bounds[0] if len(cmd_t) else len(t_eval)
+    out[:first] = axis.position(t_eval[:first])
+    starts = 0
+    for i, (tc, target) in enumerate(zip(cmd_t, cmd, strict=True)):
+        was = axis.direction(float(tc))
+        axis.command(float(target), float(tc))
+        if axis.direction(float(tc)) not in (0, was):
+            starts += 1
+        lo = bounds[i]
+        hi = bounds[i + 1] if i + 1 < len(bounds) else len(t_eval)
+        if hi > lo:
+            out[lo:hi] = axis.position(t_eval[lo:hi])
     return out, starts
 
 

@@ -19,6 +19,7 @@ import numpy as np
 
 from tle.textfile import read_text_file
 from tracker.errors import ConfigError
+from tracker.geometry import slew_s
 from tracker.mount import RotatorSpec
 
 
@@ -30,22 +31,6 @@ class Schedule:
     chosen: list[int]
     skipped: dict[int, int]
     total_priority: int
-
-
-def slew_s(spec: RotatorSpec, from_az_deg: float, from_el_deg: float, to_az_deg: float,
-           to_el_deg: float) -> float:
-    """Time to turn from one (bearing, el) to another: start delay + the slower axis.
-
-    For spans over 360 the shortest of the mechanical choices counts (the antenna may sit in
-    the overlap); for a 360 span the one mechanical path, round the stop.
-    """
-    a = spec.mech_candidates(from_az_deg)
-    b = spec.mech_candidates(to_az_deg)
-    daz = min(abs(x - y) for x in a for y in b)
-    t = daz / spec.az_rate_deg_s
-    if spec.has_elevation and spec.el_rate_deg_s:
-        t = max(t, abs(to_el_deg - from_el_deg) / spec.el_rate_deg_s)
-    return spec.start_delay_s + t
 
 
 def parse_priorities(items: list[str], path: str | Path | None = None) -> dict[str, int]:
@@ -118,9 +103,7 @@ def build_schedule(records: list[dict], spec: RotatorSpec, priorities: dict[str,
     weight = np.array([r["priority"] * 1000.0 + r["max_el_deg"] for r in records])
     usable = np.array([r["priority"] > 0 for r in records])
     # An upper bound of any slew: the whole span (or 180 deg of elevation) plus the delay.
-    max_slew = spec.start_delay_s + max(
-        spec.az_span_deg / spec.az_rate_deg_s,
-        (180.0 / spec.el_rate_deg_s) if spec.has_elevation and spec.el_rate_deg_s else 0.0)
+    max_slew = slew_s(spec, 0.0, 0.0, spec.az_span_deg, 180.0)
     order = np.argsort(los, kind="stable")
     los_sorted = los[order]
     best = np.zeros(n)
@@ -138,8 +121,9 @@ def build_schedule(records: list[dict], spec: RotatorSpec, priorities: dict[str,
             for i in order[m:hi].tolist():
                 if not usable[i] or best[i] <= value:
                     continue
-                slew = slew_s(spec, records[i]["los_az_deg"], 0.0, records[j]["aos_az_deg"],
-                              0.0)
+                # from the LOS to the AOS bearing, the closest mechanical positions
+                slew = slew_s(spec, spec.mech_candidates(records[i]["los_az_deg"]), None,
+                              spec.mech_candidates(records[j]["aos_az_deg"]), None)
                 if los[i] + slew + settle_s <= aos[j]:
                     value, arg = best[i], i
             best[j] = weight[j] + value

@@ -4,7 +4,7 @@ Input is a :class:`~tracker.skytrack.SkyTrack` padded before AOS and after LOS, 
 :class:`~tracker.mount.RotatorSpec`, the station (minimum elevation + horizon mask) and the
 antenna's current position. Every candidate path is built as numpy arrays over the track
 samples, quantised to the command resolution, clamped to the limits and the mask, driven
-through THE motor model (:func:`tracker.mount.predict_axis`) and scored by the great-circle
+through THE motor model (:func:`tracker.mount.drive_axis`) and scored by the great-circle
 angle between boresight and target. The best one becomes the :class:`MountPlan`.
 
 Candidates (the stop-avoiding and zenith strategies trackers use, all scored alike):
@@ -29,11 +29,11 @@ from dataclasses import dataclass, field
 from datetime import datetime, timezone
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from tracker.errors import LimitError
-from tracker.mount import AxisMotor, RotatorSpec, predict_axis
-from tracker.skytrack import SkyTrack, angular_separation_deg, azel_to_enu
+from tracker.geometry import pointing_error_deg, raise_to_mask, slew_s
+from tracker.mount import AxisMotor, RotatorSpec, drive_axis
+from tracker.skytrack import SkyTrack, azel_to_enu
 from tracker.station import Station
 
 LOST_THRESHOLD_DEG = 5.0  # half the beamwidth of a typical satellite yagi
@@ -150,35 +150,6 @@ class MountPlan:
 # Geometry helpers --------------------------------------------------------------------------
 
 
-def pointing_error_deg(spec: RotatorSpec, m_az_deg: ArrayLike, el_deg: ArrayLike,
-                       target_az_deg: ArrayLike, target_el_deg: ArrayLike) -> np.ndarray:
-    """Angle between where a mount at (mechanical az, el) points and a target (bearing, el).
-
-    Great-circle angle for az/el rotators (el > 90 points over the top); for azimuth-only
-    rotators the azimuth difference alone, since the beam's elevation is not steerable.
-    """
-    bearing = spec.bearing_of(m_az_deg)
-    if not spec.has_elevation:
-        d = np.mod(bearing - np.asarray(target_az_deg, dtype=float) + 180.0, 360.0) - 180.0
-        return np.abs(d)
-    return angular_separation_deg(bearing, el_deg, target_az_deg, target_el_deg)
-
-
-def boresight_horizon_ok(spec: RotatorSpec, station: Station, m_az_deg: ArrayLike,
-                         el_deg: ArrayLike,
-                         tol_deg: float = 1e-6) -> np.ndarray:
-    """True where a mount position points at or above the station's horizon mask."""
-    m = np.asarray(m_az_deg, dtype=float)
-    e = np.asarray(el_deg, dtype=float)
-    if not spec.has_elevation:
-        return np.ones(np.shape(m), dtype=bool)
-    b = spec.bearing_of(m)
-    over = e > 90.0
-    look_b = np.where(over, b + 180.0, b)
-    look_e = np.where(over, 180.0 - e, e)
-    return look_e >= np.asarray(station.horizon_at(np.mod(look_b, 360.0))) - tol_deg
-
-
 def park_position(spec: RotatorSpec, station: Station) -> tuple[float, float]:
     """Where the antenna parks: the spec's (mechanical az, el), the elevation raised to the
     horizon mask there (whole resolution steps), so parking never points below it."""
@@ -281,11 +252,7 @@ def _commanded(ctx: _Ctx, m: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.
     if not spec.has_elevation:
         return qa + 0.0, np.zeros_like(qa)
     qe = np.clip(np.round(e / res) * res, spec.el_min_deg, spec.el_max_deg)
-    b = spec.bearing_of(qa)
-    low_side = np.ceil(np.asarray(ctx.station.horizon_at(b)) / res - 1e-9) * res
-    far_side = 180.0 - np.ceil(
-        np.asarray(ctx.station.horizon_at(np.mod(b + 180.0, 360.0))) / res - 1e-9) * res
-    qe = np.where(qe <= 90.0, np.maximum(qe, low_side), np.minimum(qe, far_side))
+    qe = raise_to_mask(spec, ctx.station, qa, qe)
     # A big azimuth jump is a swing through every bearing in between: lift the elevation
     # over the highest mask point for as long as the swing takes.
     jump = np.abs(np.diff(qa))
@@ -308,15 +275,15 @@ def _evaluate(ctx: _Ctx, mode: str, m: np.ndarray, e: np.ndarray, fits: bool,
     cmd_t = t[change]
     az_axis = AxisMotor(0.0, spec.az_span_deg, spec.az_rate_deg_s, spec.start_delay_s,
                         spec.resolution_deg, qa[0], t[0] - 1.0)
-    ant_az, starts = predict_axis(az_axis, cmd_t, qa[change], t)
+    ant_az, starts = drive_axis(az_axis, cmd_t, qa[change], t)
     if spec.has_elevation:
         el_axis = AxisMotor(spec.el_min_deg, spec.el_top_deg, spec.el_rate,
                             spec.start_delay_s, spec.resolution_deg, qe[0], t[0] - 1.0)
-        ant_el, el_starts = predict_axis(el_axis, cmd_t, qe[change], t)
+        ant_el, el_starts = drive_axis(el_axis, cmd_t, qe[change], t)
         starts += el_starts
     else:
         ant_el = np.zeros_like(ant_az)
-    err = pointing_error_deg(spec, ant_az, ant_el, ctx.track.az_deg, ctx.track.el_deg)
+    err = pointing_error_deg(spec, ant_az, ant_el, (ctx.track.az_deg, ctx.track.el_deg))
     vis = ctx.visible
     ev = err[vis]
     lost = float(np.sum(ctx.dt[vis & (err > ctx.threshold_deg)]))
@@ -455,7 +422,7 @@ def _safe_moves(spec: RotatorSpec, station: Station, start: tuple[float, float],
     m0, e0 = start
     m1, e1 = end
     if not spec.has_elevation:
-        dur = spec.start_delay_s + abs(m1 - m0) / spec.az_rate_deg_s
+        dur = slew_s(spec, m0, None, m1, None)
         return ([Move(t0_s, m1, 0.0)] if abs(m1 - m0) > 1e-9 else []), dur
     res = spec.resolution_deg
     swept = np.linspace(min(m0, m1), max(m0, m1), max(2, int(abs(m1 - m0)) + 2))
@@ -463,19 +430,18 @@ def _safe_moves(spec: RotatorSpec, station: Station, start: tuple[float, float],
     hz = math.ceil(hz / res - 1e-9) * res
     moves: list[Move] = []
     t = t0_s
-    el_rate, az_rate, delay = spec.el_rate, spec.az_rate_deg_s, spec.start_delay_s
     if abs(m1 - m0) > 1e-9:
         e_mid = 90.0 if e0 > 90.0 else max(e0, hz)
         e_mid = min(max(e_mid, spec.el_min_deg), spec.el_top_deg)
         if abs(e_mid - e0) > 1e-9:
             moves.append(Move(t, m0, e_mid))
-            t += delay + abs(e_mid - e0) / el_rate
+            t += slew_s(spec, m0, e0, m0, e_mid)
         moves.append(Move(t, m1, e_mid))
-        t += delay + abs(m1 - m0) / az_rate
+        t += slew_s(spec, m0, None, m1, None)
         e0 = e_mid
     if abs(e1 - e0) > 1e-9:
         moves.append(Move(t, m1, e1))
-        t += delay + abs(e1 - e0) / el_rate
+        t += slew_s(spec, m1, e0, m1, e1)
     return moves, t - t0_s
 
 

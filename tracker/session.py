@@ -17,7 +17,7 @@ upload``; a library user alike) runs its controller I/O inside a :class:`Control
   bearing, elevation range, azimuth-only) narrowed by what the driver reports it accepts (its
   :class:`~tracker.protocols.base.Capabilities`: GS-232B in P36 mode, rotctld's ``\\dump_caps``
   limits, an azimuth-only controller), plus the station's horizon mask (the planner's own
-  :func:`~tracker.planner.boresight_horizon_ok`). :meth:`ControllerSession.check_move` refuses
+  :func:`~tracker.geometry.boresight_horizon_ok`). :meth:`ControllerSession.check_move` refuses
   (:class:`~tracker.errors.LimitError`, one line) any position outside them.
 
 Frames: the guard takes *wire degrees*, what the controller takes and reports (and what
@@ -185,7 +185,7 @@ class EffectiveLimits:
     def check_wire(self, az_deg: float, el_deg: float | None) -> None:
         """Refuse (LimitError, one line, nothing sent) a wire position outside the limits or
         with the boresight below the horizon mask."""
-        from tracker.planner import boresight_horizon_ok
+        from tracker.geometry import boresight_horizon_ok, boresight_look
 
         where = f"az {az_deg:g}" + ("" if el_deg is None else f" el {el_deg:g}")
         fix = f"allowed: {self.describe()}"
@@ -208,8 +208,7 @@ class EffectiveLimits:
             return
         mechs = self.mech_of_wire(az_deg) or [float(self.spec.mech_of(az_deg))]
         if not bool(boresight_horizon_ok(self.spec, station, mechs[0], el_deg)):
-            bearing = float(self.spec.bearing_of(mechs[0]))
-            look_b = (bearing + 180.0) % 360.0 if el_deg > 90.0 else bearing
+            look_b = float(boresight_look(self.spec, mechs[0], el_deg)[0])
             floor = float(station.horizon_at(look_b))
             raise LimitError(f"{where} points below the horizon mask of station "
                              f"{station.name} ({floor:g} deg at bearing {look_b:.0f}); "

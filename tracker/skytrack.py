@@ -93,10 +93,13 @@ def enu_to_azel(enu) -> tuple[np.ndarray, np.ndarray]:
     return az, el
 
 
-def angular_separation_deg(az1_deg, el1_deg, az2_deg, el2_deg) -> np.ndarray:
-    """Great-circle angle between two directions (el may exceed 90 for flipped pointing)."""
-    a = azel_to_enu(az1_deg, el1_deg)
-    b = azel_to_enu(az2_deg, el2_deg)
+def angle_between_deg(a, b) -> np.ndarray:
+    """Great-circle angle between unit vectors (last axis 3), robust near 0 and 180."""
     cross = np.linalg.norm(np.cross(a, b), axis=-1)
     dot = np.sum(a * b, axis=-1)
     return np.degrees(np.arctan2(cross, dot))
+
+
+def angular_separation_deg(az1_deg, el1_deg, az2_deg, el2_deg) -> np.ndarray:
+    """Great-circle angle between two directions (el may exceed 90 for flipped pointing)."""
+    return angle_between_deg(azel_to_enu(az1_deg, el1_deg), azel_to_enu(az2_deg, el2_deg))

@@ -12,7 +12,7 @@ One module for both ways the tracker drives a rotator:
   from the recent read-backs against the table's points at their (late-shifted) times. The
   table runs on the box, so there is nothing to re-send: a suspected stall is read twice.
 
-Both judge against :func:`tracker.mount.predict_axis` / :class:`tracker.mount.AxisMotor`,
+Both judge against :func:`tracker.mount.drive_axis` / :class:`tracker.mount.AxisMotor`,
 never call a command that asks for no travel (or one the read-back shows reached) a stall, and
 report with :func:`stall_error`: what was observed, and what may cause it, without claiming
 which.
@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tracker.errors import StallError
-from tracker.mount import AxisMotor, RotatorSpec, predict_axis
+from tracker.mount import AxisMotor, RotatorSpec, drive_axis
 from tracker.steptable import StepTable
 
 # Read-backs are whole degrees: less progress than this is no motion.
@@ -292,7 +292,7 @@ class TableWatch:
 
     Keeps the recent C2 read-backs of the active table. For each one (the reference) an
     :class:`~tracker.mount.AxisMotor` is put at rest on the reference reading and driven by
-    :func:`~tracker.mount.predict_axis` through the point active then and the points due
+    :func:`~tracker.mount.drive_axis` through the point active then and the points due
     since, at their (late-shifted) command times. Starting from rest adds a start delay the
     real motor may not need, so a healthy axis is always at least as far along as predicted:
     if the model has it >= 1 deg further toward the point and the read-back shows no progress,
@@ -418,7 +418,7 @@ class TableWatch:
         need = STALL_MOVE_DEG + (0.0 if exact else 0.5)
         out = []
         for axis in self._axes(name, ref_deg, t_ref):
-            travel = predict_axis(axis, cmd_t, cmd_deg, t_eval)[0] - ref_deg
+            travel = drive_axis(axis, cmd_t, cmd_deg, t_eval)[0] - ref_deg
             if np.min(np.abs(travel)) < need - 1e-6:
                 return None
             out.append(travel)

@@ -26,7 +26,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -34,7 +34,8 @@ from numpy.typing import ArrayLike
 from tle.textfile import read_text_file
 from tracker.controllers import find
 from tracker.errors import ConfigError, LimitError, with_advice
-from tracker.mount import AxisMotor, MotorModel, RotatorSpec
+from tracker.geometry import MountPath, pointing_error_deg, raise_to_mask, slew_s
+from tracker.mount import MotorModel, RotatorSpec, drive_axis, move_from_rest
 from tracker.protocols.gs232_tables import (
     INTERVAL_MAX_S,
     INTERVAL_MIN_S,
@@ -118,84 +119,6 @@ def table_profile(name: str) -> TableProfile:
 
 def _chars_per_point(kind: str) -> int:
     return 8 if kind == "W" else 4
-
-
-# Input: the path the antenna should follow ---------------------------------------------------
-
-
-class PlanLike(Protocol):
-    """What the compiler needs from a planner ``MountPlan``."""
-
-    t_s: np.ndarray
-    cmd_az_deg: np.ndarray
-    cmd_el_deg: np.ndarray
-
-
-@dataclass(frozen=True)
-class MountPath:
-    """Where the antenna should point, in the mechanical frame, and where the target is.
-
-    ``az_deg`` is mechanical azimuth (continuous, overlap/flip included), ``el_deg`` the mount
-    elevation (> 90 on a flip path; ``None`` for azimuth-only rotators). ``target_az_deg`` /
-    ``target_el_deg`` are the true direction of the target, used to measure pointing error.
-    """
-
-    t_s: np.ndarray
-    az_deg: np.ndarray
-    el_deg: np.ndarray | None
-    target_az_deg: np.ndarray
-    target_el_deg: np.ndarray
-    name: str = ""
-    meta: dict = field(default_factory=dict, compare=False)
-
-    @classmethod
-    def from_plan(cls, plan: PlanLike, track: SkyTrack, spec: RotatorSpec) -> MountPath:
-        """From a planner MountPlan and the SkyTrack it was planned for."""
-        t = np.asarray(plan.t_s, dtype=float)
-        taz, tel = track.direction_at(t)
-        el = None if not spec.has_elevation else np.asarray(plan.cmd_el_deg, dtype=float)
-        return cls(t, np.asarray(plan.cmd_az_deg, dtype=float), el, taz, tel,
-                   getattr(track, "name", ""), dict(getattr(track, "meta", {}) or {}))
-
-    @classmethod
-    def from_track(cls, track: SkyTrack, spec: RotatorSpec) -> MountPath:
-        """The plain unwrapped path (no flip): for tests and when no planner is at hand.
-
-        The unwrapped mechanical azimuth is shifted by whole turns so it fits the span if it
-        can (a 450° rotator then uses its overlap), else clipped.
-        """
-        t = np.asarray(track.t_s, dtype=float)
-        m = np.degrees(np.unwrap(np.radians(spec.mech_of(track.az_deg))))
-        best = m
-        for k in range(-2, 3):
-            cand = m + 360.0 * k
-            lo, hi = cand.min(), cand.max()
-            if lo >= 0.0 and hi <= spec.az_span_deg:
-                best = cand
-                break
-            if k == 0:
-                best = cand - 360.0 * np.floor(lo / 360.0)
-        m = np.clip(best, 0.0, spec.az_span_deg)
-        el = None
-        if spec.has_elevation:
-            el = np.clip(np.asarray(track.el_deg, dtype=float), spec.el_min_deg,
-                         spec.el_max_deg)
-        return cls(t, m, el, np.asarray(track.az_deg, dtype=float),
-                   np.asarray(track.el_deg, dtype=float), getattr(track, "name", ""),
-                   dict(getattr(track, "meta", {}) or {}))
-
-    def mount_at(self, t_s: ArrayLike) -> tuple[np.ndarray, np.ndarray | None]:
-        t = np.asarray(t_s, dtype=float)
-        az = np.interp(t, self.t_s, self.az_deg)
-        el = None if self.el_deg is None else np.interp(t, self.t_s, self.el_deg)
-        return az, el
-
-    def target_enu(self, t_s: ArrayLike) -> np.ndarray:
-        """Unit vectors of the target at ``t_s`` (interpolated on the sphere, wrap-safe)."""
-        v = azel_to_enu(self.target_az_deg, self.target_el_deg)
-        t = np.asarray(t_s, dtype=float)
-        out = np.stack([np.interp(t, self.t_s, v[:, i]) for i in range(3)], axis=-1)
-        return out / np.linalg.norm(out, axis=-1, keepdims=True)
 
 
 # Tables ----------------------------------------------------------------------------------
@@ -401,7 +324,7 @@ def check_tables_fit(tables: Sequence[StepTable], spec: RotatorSpec, station: St
                      source: str = "the plan") -> None:
     """Refuse (LimitError) tables with a point outside ``spec``'s travel or below the
     station's horizon mask: a plan file may have been made for another rotator or station."""
-    from tracker.planner import boresight_horizon_ok
+    from tracker.geometry import boresight_horizon_ok
 
     for n, table in enumerate(tables, 1):
         wire = np.asarray(table.az_deg, dtype=float)
@@ -549,11 +472,8 @@ def _compile_at(path: MountPath, sss: int, *, spec: RotatorSpec, profile: TableP
 def _preposition_s(spec: RotatorSpec, az_m: float, el: float | None,
                    start_az_deg: float | None, start_el_deg: float | None) -> float:
     az0 = spec.park_az_deg if start_az_deg is None else start_az_deg
-    slew = spec.start_delay_s + abs(az_m - az0) / spec.az_rate_deg_s
-    if el is not None and spec.has_elevation:
-        el0 = spec.park_el_deg if start_el_deg is None else start_el_deg
-        slew = max(slew, spec.start_delay_s + abs(el - el0) / spec.el_rate)
-    return slew
+    el0 = spec.park_el_deg if start_el_deg is None else start_el_deg
+    return slew_s(spec, az0, el0, az_m, el)
 
 
 # Point choice (vectorised over windows x candidates x samples) ----------------------------
@@ -586,7 +506,7 @@ def _choose_points(path: MountPath, spec: RotatorSpec, profile: TableProfile, ki
 
     # Pass 1 assumes the previous point is the rounded path at its window centre; pass 2
     # uses the pass-1 choices, so each window sees the slew it will really get.
-    prev_az = np.rint(np.interp(np.r_[cmd_t[0], cmd_t[:-1]], path.t_s, path.az_deg))
+    prev_az = np.rint(np.interp(np.r_[cmd_t[0], cmd_t[:-1]], path.t_s, path.az_m_deg))
     prev_el = None
     if kind == "W" and path.el_deg is not None:
         prev_el = np.rint(np.interp(np.r_[cmd_t[0], cmd_t[:-1]], path.t_s, path.el_deg))
@@ -596,7 +516,7 @@ def _choose_points(path: MountPath, spec: RotatorSpec, profile: TableProfile, ki
         prev_az = np.r_[az_pick[0], az_pick[:-1]]
         prev_el = None if el_pick is None else np.r_[el_pick[0], el_pick[:-1]]
     if station is not None and el_pick is not None:
-        el_pick = _above_mask(spec, station, az_pick, el_pick)
+        el_pick = raise_to_mask(spec, station, az_pick, el_pick, step_deg=1.0)
     assert len(az_pick) == n
     return az_pick.astype(float), None if el_pick is None else el_pick.astype(float)
 
@@ -633,21 +553,17 @@ def _score_blocks(spec: RotatorSpec, kind: str, cmd_t: np.ndarray, ts: np.ndarra
 
 def _score(spec, kind, cmd_t, ts, target, az_c, el_c, prev_az, prev_el):
     dt = np.maximum(ts - cmd_t[:, None], 0.0)                             # (n, ns)
-    az_pos = _slew(prev_az[:, None, None], az_c[:, :, None], dt[:, None, :],
-                   spec.az_rate_deg_s, spec.start_delay_s)                # (n, ca, ns)
+    az_pos = move_from_rest(prev_az[:, None, None], az_c[:, :, None], dt[:, None, :],
+                            spec.az_rate_deg_s, spec.start_delay_s)       # (n, ca, ns)
     if kind == "W":
-        el_pos = _slew(prev_el[:, None, None], el_c[:, :, None], dt[:, None, :],
-                       spec.el_rate_deg_s, spec.start_delay_s)            # (n, ce, ns)
-        b_az, b_el = np.broadcast_arrays(np.asarray(spec.bearing_of(az_pos))[:, :, None, :],
-                                         el_pos[:, None, :, :])
-        a = azel_to_enu(b_az, b_el)                                       # (n, ca, ce, ns, 3)
-        tv = target[:, None, None, :, :]
-        cross = np.linalg.norm(np.cross(a, tv), axis=-1)
-        err = np.degrees(np.arctan2(cross, np.sum(a * tv, axis=-1)))     # (n, ca, ce, ns)
+        el_pos = move_from_rest(prev_el[:, None, None], el_c[:, :, None], dt[:, None, :],
+                                spec.el_rate, spec.start_delay_s)         # (n, ce, ns)
+        b_az, b_el = np.broadcast_arrays(az_pos[:, :, None, :], el_pos[:, None, :, :])
+        err = pointing_error_deg(spec, b_az, b_el,
+                                 target[:, None, None, :, :])            # (n, ca, ce, ns)
     else:
-        taz = np.degrees(np.arctan2(target[..., 0], target[..., 1]))      # (n, ns)
-        d = np.asarray(spec.bearing_of(az_pos)) - taz[:, None, :]
-        err = np.abs((d + 180.0) % 360.0 - 180.0)[:, :, None, :]          # (n, ca, 1, ns)
+        err = pointing_error_deg(spec, az_pos, None,
+                                 target[:, None, :, :])[:, :, None, :]   # (n, ca, 1, ns)
     score = err.max(axis=-1) + 0.1 * err.mean(axis=-1)                   # (n, ca, ce)
     flat = score.reshape(len(cmd_t), -1).argmin(axis=1)
     ia, ie = np.unravel_index(flat, score.shape[1:])
@@ -655,31 +571,6 @@ def _score(spec, kind, cmd_t, ts, target, az_c, el_c, prev_az, prev_el):
     az_pick = az_c[rows, ia]
     el_pick = el_c[rows, ie] if kind == "W" else None
     return az_pick, el_pick
-
-
-def _slew(prev, target, dt, rate, delay):
-    """Where an axis is ``dt`` after being told to go from ``prev`` to ``target``.
-
-    The same kinematics as :class:`tracker.mount.AxisMotor` (start delay, then constant
-    rate), broadcast over candidates; the final prediction drives AxisMotor itself.
-    """
-    dist = target - prev
-    moving = np.abs(dist) > 1e-9
-    travelled = np.clip((dt - np.where(moving, delay, 0.0)) * rate, 0.0, np.abs(dist))
-    return prev + np.sign(dist) * travelled
-
-
-def _above_mask(spec: RotatorSpec, station: Station, az_m: np.ndarray,
-                el: np.ndarray) -> np.ndarray:
-    """Raise (or for a flipped mount lower) elevations so no point is below the mask."""
-    bearing = np.asarray(spec.bearing_of(az_m))
-    el = el.copy()
-    normal = el <= 90.0
-    floor_n = np.ceil(station.horizon_at(bearing))
-    el[normal] = np.maximum(el[normal], np.clip(floor_n[normal], 0, 90))
-    floor_f = np.ceil(station.horizon_at(np.mod(bearing + 180.0, 360.0)))
-    el[~normal] = np.minimum(el[~normal], 180.0 - np.clip(floor_f[~normal], 0, 90))
-    return el
 
 
 # Prediction with THE motor model ---------------------------------------------------------
@@ -698,56 +589,15 @@ def predict(path: MountPath, spec: RotatorSpec, cmd_t_s: ArrayLike,
     t_eval = np.arange(t0, t1 + 1e-9, step_s)
     motor = MotorModel(spec, az_deg=start_az_deg, el_deg=start_el_deg,
                        t_s=min(float(cmd_t_s[0]), t0))
-    az_pos, starts = drive_axis(motor.az, cmd_t_s, az_m, t_eval)
+    # A table has few points: stepping each through the motor counts every start exactly.
+    az_pos, starts = drive_axis(motor.az, cmd_t_s, az_m, t_eval, closed_form=False)
     el_pos = None
     if motor.el is not None and el is not None:
-        el_pos, el_starts = drive_axis(motor.el, cmd_t_s, el, t_eval)
+        el_pos, el_starts = drive_axis(motor.el, cmd_t_s, el, t_eval, closed_form=False)
         starts += el_starts
-    err = pointing_error_deg(spec, path, t_eval, az_pos, el_pos)
+    err = pointing_error_deg(spec, az_pos, el_pos, path.target_enu(t_eval))
     return Prediction(float(err.max()), float(err.mean()), int(starts), t_eval, err, az_pos,
                       el_pos)
-
-
-def drive_axis(axis: AxisMotor, cmd_t_s: ArrayLike, cmd_deg: Sequence[float] | np.ndarray,
-               t_eval_s: ArrayLike) -> tuple[np.ndarray, int]:
-    """Like :func:`tracker.mount.simulate_commands`, also counting motor starts.
-
-    A start is a command that sets a resting (or reversing) axis moving: the relay closes.
-    """
-    cmd_t_s = np.asarray(cmd_t_s, dtype=float)
-    t_eval_s = np.asarray(t_eval_s, dtype=float)
-    out = np.empty(t_eval_s.shape)
-    bounds = np.searchsorted(t_eval_s, cmd_t_s, side="left")
-    out[:bounds[0]] = axis.position(t_eval_s[:bounds[0]])
-    starts = 0
-    for i, (tc, target) in enumerate(zip(cmd_t_s, cmd_deg, strict=True)):
-        was = axis.direction(tc)
-        axis.command(target, tc)
-        now = axis.direction(tc) or (1 if axis.target_deg > axis.position(tc) + 1e-9 else
-                                     -1 if axis.target_deg < axis.position(tc) - 1e-9 else 0)
-        if now != 0 and now != was:
-            starts += 1
-        lo = bounds[i]
-        hi = bounds[i + 1] if i + 1 < len(bounds) else len(t_eval_s)
-        if hi > lo:
-            out[lo:hi] = axis.position(t_eval_s[lo:hi])
-    return out, starts
-
-
-def pointing_error_deg(spec: RotatorSpec, path: MountPath, t_s: ArrayLike,
-                       ant_az_m: ArrayLike, ant_el: ArrayLike | None = None) -> np.ndarray:
-    """Angle between the antenna (mechanical az, mount el) and the target at ``t_s``.
-
-    Azimuth-only rotators: the azimuth difference (their elevation is fixed by hand).
-    """
-    target = path.target_enu(t_s)
-    bearing = np.asarray(spec.bearing_of(ant_az_m))
-    if ant_el is None:
-        taz = np.degrees(np.arctan2(target[..., 0], target[..., 1]))
-        return np.abs((bearing - taz + 180.0) % 360.0 - 180.0)
-    a = azel_to_enu(bearing, ant_el)
-    cross = np.linalg.norm(np.cross(a, target), axis=-1)
-    return np.degrees(np.arctan2(cross, np.sum(a * target, axis=-1)))
 
 
 # Plan files ------------------------------------------------------------------------------
@@ -945,7 +795,8 @@ def compile_pass(track: SkyTrack, spec: RotatorSpec, station: Station,
     t = np.asarray(plan.t_s, dtype=float)[sl]
     taz, tel = track.direction_at(t)
     el = np.asarray(plan.cmd_el_deg, dtype=float)[sl] if spec.has_elevation else None
-    path = MountPath(t, np.asarray(plan.cmd_az_deg, dtype=float)[sl], el, taz, tel,
+    path = MountPath(t, np.asarray(plan.cmd_az_deg, dtype=float)[sl], el,
+                     float(spec.stop_bearing_deg), azel_to_enu(taz, tel),
                      getattr(track, "name", ""), {"mode": plan.mode})
     start_az, start_el = current if current is not None else (None, None)
     info = {"mode": plan.mode, **(meta or {})}

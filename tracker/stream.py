@@ -25,15 +25,7 @@ from enum import Enum
 
 import numpy as np
 
-from tracker.aim import (
-    COMMAND_COST_STARTS,
-    Aim,
-    AimPath,
-    angle_between_deg,
-    choose_aim,
-    needs_command,
-    pointing_enu,
-)
+from tracker.aim import COMMAND_COST_STARTS, Aim, choose_aim, needs_command
 from tracker.clock import Clock
 from tracker.errors import (
     PortLostError,
@@ -44,9 +36,16 @@ from tracker.errors import (
     StallError,
     TrackerError,
 )
+from tracker.geometry import (
+    MountPath,
+    boresight_look,
+    move_clears_mask,
+    pointing_enu,
+    pointing_error_deg,
+    raise_to_mask,
+)
 from tracker.mount import MotorModel, RotatorSpec
-from tracker.planner import boresight_horizon_ok
-from tracker.skytrack import SkyTrack
+from tracker.skytrack import SkyTrack, angle_between_deg
 from tracker.stall import AxisWatch, moving_axis, stall_error
 from tracker.station import Station
 
@@ -166,14 +165,15 @@ class TrackCore:
         self.spec = spec
         self.station = station
         self.settings = settings or StreamSettings(deadband_deg=spec.deadband_deg)
-        self.path = AimPath.from_plan(plan, spec)
+        self.path = MountPath.exact_from_plan(plan, None, spec)
         # Where the path needs the motors to run most of the time (near the zenith), the
         # deadband saves no relay clicks - commands in the running direction start nothing -
         # and holding would build an azimuth lag that takes long to catch up. There the loop
         # follows the plan's own led commands, whose error the planner predicted.
         dt = np.gradient(self.path.t_s)
         self._az_rate = np.abs(np.gradient(self.path.az_m_deg) / dt)
-        self._el_rate = np.abs(np.gradient(self.path.el_deg) / dt)
+        path_el = self.path.el_deg if self.path.el_deg is not None else np.zeros_like(dt)
+        self._el_rate = np.abs(np.gradient(path_el) / dt)
         self._plan_az = np.asarray(plan.cmd_az_deg, dtype=float)
         self._plan_el = np.asarray(getattr(plan, "cmd_el_deg", np.zeros_like(self._plan_az)),
                                    dtype=float)
@@ -184,7 +184,7 @@ class TrackCore:
                                 self.aos_s - 2 * self.settings.cycle_s - spec.start_delay_s)
         pre = getattr(plan, "preposition", None)
         if pre is None:
-            pre = (float(self.path.az_m_deg[0]), float(self.path.el_deg[0]))
+            pre = (float(self.path.az_m_deg[0]), float(path_el[0]))
         self.preposition_t_s = float(getattr(plan, "preposition_t_s", self.path.start_s))
         # The planner's mask-safe move sequences (elevation up, azimuth across, elevation
         # down); a plan without them gets one direct move.
@@ -474,13 +474,13 @@ class TrackCore:
                        self.settings.aim_step_s)
         if len(ts) < 2:
             return last
-        cand_az, cand_el = self.path.at(ts)
+        cand_az, cand_el = self.path.mount_at(ts)
         q_az = np.array([self.motor.az.quantise(a) for a in cand_az])
         q_el = (np.array([self.motor.el.quantise(e) for e in cand_el])
-                if self.motor.el is not None and last.el_deg is not None
+                if self.motor.el is not None and last.el_deg is not None and cand_el is not None
                 else np.zeros_like(q_az))
         err = angle_between_deg(pointing_enu(q_az, q_el, self.path.stop_bearing_deg)[:, None],
-                                self.path.direction(ts)[None, :])          # (candidate, t)
+                                self.path.target_enu(ts)[None, :])          # (candidate, t)
         off = err > self._band()
         # Held from the start of tracking: a candidate counts until the error first leaves
         # the deadband, and only if it is inside at the start.
@@ -608,14 +608,9 @@ class TrackCore:
         if ant is not None:
             el = ant[1] if ant[1] is not None else 0.0
             bearing = float(self.spec.bearing_of(ant[0]))
-            if self.spec.has_elevation:
-                err = float(angle_between_deg(
-                    pointing_enu(ant[0], el, self.spec.stop_bearing_deg),
-                    pointing_enu(float(taz), float(tel), 0.0)))
-            else:
-                # the beam's elevation is set by hand: only azimuth is ours to get right, as
-                # in the planner's prediction
-                err = abs((bearing - float(taz) + 180.0) % 360.0 - 180.0)
+            # an azimuth-only beam's elevation is set by hand: only azimuth is ours to get
+            # right, as in the planner's prediction
+            err = float(pointing_error_deg(self.spec, ant[0], el, (float(taz), float(tel))))
         span = max(self.los_s - self.aos_s, 1e-9)
         cmd = self.last_command
         return Status(t_s=t_s, phase=self.phase, mode=self.mode, target_az_deg=float(taz),
@@ -644,33 +639,14 @@ def safe_target(spec: RotatorSpec, station: Station, az_m_deg: float, el_deg: fl
     el = min(max(float(el_deg), spec.el_min_deg), spec.el_max_deg)
     if el != el_deg:
         why.append(f"elevation {el_deg:.1f} outside {spec.el_min_deg:g}..{spec.el_max_deg:g}")
-    # Over the top (el > 90) the boresight looks at bearing + 180, elevation 180 - el.
-    over = el > 90.0
-    look_bearing = float(spec.bearing_of(az)) + (180.0 if over else 0.0)
-    look_el = 180.0 - el if over else el
-    floor = float(station.horizon_at(look_bearing % 360.0))
-    if look_el < floor - 1e-9:
-        res = spec.resolution_deg
-        safe_look = math.ceil(floor / res - 1e-9) * res
-        el = 180.0 - safe_look if over else safe_look
-        el = min(max(el, spec.el_min_deg), spec.el_max_deg)
+    raised = float(raise_to_mask(spec, station, az, el))
+    if raised != el:
+        look_bearing, _look_el = boresight_look(spec, az, el)
+        floor = float(station.horizon_at(look_bearing))
+        el = min(max(raised, spec.el_min_deg), spec.el_max_deg)
         why.append(f"raised above the horizon mask ({floor:.1f} deg at "
-                   f"{look_bearing % 360.0:.0f})")
+                   f"{float(look_bearing):.0f})")
     return az, el, "; ".join(why)
-
-
-def move_clears_mask(spec: RotatorSpec, station: Station, start: tuple[float, float | None],
-                     end: tuple[float, float | None], samples: int = 64) -> bool:
-    """True if both axes, started together from ``start`` at their own rates, keep the
-    boresight on or above the horizon mask all the way to ``end`` (mechanical az, el)."""
-    if not spec.has_elevation or start[1] is None or end[1] is None:
-        return True
-    (m0, e0), (m1, e1) = start, end
-    t_end = max(abs(m1 - m0) / spec.az_rate_deg_s, abs(e1 - e0) / spec.el_rate_deg_s)
-    t = np.linspace(0.0, t_end, samples)
-    m = m0 + np.sign(m1 - m0) * np.minimum(t * spec.az_rate_deg_s, abs(m1 - m0))
-    e = e0 + np.sign(e1 - e0) * np.minimum(t * spec.el_rate_deg_s, abs(e1 - e0))
-    return bool(np.all(boresight_horizon_ok(spec, station, m, e)))
 
 
 # I/O loop ----------------------------------------------------------------------------------

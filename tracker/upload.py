@@ -13,7 +13,7 @@ The procedure for each table of a :class:`~tracker.steptable.StepProgram` (or a 
    cannot be read (line noise, a timeout) is asked again, and a bad count is confirmed by a
    second ``N``, before anything is concluded: noise must not cost a resync. ``C2`` must show
    each axis moving toward the table: :class:`tracker.stall.TableWatch` drives the shared
-   motor model (:func:`tracker.mount.predict_axis`) from each recent read-back through the
+   motor model (:func:`tracker.mount.drive_axis`) from each recent read-back through the
    points due since, and an axis the model says must have moved >= 1 deg that has not moved at
    all (read twice) is a jam: all-stop and :class:`~tracker.errors.StallError`, within about
    start delay + 1 deg of travel + one poll of the point change.

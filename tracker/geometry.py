@@ -1,0 +1,280 @@
+"""Mount geometry shared by the planner, the live loop and the step-table compiler.
+
+One owner for what the three ask of a mount's pointing (pure numpy, no I/O, no clock):
+
+* :class:`MountPath`: a path in the mechanical frame (mechanical azimuth and mount elevation
+  over time) and where the target is meanwhile. ``MountPath.from_plan`` takes a plan's
+  commands as planned (the step-table compiler); ``MountPath.exact_from_plan`` the path the
+  live loop follows (the plan's lead undone, exact pointing where the mode is exact).
+* :func:`pointing_enu` (where a mount at mechanical az / el looks, el > 90 over the top) and
+  :func:`pointing_error_deg` (the angle to the target; azimuth-only rotators are judged on
+  azimuth alone, their elevation being set by hand).
+* The horizon-mask guard: :func:`boresight_horizon_ok` (the test),
+  :func:`raise_to_mask` (the clamp: the lowest whole step above the mask) and
+  :func:`move_clears_mask` (a straight move of both axes).
+* :func:`slew_s`: how long a move takes (start delay, then the slower axis).
+
+Driving an axis through commands is the motor model's (:func:`tracker.mount.drive_axis`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from tracker.mount import RotatorSpec
+from tracker.skytrack import SkyTrack, angle_between_deg, azel_to_enu
+
+if TYPE_CHECKING:  # pragma: no cover - typing only
+    from tracker.station import Station
+
+
+# Where a mount points ------------------------------------------------------------------------
+
+
+def pointing_enu(az_m_deg: ArrayLike, el_deg: ArrayLike,
+                 stop_bearing_deg: float = 0.0) -> np.ndarray:
+    """Boresight unit vectors of a mount at mechanical az / el (el > 90 points over the top)."""
+    bearing = np.mod(np.asarray(az_m_deg, dtype=float) + stop_bearing_deg, 360.0)
+    return azel_to_enu(bearing, el_deg)
+
+
+def pointing_error_deg(spec: RotatorSpec, ant_az_m_deg: ArrayLike, ant_el_deg: ArrayLike | None,
+                       target: np.ndarray | tuple[ArrayLike, ArrayLike]) -> np.ndarray:
+    """Angle between where a mount at (mechanical az, el) points and the target.
+
+    ``target`` is either east-north-up unit vectors (shape ``(..., 3)``) or a pair
+    ``(bearing_deg, el_deg)``. Great-circle angle for az/el rotators (el > 90 points over the
+    top); for azimuth-only rotators (or ``ant_el_deg`` None) the azimuth difference alone,
+    since the beam's elevation is not steerable. Broadcasts over leading axes.
+    """
+    bearing = spec.bearing_of(ant_az_m_deg)
+    if isinstance(target, tuple):
+        target_az = np.asarray(target[0], dtype=float)
+        if not spec.has_elevation or ant_el_deg is None:
+            return np.abs(np.mod(bearing - target_az + 180.0, 360.0) - 180.0)
+        target_enu = azel_to_enu(target_az, target[1])
+    else:
+        target_enu = np.asarray(target, dtype=float)
+        if not spec.has_elevation or ant_el_deg is None:
+            target_az = np.degrees(np.arctan2(target_enu[..., 0], target_enu[..., 1]))
+            return np.abs(np.mod(bearing - target_az + 180.0, 360.0) - 180.0)
+    return angle_between_deg(azel_to_enu(bearing, ant_el_deg), target_enu)
+
+
+# The horizon mask ----------------------------------------------------------------------------
+
+
+def boresight_look(spec: RotatorSpec, m_az_deg: ArrayLike, el_deg: ArrayLike
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Where the boresight really looks, ``(bearing in [0, 360), elevation <= 90)``: over
+    the top (el > 90) a mount looks at bearing + 180, elevation 180 - el."""
+    b = spec.bearing_of(m_az_deg)
+    e = np.asarray(el_deg, dtype=float)
+    over = e > 90.0
+    return np.mod(np.where(over, b + 180.0, b), 360.0), np.where(over, 180.0 - e, e)
+
+
+def boresight_horizon_ok(spec: RotatorSpec, station: Station, m_az_deg: ArrayLike,
+                         el_deg: ArrayLike, tol_deg: float = 1e-6) -> np.ndarray:
+    """True where a mount position points at or above the station's horizon mask
+    (always for an azimuth-only rotator)."""
+    m = np.asarray(m_az_deg, dtype=float)
+    if not spec.has_elevation:
+        return np.ones(np.shape(m), dtype=bool)
+    look_b, look_e = boresight_look(spec, m, el_deg)
+    return look_e >= np.asarray(station.horizon_at(look_b)) - tol_deg
+
+
+def raise_to_mask(spec: RotatorSpec, station: Station, m_az_deg: ArrayLike, el_deg: ArrayLike,
+                  step_deg: float | None = None) -> np.ndarray:
+    """Elevations moved just clear of the horizon mask where the boresight is below it.
+
+    A position below the mask gets the lowest whole ``step_deg`` (default: the spec's
+    resolution) at or above it: raised, or for a mount over the top (el > 90) lowered to
+    ``180 - step``. Positions on or above the mask are returned unchanged; so are all of an
+    azimuth-only rotator's. The caller clamps the result to its own limits.
+    """
+    e = np.asarray(el_deg, dtype=float)
+    if not spec.has_elevation:
+        return e.copy()
+    res = spec.resolution_deg if step_deg is None else step_deg
+    look_b, _look_e = boresight_look(spec, m_az_deg, e)
+    floor = np.asarray(station.horizon_at(look_b))
+    safe_look = np.ceil(floor / res - 1e-9) * res
+    below = ~boresight_horizon_ok(spec, station, m_az_deg, e, tol_deg=1e-9)
+    return np.where(below, np.where(e > 90.0, 180.0 - safe_look, safe_look), e)
+
+
+def move_clears_mask(spec: RotatorSpec, station: Station, start: tuple[float, float | None],
+                     end: tuple[float, float | None], samples: int = 64) -> bool:
+    """True if both axes, started together from ``start`` at their own rates, keep the
+    boresight on or above the horizon mask all the way to ``end`` (mechanical az, el)."""
+    if not spec.has_elevation or start[1] is None or end[1] is None:
+        return True
+    (m0, e0), (m1, e1) = start, end
+    assert e0 is not None and e1 is not None
+    t_end = max(abs(m1 - m0) / spec.az_rate_deg_s, abs(e1 - e0) / spec.el_rate)
+    t = np.linspace(0.0, t_end, samples)
+    m = m0 + np.sign(m1 - m0) * np.minimum(t * spec.az_rate_deg_s, abs(m1 - m0))
+    e = e0 + np.sign(e1 - e0) * np.minimum(t * spec.el_rate, abs(e1 - e0))
+    return bool(np.all(boresight_horizon_ok(spec, station, m, e)))
+
+
+# Slew time -----------------------------------------------------------------------------------
+
+
+def slew_s(spec: RotatorSpec, from_az_m_deg: float | Sequence[float], from_el_deg: float | None,
+           to_az_m_deg: float | Sequence[float], to_el_deg: float | None) -> float:
+    """Time to turn from one mechanical (az, el) to another: start delay + the slower axis.
+
+    An azimuth may be a list of mechanical candidates (``spec.mech_candidates(bearing)``: an
+    antenna in the overlap of a 450 deg rotator); the closest pair counts. Elevation counts
+    on a rotator with elevation when both are given.
+    """
+    a = [float(from_az_m_deg)] if np.isscalar(from_az_m_deg) else list(from_az_m_deg)
+    b = [float(to_az_m_deg)] if np.isscalar(to_az_m_deg) else list(to_az_m_deg)
+    daz = min(abs(x - y) for x in a for y in b)
+    t = daz / spec.az_rate_deg_s
+    if spec.has_elevation and from_el_deg is not None and to_el_deg is not None:
+        t = max(t, abs(to_el_deg - from_el_deg) / spec.el_rate)
+    return spec.start_delay_s + t
+
+
+# The mount path ------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class MountPath:
+    """Where the antenna should point, in the mechanical frame, and where the target is.
+
+    ``az_m_deg`` is mechanical azimuth (continuous, overlap and flip included), ``el_deg`` the
+    mount elevation (> 90 on a flip path; ``None`` for an azimuth-only rotator), at ``t_s``
+    (UTC POSIX seconds). ``sky_enu`` (shape ``(n, 3)``) is where the target is: keyhole and
+    unwind paths are approximations, and the error that matters is the error to the target,
+    not to the path; ``None`` means the path itself is the target.
+    """
+
+    t_s: np.ndarray
+    az_m_deg: np.ndarray
+    el_deg: np.ndarray | None
+    stop_bearing_deg: float = 0.0
+    sky_enu: np.ndarray | None = None
+    name: str = ""
+    meta: dict = field(default_factory=dict, compare=False)
+
+    @classmethod
+    def from_arrays(cls, t_s: ArrayLike, az_m_deg: ArrayLike, el_deg: ArrayLike | None,
+                    spec: RotatorSpec) -> MountPath:
+        """A path that is its own target (tests, hand-made paths)."""
+        el = None if el_deg is None else np.asarray(el_deg, dtype=float)
+        return cls(np.asarray(t_s, dtype=float), np.asarray(az_m_deg, dtype=float), el,
+                   float(spec.stop_bearing_deg))
+
+    @classmethod
+    def from_plan(cls, plan: Any, track: SkyTrack, spec: RotatorSpec) -> MountPath:
+        """A planner :class:`~tracker.planner.MountPlan`'s commands as planned (quantised,
+        led as planned) and the target of the :class:`SkyTrack` it was planned for."""
+        t = np.asarray(plan.t_s, dtype=float)
+        el = None if not spec.has_elevation else np.asarray(plan.cmd_el_deg, dtype=float)
+        return cls(t, np.asarray(plan.cmd_az_deg, dtype=float), el,
+                   float(spec.stop_bearing_deg), azel_to_enu(*track.direction_at(t)),
+                   getattr(track, "name", ""), dict(getattr(track, "meta", {}) or {}))
+
+    @classmethod
+    def exact_from_plan(cls, plan: Any, track: SkyTrack | None,
+                        spec: RotatorSpec) -> MountPath:
+        """The path the live loop follows for a plan (``track``: None for the plan's own).
+
+        The plan's commands are quantised and already led by ``plan.lead_s``; the aim policy
+        does its own lead, so the lead is undone. Where the target is visible in an exact mode
+        (normal, overlap, flip) the path is the exact mechanical pointing at the target on the
+        plan's branch (no 1-degree staircase); keyhole and unwind paths are approximations by
+        design and are followed as planned.
+        """
+        t = np.asarray(plan.t_s, dtype=float)
+        lead = float(getattr(plan, "lead_s", 0.0) or 0.0)
+        az = np.interp(t - lead, t, np.asarray(plan.cmd_az_deg, dtype=float))
+        el_cmd = getattr(plan, "cmd_el_deg", None)
+        el = (None if not spec.has_elevation else np.zeros_like(t) if el_cmd is None
+              else np.interp(t - lead, t, np.asarray(el_cmd, dtype=float)))
+        track = track if track is not None else getattr(plan, "track", None)
+        if track is None or len(track) != len(t):
+            return cls(t, az, el, float(spec.stop_bearing_deg))
+        vis = np.asarray(getattr(plan, "visible", track.el_deg >= 0.0), dtype=bool)
+        mode = str(getattr(plan, "mode", "normal"))
+        if mode in ("normal", "overlap", "flip"):
+            flip = mode == "flip"
+            bearing = np.mod(track.az_deg + (180.0 if flip else 0.0), 360.0)
+            exact_m = az + (np.mod(spec.mech_of(bearing) - az + 180.0, 360.0) - 180.0)
+            az = np.where(vis, np.clip(exact_m, 0.0, spec.az_span_deg), az)
+            if el is not None:
+                exact_e = 180.0 - track.el_deg if flip else track.el_deg
+                el = np.where(vis, np.clip(exact_e, spec.el_min_deg, spec.el_max_deg), el)
+        sky = None
+        if vis.any():
+            # An azimuth-only rotator is judged on azimuth alone (as its plan is).
+            sky_el = track.el_deg if spec.has_elevation else np.zeros_like(t)
+            own_el = np.zeros_like(t) if el is None else el
+            sky = np.where(vis[:, None], azel_to_enu(track.az_deg, sky_el),
+                           pointing_enu(az, own_el, spec.stop_bearing_deg))
+        return cls(t, az, el, float(spec.stop_bearing_deg), sky)
+
+    @classmethod
+    def from_track(cls, track: SkyTrack, spec: RotatorSpec) -> MountPath:
+        """The plain unwrapped path (no flip): for tests and when no planner is at hand.
+
+        The unwrapped mechanical azimuth is shifted by whole turns so it fits the span if it
+        can (a 450° rotator then uses its overlap), else clipped.
+        """
+        t = np.asarray(track.t_s, dtype=float)
+        m = np.degrees(np.unwrap(np.radians(spec.mech_of(track.az_deg))))
+        best = m
+        for k in range(-2, 3):
+            cand = m + 360.0 * k
+            lo, hi = cand.min(), cand.max()
+            if lo >= 0.0 and hi <= spec.az_span_deg:
+                best = cand
+                break
+            if k == 0:
+                best = cand - 360.0 * np.floor(lo / 360.0)
+        m = np.clip(best, 0.0, spec.az_span_deg)
+        el = None
+        if spec.has_elevation:
+            el = np.clip(np.asarray(track.el_deg, dtype=float), spec.el_min_deg,
+                         spec.el_max_deg)
+        return cls(t, m, el, float(spec.stop_bearing_deg),
+                   azel_to_enu(np.asarray(track.az_deg, dtype=float),
+                               np.asarray(track.el_deg, dtype=float)),
+                   getattr(track, "name", ""), dict(getattr(track, "meta", {}) or {}))
+
+    @property
+    def start_s(self) -> float:
+        return float(self.t_s[0])
+
+    @property
+    def end_s(self) -> float:
+        return float(self.t_s[-1])
+
+    def mount_at(self, t_s: ArrayLike) -> tuple[np.ndarray, np.ndarray | None]:
+        """Mechanical az and mount el at ``t_s`` (linear: the mechanical frame has no wrap;
+        el None for an azimuth-only path)."""
+        az = np.interp(t_s, self.t_s, self.az_m_deg)
+        el = None if self.el_deg is None else np.interp(t_s, self.t_s, self.el_deg)
+        return az, el
+
+    def target_enu(self, t_s: ArrayLike) -> np.ndarray:
+        """Where the target is at ``t_s`` (east-north-up unit vectors, shape ``(..., 3)``,
+        interpolated on the sphere, wrap-safe); the path's own pointing without a target."""
+        if self.sky_enu is None:
+            az, el = self.mount_at(t_s)
+            return pointing_enu(az, np.zeros_like(az) if el is None else el,
+                                self.stop_bearing_deg)
+        v = np.stack([np.interp(t_s, self.t_s, self.sky_enu[:, k]) for k in range(3)],
+                     axis=-1)
+        return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
