@@ -136,8 +136,8 @@ def slew_s(spec: RotatorSpec, from_az_m_deg: float | Sequence[float], from_el_de
     antenna in the overlap of a 450 deg rotator); the closest pair counts. Elevation counts
     on a rotator with elevation when both are given.
     """
-    a = [float(from_az_m_deg)] if np.isscalar(from_az_m_deg) else list(from_az_m_deg)
-    b = [float(to_az_m_deg)] if np.isscalar(to_az_m_deg) else list(to_az_m_deg)
+    a = list(from_az_m_deg) if isinstance(from_az_m_deg, Sequence) else [float(from_az_m_deg)]
+    b = list(to_az_m_deg) if isinstance(to_az_m_deg, Sequence) else [float(to_az_m_deg)]
     daz = min(abs(x - y) for x in a for y in b)
     t = daz / spec.az_rate_deg_s
     if spec.has_elevation and from_el_deg is not None and to_el_deg is not None:
@@ -260,14 +260,14 @@ class MountPath:
     def end_s(self) -> float:
         return float(self.t_s[-1])
 
-    def mount_at(self, t_s: ArrayLike) -> tuple[np.ndarray, np.ndarray | None]:
+    def mount_at(self, t_s: float | np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         """Mechanical az and mount el at ``t_s`` (linear: the mechanical frame has no wrap;
         el None for an azimuth-only path)."""
         az = np.interp(t_s, self.t_s, self.az_m_deg)
         el = None if self.el_deg is None else np.interp(t_s, self.t_s, self.el_deg)
         return az, el
 
-    def target_enu(self, t_s: ArrayLike) -> np.ndarray:
+    def target_enu(self, t_s: float | np.ndarray) -> np.ndarray:
         """Where the target is at ``t_s`` (east-north-up unit vectors, shape ``(..., 3)``,
         interpolated on the sphere, wrap-safe); the path's own pointing without a target."""
         if self.sky_enu is None:

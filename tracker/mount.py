@@ -394,8 +394,9 @@ class MotorModel:
         return self.az.moving(t_s) or (self.el is not None and self.el.moving(t_s))
 
 
-def move_from_rest(start_deg: ArrayLike, target_deg: ArrayLike, dt_s: ArrayLike,
-                   rate_deg_s: float, start_delay_s: float) -> np.ndarray:
+def move_from_rest(start_deg: np.ndarray | float, target_deg: np.ndarray | float,
+                   dt_s: np.ndarray | float, rate_deg_s: float,
+                   start_delay_s: float) -> np.ndarray:
     """Where an axis at rest on ``start_deg`` is ``dt_s`` after being told to go to
     ``target_deg``: :class:`AxisMotor`'s kinematics (start delay, then constant rate),
     broadcast over any shapes."""
