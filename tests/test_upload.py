@@ -129,7 +129,7 @@ def compile_mid(half_s=60.0, interval_s=2, spec=G5500, protocol="gs232b", max_el
     path = MountPath.from_track(mid_pass(iss_track(aos, los), half_s), spec)
     first = MountPath.from_track(mid_pass(iss_track(aos, los), half_s), spec)
     prog = compile_program(path, spec, protocol, interval_s=interval_s,
-                           start_az_deg=float(first.az_deg[0]),
+                           start_az_deg=float(first.az_m_deg[0]),
                            start_el_deg=None if first.el_deg is None else float(
                                first.el_deg[0]))
     return path, prog
