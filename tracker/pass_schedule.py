@@ -39,8 +39,8 @@ def slew_s(spec: RotatorSpec, from_az_deg: float, from_el_deg: float, to_az_deg:
     For spans over 360 the shortest of the mechanical choices counts (the antenna may sit in
     the overlap); for a 360 span the one mechanical path, round the stop.
     """
-    a = spec.mech_candidates(from_az_deg)
-    b = spec.mech_candidates(to_az_deg)
+    a = spec.frame.mech_candidates(from_az_deg)
+    b = spec.frame.mech_candidates(to_az_deg)
     daz = min(abs(x - y) for x in a for y in b)
     t = daz / spec.az_rate_deg_s
     if spec.has_elevation and spec.el_rate_deg_s:
