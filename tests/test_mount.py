@@ -12,6 +12,7 @@ from tracker.mount import (
     PRESETS,
     AxisMotor,
     MotorModel,
+    MountFrame,
     RotatorSpec,
     drive_axis,
     preset,
@@ -123,8 +124,55 @@ def test_rotator_from_config():
 def test_frames_south_stop():
     spec = preset("G-5400B")
     assert spec.bearing_of(0) == 180 and spec.mech_of(0) == 180
-    assert spec.mech_candidates(200) == [20.0]
-    assert preset("G-5500").mech_candidates(30) == [30.0, 390.0]
+    assert spec.frame.mech_candidates(200) == [20.0]
+    assert preset("G-5500").frame.mech_candidates(30) == [30.0, 390.0]
+
+
+def test_frame_readback_candidates():
+    """A read-back names every mechanical position it can mean (folded 0-359 scales)."""
+    frame = preset("G-5500").frame
+    assert frame.mechs_of_wire(40.0) == [40.0, 400.0]
+    assert frame.mechs_of_wire(400.0) == [40.0, 400.0]
+    south = MountFrame(360.0, 180.0, wire_takes_bearing=True)
+    assert south.mechs_of_wire(180.0) == [0.0, 360.0]
+    assert south.mechs_of_wire(90.0) == [270.0]
+
+
+def test_frame_nearest_mech_of_wire_follows_the_belief():
+    frame = preset("G-5500").frame
+    assert frame.nearest_mech_of_wire(40.0, 380.0) == 400.0
+    assert frame.nearest_mech_of_wire(40.0, 10.0) == 40.0
+    # No belief: the controller's own scale (a 450 deg controller reports 0-450) ...
+    assert frame.nearest_mech_of_wire(400.0) == 400.0
+    # ... and of a bearing, its lowest mechanical azimuth.
+    south = MountFrame(450.0, 180.0, wire_takes_bearing=True)
+    assert south.nearest_mech_of_wire(200.0) == 20.0
+    assert south.nearest_mech_of_wire(200.0, 370.0) == 380.0
+
+
+@pytest.mark.parametrize(("spec", "wire_top"), [
+    (preset("G-5500"), 450.0),
+    (preset("G-5400B"), 360.0),
+    (preset("G-5500").with_(stop_bearing_deg=180.0, controller_maps_south=True), 360.0),
+])
+def test_frame_wire_round_trip(spec, wire_top):
+    frame = spec.frame
+    assert frame.wire_az_max_deg == wire_top
+    m = np.arange(0.0, spec.az_span_deg + 1.0, 5.0)
+    wire = frame.wire_of(m)
+    assert isinstance(wire, np.ndarray) and (wire <= wire_top).all()
+    assert isinstance(frame.wire_of(10.0), float)
+    back = frame.mech_of_wire(wire)
+    # Of a bearing the lowest mechanical azimuth comes back; the same bearing either way.
+    assert np.allclose(frame.bearing_of(back), spec.bearing_of(m))
+    for mi in m:
+        assert frame.nearest_mech_of_wire(frame.wire_of(float(mi)), float(mi)) == \
+            pytest.approx(mi)
+    if not spec.controller_maps_south:
+        assert np.array_equal(back, m)
+        assert frame.wire_of(100.0) == 100.0
+    else:
+        assert frame.wire_of(0.0) == 180.0 and frame.mech_max_deg(360.0) == spec.az_span_deg
 
 
 def test_axis_start_delay_rate_and_arrival():

@@ -18,8 +18,8 @@ SPEC = RotatorSpec(name="test", az_span_deg=360, stop_bearing_deg=180, el_max_de
 
 def bearing_slew_s(spec, from_bearing, from_el, to_bearing, to_el):
     """The schedule's slew between passes: the closest mechanical positions of two bearings."""
-    return slew_s(spec, spec.mech_candidates(from_bearing), from_el,
-                  spec.mech_candidates(to_bearing), to_el)
+    return slew_s(spec, spec.frame.mech_candidates(from_bearing), from_el,
+                  spec.frame.mech_candidates(to_bearing), to_el)
 
 
 def rec(name, aos, los, aos_az=0.0, los_az=0.0, el=30.0, station="S"):

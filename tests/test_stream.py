@@ -24,7 +24,6 @@ from tracker.stream import (
     Phase,
     StreamSettings,
     TrackCore,
-    mech_candidates_of_wire,
     run_pass,
     safe_target,
 )
@@ -247,15 +246,6 @@ def test_safe_target_keeps_limits_and_mask():
     assert (az, el, why) == (90.0, 45.0, "")
     spec90 = preset("generic-k3ng")
     assert safe_target(spec90, Station(), 10.0, 120.0)[1] == 90.0
-
-
-def test_wire_readback_candidates():
-    assert mech_candidates_of_wire(SPEC, 40.0) == [40.0, 400.0]
-    assert mech_candidates_of_wire(SPEC, 400.0) == [40.0, 400.0]
-    south = preset("G-5500").with_(name="south", az_span_deg=360, stop_bearing_deg=180,
-                                   controller_maps_south=True)
-    assert mech_candidates_of_wire(south, 180.0) == [0.0, 360.0]
-    assert mech_candidates_of_wire(south, 90.0) == [270.0]
 
 
 def test_near_overhead_pass_stays_within_plan_error_and_deadband():

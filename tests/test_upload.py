@@ -167,6 +167,25 @@ def test_1901_pairs_refused_before_anything_is_sent():
     assert rig.ctrl.commands_seen == before + 1
 
 
+def test_a_chained_table_beyond_the_controllers_limit_is_refused_before_the_first():
+    """A controller in its 360 deg mode (the driver reports az_max_deg 360): a program whose
+    second table turns to 400 is refused before a single byte, not at that table's upload
+    in the middle of the pass."""
+    _, prog = compile_mid(half_s=20.0)
+    t0 = prog.tables[0].start_t_s
+    first = tables_from_points("W", 1, [(350, 10)] * 3, PROFILES["gs232b"], start_t_s=t0)
+    second = tables_from_points("W", 1, [(400, 10)] * 3, PROFILES["gs232b"],
+                                start_t_s=t0 + 10.0)
+    with Rig(prog) as rig:
+        d = rig.driver()
+        d.set_mode_450(False)
+        before = rig.ctrl.commands_seen
+        with pytest.raises(LimitError, match="table 2 turns to azimuth 400, but the "
+                                             "controller takes azimuth up to 360"):
+            TableRunner(d, rig.clock).run([first, second])
+        assert rig.ctrl.commands_seen == before          # nothing sent
+
+
 class TruncatingProxy:
     """TCP proxy that cuts the first long W line after ``keep`` pairs (lost bytes)."""
 

@@ -79,7 +79,7 @@ from tracker.errors import (
 from tracker.export import pass_records, to_csv, to_ics, to_json, to_table
 from tracker.files import write_atomic
 from tracker.geometry import MountPath
-from tracker.mount import PRESETS, MotorModel, RotatorSpec, preset
+from tracker.mount import PRESETS, MotorModel, MountFrame, RotatorSpec, preset
 from tracker.pass_schedule import Schedule, build_schedule, parse_priorities
 from tracker.passes import Pass, find_passes
 from tracker.planner import MountPlan, Move, park_position, plan_pass
@@ -119,7 +119,7 @@ __all__ = [  # noqa: RUF022 (grouped by topic, the order the docs follow)
     # passes
     "Pass", "find_passes",
     # rotators
-    "PRESETS", "MotorModel", "RotatorSpec", "preset",
+    "PRESETS", "MotorModel", "MountFrame", "RotatorSpec", "preset",
     # planning
     "MountPlan", "Move", "park_position", "plan_pass",
     # step tables

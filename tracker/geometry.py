@@ -132,7 +132,7 @@ def slew_s(spec: RotatorSpec, from_az_m_deg: float | Sequence[float], from_el_de
            to_az_m_deg: float | Sequence[float], to_el_deg: float | None) -> float:
     """Time to turn from one mechanical (az, el) to another: start delay + the slower axis.
 
-    An azimuth may be a list of mechanical candidates (``spec.mech_candidates(bearing)``: an
+    An azimuth may be a list of mechanical candidates (``spec.frame.mech_candidates(bearing)``: an
     antenna in the overlap of a 450 deg rotator); the closest pair counts. Elevation counts
     on a rotator with elevation when both are given.
     """

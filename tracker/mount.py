@@ -3,6 +3,8 @@
 Frames (docs/architecture.md): the planner works in the *mechanical* frame ``m`` in
 ``[0, az_span_deg]`` counted clockwise from the CCW stop at ``stop_bearing_deg``; the true
 bearing is ``(m + stop_bearing_deg) mod 360``. Elevation above 90 means over the top (flip).
+:class:`MountFrame` (``RotatorSpec.frame``) is the one owner of the conversions between true
+bearings, mechanical azimuth and the controller's wire degrees.
 
 The motor model (:class:`AxisMotor`, :class:`MotorModel`) is used by the planner to predict
 where the antenna will be and by the emulator to move the simulated antenna: one
@@ -13,12 +15,98 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import Any
+from functools import cached_property
+from typing import Any, overload
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from tracker.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class MountFrame:
+    """The azimuth frames of one rotator on one controller, and every conversion between them.
+
+    ``m`` (mechanical) is degrees clockwise from the CCW stop, ``0 <= m <= az_span_deg``; the
+    stop points at ``stop_bearing_deg``. *Wire degrees* are what the controller takes and
+    reports: ``m`` itself for most controllers (their scale tops at :attr:`wire_az_max_deg`,
+    450 on an overlap rotator), or the true bearing for one that maps a south-centred scale
+    itself (``wire_takes_bearing``: a GS-232B in its ``Z`` mode, Rotor-EZ, DCU-1, SAK-232).
+    """
+
+    az_span_deg: float = 450.0
+    stop_bearing_deg: float = 0.0
+    wire_takes_bearing: bool = False
+
+    # True bearing <-> mechanical ----------------------------------------------------------
+
+    def bearing_of(self, m_deg: ArrayLike) -> Any:
+        """True bearing in [0, 360) of a mechanical azimuth (scalar or array)."""
+        return np.mod(np.asarray(m_deg, dtype=float) + self.stop_bearing_deg, 360.0)
+
+    def mech_of(self, bearing_deg: ArrayLike) -> Any:
+        """The lowest mechanical azimuth in [0, 360) for a true bearing (scalar or array)."""
+        return np.mod(np.asarray(bearing_deg, dtype=float) - self.stop_bearing_deg, 360.0)
+
+    def mech_candidates(self, bearing_deg: float) -> list[float]:
+        """Every mechanical azimuth within the span that points at ``bearing_deg``."""
+        m0 = float(self.mech_of(bearing_deg))
+        return [m for m in (m0, m0 + 360.0) if m <= self.az_span_deg + 1e-9]
+
+    # Mechanical <-> wire ------------------------------------------------------------------
+
+    @property
+    def wire_az_max_deg(self) -> float:
+        """The top of the controller's azimuth scale: 450 for an overlap rotator whose
+        controller takes ``m`` (its 450 deg mode), else 360."""
+        return 450.0 if self.az_span_deg > 360.0 and not self.wire_takes_bearing else 360.0
+
+    def mech_max_deg(self, wire_max_deg: float) -> float:
+        """The top of the mechanical travel a controller whose scale ends at ``wire_max_deg``
+        can reach (a controller taking bearings reaches the whole span)."""
+        if self.wire_takes_bearing:
+            return float(self.az_span_deg)
+        return min(float(self.az_span_deg), float(wire_max_deg))
+
+    @overload
+    def wire_of(self, m_deg: float) -> float: ...
+
+    @overload
+    def wire_of(self, m_deg: np.ndarray) -> np.ndarray: ...
+
+    def wire_of(self, m_deg: float | np.ndarray) -> float | np.ndarray:
+        """Mechanical azimuth -> what the controller takes on the wire (scalar or array)."""
+        m = np.asarray(m_deg, dtype=float)
+        wire = self.bearing_of(m) if self.wire_takes_bearing else m
+        return float(wire) if np.ndim(wire) == 0 else wire
+
+    def mech_of_wire(self, wire_az_deg: ArrayLike) -> Any:
+        """Where a commanded wire azimuth turns the antenna (scalar or array): ``m`` itself,
+        or for a controller that takes bearings the lowest mechanical azimuth of it."""
+        wire = np.asarray(wire_az_deg, dtype=float)
+        return self.mech_of(wire) if self.wire_takes_bearing else wire
+
+    def mechs_of_wire(self, wire_az_deg: float) -> list[float]:
+        """Every mechanical azimuth a read-back can mean: controllers fold 0-450 into 0-359 or
+        report their own scale, so each reading names up to two positions."""
+        if self.wire_takes_bearing:
+            return self.mech_candidates(wire_az_deg % 360.0)
+        out = [m for m in (wire_az_deg - 360.0, wire_az_deg, wire_az_deg + 360.0)
+               if -2.0 <= m <= self.az_span_deg + 2.0]
+        return out or [min(max(wire_az_deg, 0.0), self.az_span_deg)]
+
+    def nearest_mech_of_wire(self, wire_az_deg: float, belief_m_deg: float | None = None
+                             ) -> float:
+        """The one of :meth:`mechs_of_wire` nearest ``belief_m_deg`` (where the antenna is
+        believed to be). Without a belief: the controller's own scale is trusted (a 450 deg
+        controller reports 0-450), and of a bearing the lowest mechanical azimuth."""
+        cands = self.mechs_of_wire(wire_az_deg)
+        if belief_m_deg is None:
+            if self.wire_takes_bearing:
+                return cands[0]
+            belief_m_deg = wire_az_deg
+        return min(cands, key=lambda m: abs(m - belief_m_deg))
 
 
 @dataclass(frozen=True)
@@ -124,18 +212,18 @@ class RotatorSpec:
 
     # Frames ---------------------------------------------------------------------------------
 
-    def bearing_of(self, m_deg):
-        """True bearing in [0, 360) of a mechanical azimuth (scalar or array)."""
-        return np.mod(np.asarray(m_deg, dtype=float) + self.stop_bearing_deg, 360.0)
+    @cached_property
+    def frame(self) -> MountFrame:
+        """This rotator's azimuth frames on its controller (every conversion lives there)."""
+        return MountFrame(self.az_span_deg, self.stop_bearing_deg, self.controller_maps_south)
 
-    def mech_of(self, bearing_deg):
-        """The lowest mechanical azimuth in [0, 360) for a true bearing (scalar or array)."""
-        return np.mod(np.asarray(bearing_deg, dtype=float) - self.stop_bearing_deg, 360.0)
+    def bearing_of(self, m_deg: ArrayLike) -> Any:
+        """True bearing in [0, 360) of a mechanical azimuth (:meth:`MountFrame.bearing_of`)."""
+        return self.frame.bearing_of(m_deg)
 
-    def mech_candidates(self, bearing_deg: float) -> list[float]:
-        """Every mechanical azimuth within the span that points at ``bearing_deg``."""
-        m0 = float(self.mech_of(bearing_deg))
-        return [m for m in (m0, m0 + 360.0) if m <= self.az_span_deg + 1e-9]
+    def mech_of(self, bearing_deg: ArrayLike) -> Any:
+        """The lowest mechanical azimuth of a true bearing (:meth:`MountFrame.mech_of`)."""
+        return self.frame.mech_of(bearing_deg)
 
     def axis_limits(self) -> tuple[tuple[float, float], tuple[float, float] | None]:
         el = (self.el_min_deg, self.el_max_deg) if self.el_max_deg is not None else None

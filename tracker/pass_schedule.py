@@ -122,8 +122,8 @@ def build_schedule(records: list[dict], spec: RotatorSpec, priorities: dict[str,
                 if not usable[i] or best[i] <= value:
                     continue
                 # from the LOS to the AOS bearing, the closest mechanical positions
-                slew = slew_s(spec, spec.mech_candidates(records[i]["los_az_deg"]), None,
-                              spec.mech_candidates(records[j]["aos_az_deg"]), None)
+                slew = slew_s(spec, spec.frame.mech_candidates(records[i]["los_az_deg"]), None,
+                              spec.frame.mech_candidates(records[j]["aos_az_deg"]), None)
                 if los[i] + slew + settle_s <= aos[j]:
                     value, arg = best[i], i
             best[j] = weight[j] + value

@@ -23,7 +23,8 @@ upload``; a library user alike) runs its controller I/O inside a :class:`Control
 Frames: the guard takes *wire degrees*, what the controller takes and reports (and what
 ``tracker rotator position`` prints): the mechanical angle from the CCW stop for most
 controllers, a true bearing for one that maps a south-centred scale itself
-(``controller_maps_south``). See :func:`driver_limits` for the scale drivers are opened with.
+(``controller_maps_south``); :class:`~tracker.mount.MountFrame` converts. See
+:func:`driver_limits` for the scale drivers are opened with.
 """
 
 from __future__ import annotations
@@ -85,19 +86,13 @@ class Interrupted(KeyboardInterrupt):
 # Effective limits ---------------------------------------------------------------------------
 
 
-def wire_az_max_deg(spec: RotatorSpec) -> float:
-    """The top of the controller's azimuth scale for ``spec``: 450 for an overlap rotator in
-    the controller's 450 deg mode (it takes the mechanical angle), else 360 (a 360 deg rotator,
-    or a controller that takes true bearings and maps its south-centred scale itself)."""
-    return 450.0 if spec.az_span_deg > 360.0 and not spec.controller_maps_south else 360.0
-
-
 def driver_limits(spec: RotatorSpec, has_elevation: bool | None = None) -> dict:
     """The limit keywords every driver is opened with for ``spec`` (``open_driver(url, proto,
     **driver_limits(spec))``): one place, so live tracking, table upload and manual moves
     agree on the controller's scale."""
     el = spec.has_elevation if has_elevation is None else bool(has_elevation)
-    return {"has_elevation": el and spec.has_elevation, "az_max_deg": wire_az_max_deg(spec),
+    return {"has_elevation": el and spec.has_elevation,
+            "az_max_deg": spec.frame.wire_az_max_deg,
             "el_max_deg": float(spec.el_max_deg or 90.0)}
 
 
@@ -122,7 +117,7 @@ class EffectiveLimits:
     def of(cls, spec: RotatorSpec, station: Station | None = None,
            capabilities: Capabilities | None = None) -> EffectiveLimits:
         """The spec's limits narrowed by ``capabilities`` (what the driver accepts)."""
-        wire_max = wire_az_max_deg(spec)
+        wire_max = spec.frame.wire_az_max_deg
         notes: list[str] = []
         el_range = (float(spec.el_min_deg), float(spec.el_max_deg)) \
             if spec.el_max_deg is not None else None
@@ -137,13 +132,19 @@ class EffectiveLimits:
                 el_range = (el_range[0], float(capabilities.el_max_deg))
                 notes.append(f"the controller takes elevation up to "
                              f"{capabilities.el_max_deg:g}")
-        mech_max = float(spec.az_span_deg) if spec.controller_maps_south \
-            else min(float(spec.az_span_deg), wire_max)
-        return cls(spec, station, wire_max, mech_max, el_range, tuple(notes))
+        return cls(spec, station, wire_max, spec.frame.mech_max_deg(wire_max), el_range,
+                   tuple(notes))
 
     @property
     def has_elevation(self) -> bool:
         return self.el_range_deg is not None
+
+    @property
+    def wire_az_top_deg(self) -> float:
+        """The highest wire azimuth allowed: the scale's top for a controller that takes
+        bearings, else (wire = mechanical) the top of the mechanical travel allowed."""
+        return self.wire_az_max_deg if self.spec.frame.wire_takes_bearing \
+            else self.az_mech_max_deg
 
     def rotator(self) -> RotatorSpec:
         """The spec narrowed to these limits, for planning inside them (a controller that
@@ -153,7 +154,7 @@ class EffectiveLimits:
         and the driver, which refuse such moves."""
         spec = self.spec
         changes: dict = {}
-        if not spec.controller_maps_south and \
+        if not spec.frame.wire_takes_bearing and \
                 360.0 <= self.az_mech_max_deg < spec.az_span_deg:
             changes["az_span_deg"] = self.az_mech_max_deg
             changes["park_az_deg"] = min(spec.park_az_deg, self.az_mech_max_deg)
@@ -165,22 +166,13 @@ class EffectiveLimits:
 
     def describe(self) -> str:
         """``az 0-450, el 0-90`` in wire degrees, and what narrowed the spec."""
-        top = min(self.wire_az_max_deg, self.az_mech_max_deg) \
-            if not self.spec.controller_maps_south else self.wire_az_max_deg
-        text = f"az 0-{top:g}"
+        text = f"az 0-{self.wire_az_top_deg:g}"
         if self.el_range_deg is not None:
             text += f", el {self.el_range_deg[0]:g}-{self.el_range_deg[1]:g}"
         else:
             text += ", azimuth only"
         why = f"rotator {self.spec.name}" + "".join(f"; {n}" for n in self.narrowed_by)
         return f"{text} ({why})"
-
-    def mech_of_wire(self, az_wire_deg: float) -> list[float]:
-        """The mechanical azimuths a wire azimuth can turn the antenna to."""
-        spec = self.spec
-        if spec.controller_maps_south:
-            return spec.mech_candidates(az_wire_deg % 360.0)
-        return [float(az_wire_deg)]
 
     def check_wire(self, az_deg: float, el_deg: float | None) -> None:
         """Refuse (LimitError, one line, nothing sent) a wire position outside the limits or
@@ -191,9 +183,7 @@ class EffectiveLimits:
         fix = f"allowed: {self.describe()}"
         if not math.isfinite(az_deg) or (el_deg is not None and not math.isfinite(el_deg)):
             raise LimitError(f"{where} is not a position; give finite degrees ({fix})")
-        top = self.wire_az_max_deg if self.spec.controller_maps_south \
-            else min(self.wire_az_max_deg, self.az_mech_max_deg)
-        if not 0.0 <= az_deg <= top + 1e-9:
+        if not 0.0 <= az_deg <= self.wire_az_top_deg + 1e-9:
             raise LimitError(f"{where}: azimuth {az_deg:g} is outside the limits; {fix}")
         if el_deg is None:
             return
@@ -206,9 +196,9 @@ class EffectiveLimits:
         station = self.station
         if station is None:
             return
-        mechs = self.mech_of_wire(az_deg) or [float(self.spec.mech_of(az_deg))]
-        if not bool(boresight_horizon_ok(self.spec, station, mechs[0], el_deg)):
-            look_b = float(boresight_look(self.spec, mechs[0], el_deg)[0])
+        m = float(self.spec.frame.mech_of_wire(az_deg))
+        if not bool(boresight_horizon_ok(self.spec, station, m, el_deg)):
+            look_b = float(boresight_look(self.spec, m, el_deg)[0])
             floor = float(station.horizon_at(look_b))
             raise LimitError(f"{where} points below the horizon mask of station "
                              f"{station.name} ({floor:g} deg at bearing {look_b:.0f}); "

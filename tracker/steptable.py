@@ -308,18 +308,6 @@ class StepProgram:
                 f"{p.motor_starts} motor starts")
 
 
-def wire_az(spec: RotatorSpec, m_deg: ArrayLike) -> np.ndarray:
-    """Mechanical azimuth to the controller's wire degrees.
-
-    A controller that maps a south-centred scale itself takes true bearings; every other
-    one takes the mechanical angle (GS-232B 450° mode sends ``m``), see docs/architecture.md.
-    """
-    m = np.asarray(m_deg, dtype=float)
-    if spec.controller_maps_south:
-        return np.mod(m + spec.stop_bearing_deg, 360.0)
-    return m
-
-
 def check_tables_fit(tables: Sequence[StepTable], spec: RotatorSpec, station: Station,
                      source: str = "the plan") -> None:
     """Refuse (LimitError) tables with a point outside ``spec``'s travel or below the
@@ -328,7 +316,7 @@ def check_tables_fit(tables: Sequence[StepTable], spec: RotatorSpec, station: St
 
     for n, table in enumerate(tables, 1):
         wire = np.asarray(table.az_deg, dtype=float)
-        m = np.mod(wire - spec.stop_bearing_deg, 360.0) if spec.controller_maps_south else wire
+        m = spec.frame.mech_of_wire(wire)
         el = None if table.el_deg is None else np.asarray(table.el_deg, dtype=float)
         bad = m > spec.az_span_deg + 1e-9
         why = f"beyond {spec.name}'s {spec.az_span_deg:g} deg azimuth travel"
@@ -444,7 +432,7 @@ def _compile_at(path: MountPath, sss: int, *, spec: RotatorSpec, profile: TableP
     if len(bounds) > 1 and n - bounds[-1] < 2:
         bounds[-1] = n - 2
     bounds.append(n)
-    az_wire = np.rint(wire_az(spec, az_m)).astype(int)
+    az_wire = np.rint(spec.frame.wire_of(az_m)).astype(int)
     el_wire = None if el is None else np.rint(el).astype(int)
     tables: list[StepTable] = []
     gaps: list[float] = []

@@ -122,23 +122,6 @@ class Status:
     note: str = ""
 
 
-def wire_of(spec: RotatorSpec, az_m_deg: float) -> float:
-    """Mechanical azimuth → what the controller takes on the wire (docs/architecture.md, Frames)."""
-    if spec.controller_maps_south:
-        return float(spec.bearing_of(az_m_deg))
-    return float(az_m_deg)
-
-
-def mech_candidates_of_wire(spec: RotatorSpec, wire_az_deg: float) -> list[float]:
-    """Every mechanical azimuth a read-back can mean: controllers fold 0-450 into 0-359 or
-    report their own scale, so each reading names up to two positions."""
-    if spec.controller_maps_south:
-        return spec.mech_candidates(wire_az_deg % 360.0) or [float(spec.mech_of(wire_az_deg))]
-    out = [m for m in (wire_az_deg - 360.0, wire_az_deg, wire_az_deg + 360.0)
-           if -2.0 <= m <= spec.az_span_deg + 2.0]
-    return out or [min(max(wire_az_deg, 0.0), spec.az_span_deg)]
-
-
 def pass_window(track: SkyTrack, station: Station) -> tuple[float, float]:
     """AOS and LOS (UTC POSIX s) of ``track`` against the station's horizon and mask."""
     up = track.el_deg >= station.horizon_at(track.az_deg)
@@ -253,10 +236,12 @@ class TrackCore:
             self.resync()
             self.untrusted = self.settings.settle_readings
             return "controller_off"
-        expected_az = (float(self.motor.az.position(t_s)) if self.motor is not None
-                       else (self.antenna[0] if self.antenna else wire_of(spec, wire_az_deg)))
-        cands = mech_candidates_of_wire(spec, wire_az_deg)
-        m_az = min(cands, key=lambda m: abs(m - expected_az))
+        # The belief: the motor model, else the last read-back, else the reading's own scale.
+        expected_az = float(self.motor.az.position(t_s)) if self.motor is not None else None
+        belief = expected_az if expected_az is not None else (
+            self.antenna[0] if self.antenna else None)
+        cands = spec.frame.mechs_of_wire(wire_az_deg)
+        m_az = spec.frame.nearest_mech_of_wire(wire_az_deg, belief)
         early = False
         still = self._last_wire_az is not None and abs(wire_az_deg - self._last_wire_az) < 0.5
         self._last_wire_az = wire_az_deg
@@ -688,7 +673,7 @@ class Link:
         return reply
 
     def goto(self, cmd: Command) -> None:
-        wire_az = wire_of(self.spec, cmd.az_m_deg)
+        wire_az = self.spec.frame.wire_of(cmd.az_m_deg)
         self.ensure().goto(wire_az, cmd.el_deg)
         self.events("command", cmd="goto", az=wire_az, el=cmd.el_deg, reason=cmd.reason,
                     az_m=cmd.az_m_deg, clamped=cmd.clamped or None, resend=cmd.resend or None)

@@ -33,6 +33,7 @@ import numpy as np
 from tracker.clock import Clock
 from tracker.errors import (
     ConfigError,
+    LimitError,
     ProtocolError,
     RotatorIOError,
     TrackerError,
@@ -108,6 +109,7 @@ class TableRunner:
                               "; compile it with a longer interval_s or stay attached")
         for table in tables:
             table.lines()  # refuse anything over the limits before a single byte is sent
+        self._check_controller_limits(tables)
         ok = False
         try:
             if tables[0].profile.lines_append:
@@ -125,6 +127,24 @@ class TableRunner:
             # A stall has already sent all-stop (and logged it); once is enough.
             if not (ok and self.report.detached) and not self.report.stopped:
                 self._all_stop(quiet=not ok)
+
+    def _check_controller_limits(self, tables: Sequence[StepTable]) -> None:
+        """Refuse (LimitError, nothing sent) a table with a point beyond what the driver
+        reports the controller accepts, instead of failing at that table's upload, maybe
+        mid-pass; compile the pass for the controller's effective limits instead."""
+        caps = getattr(self.driver, "capabilities", None)
+        if caps is None:
+            return
+        for n, table in enumerate(tables, 1):
+            az_hi = float(np.max(table.az_deg))
+            if az_hi > caps.az_max_deg + 1e-9:
+                raise LimitError(f"table {n} turns to azimuth {az_hi:g}, but the controller "
+                                 f"takes azimuth up to {caps.az_max_deg:g}")
+            if table.el_deg is not None and len(table.el_deg):
+                el_hi = float(np.max(table.el_deg))
+                if el_hi > caps.el_max_deg + 1e-9:
+                    raise LimitError(f"table {n} turns to elevation {el_hi:g}, but the "
+                                     f"controller takes elevation up to {caps.el_max_deg:g}")
 
     # Steps ---------------------------------------------------------------------------------
 

@@ -18,7 +18,7 @@ from tracker.errors import ConfigError, LimitError
 from tracker.mount import MotorModel
 from tracker.planner import plan_pass
 from tracker.steptable import compile_pass
-from tracker.stream import Phase, StreamSettings, TrackCore, wire_of
+from tracker.stream import Phase, StreamSettings, TrackCore
 
 
 def target(what: str, n: int) -> None:
@@ -62,7 +62,7 @@ def test_streamed_commands_stay_within_limits_and_mask(spec, track, station, sta
     sent = 0
     while core.phase is not Phase.DONE and t < end:
         az_m, el = motor.position(t)
-        wire_az = round(wire_of(spec, float(az_m)))
+        wire_az = round(spec.frame.wire_of(float(az_m)))
         core.observe(t, float(wire_az), None if el0 is None else float(round(el)))
         cmd = core.decide(t)
         if cmd is not None:

@@ -176,3 +176,36 @@ def test_from_file_is_checked_against_this_station_and_rotator(tmp_path, capsys)
     assert rc == 2 and "point 1 (010 005) is below the horizon mask" in err, err
     assert err.count("\n") == 1 and "Traceback" not in err
 
+
+
+def test_upload_plans_inside_what_the_controller_takes(capsys, monkeypatch):
+    """A controller that takes elevation up to 90 only (its driver reports el_max_deg 90):
+    the near-overhead pass at 05:20, a keyhole over the top (el to 180) on a G-5500, is
+    planned inside 0-90 and runs to the end on virtual time (emu:// bench, ManualClock),
+    instead of being refused at the upload."""
+    from _virtual import manual_clock, virtual_rig
+
+    from tracker import protocols
+    from tracker.mount import preset
+
+    rig = virtual_rig(Gs232Controller("gs232b", preset("G-5500"),
+                                      clock=manual_clock(1787461200.0)))  # 05:00 UTC
+    real_open = protocols.open_driver
+
+    def el_up_to_90(url, protocol="gs232b", **kw):
+        return real_open(url, protocol, **{**kw, "el_max_deg": 90.0})
+
+    monkeypatch.setattr(protocols, "open_driver", el_up_to_90)
+    try:
+        rc = main(["upload", "ISS", *WHERE, "--port", rig.url])
+        wire = rig.written()
+    finally:
+        rig.close()
+    out, err = capsys.readouterr()
+    assert rc == 0, out + err
+    assert "planning inside the controller's limits: az 0-450, el 0-90" in out, out
+    assert "keyhole" not in out and "T sent" in out and "all-stop sent" in out, out
+    tables = [line for line in wire.split(b"\r") if line.startswith(b"W")]
+    el = [int(v) for line in tables for v in line[1:].split()[2::2]]
+    assert tables and max(el) > 60 and max(el) <= 90, max(el)
+    assert wire.endswith(b"S\r")

@@ -159,10 +159,9 @@ def _park_target(args: argparse.Namespace, session, spec, station
     """The park position in wire degrees: the rotator's (raised to the mask, as after a
     pass), or --park-az / --park-el."""
     from tracker.planner import park_position
-    from tracker.stream import wire_of
 
     park_m, park_el = park_position(spec, station)
-    az = wire_of(spec, park_m) if args.park_az is None else args.park_az
+    az = spec.frame.wire_of(park_m) if args.park_az is None else args.park_az
     el = park_el if args.park_el is None else args.park_el
     limits = session.limits
     return az, (el if limits is None or limits.has_elevation else None)

@@ -697,12 +697,8 @@ def _run_both(ants: list[_Antenna], shared: _SharedAzAz, station, clock, passes:
 def _mech_guess(spec, wire_az: float, wire_el):
     """The antenna's mechanical position from a read-back with no history: trust the
     controller's own scale (a 450 deg controller reports 0-450)."""
-    from tracker.stream import mech_candidates_of_wire
-
     if wire_az < 0:
         raise ConfigError("the controller reports no position (AZ=-001: control box off?); "
                           "switch the rotator's control box on and retry")
-    cands = mech_candidates_of_wire(spec, wire_az)
-    m = min(cands, key=lambda c: abs(c - wire_az)) if not spec.controller_maps_south \
-        else cands[0]
+    m = spec.frame.nearest_mech_of_wire(wire_az)
     return (m, float(wire_el) if wire_el is not None else 0.0)

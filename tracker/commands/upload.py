@@ -27,6 +27,7 @@ from tracker.commands._common import (
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
     from tracker.mount import RotatorSpec
+    from tracker.protocols.base import Capabilities
 
 DEMO_SPEED = 20.0
 
@@ -73,8 +74,11 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def build_program(args: argparse.Namespace, now_s: float, current=None):
-    """Find the pass and compile it; returns (program, header dict)."""
+def build_program(args: argparse.Namespace, now_s: float, current=None,
+                  capabilities: Capabilities | None = None):
+    """Find the pass and compile it; returns (program, header dict). With ``capabilities``
+    (what the connected controller accepts) the pass is planned inside them: a controller
+    in its 360 deg mode gets no overlap plan, one taking elevation up to 90 no flip."""
     from datetime import datetime, timedelta, timezone
 
     from tracker.commands.passes import warn_element_age
@@ -90,6 +94,8 @@ def build_program(args: argparse.Namespace, now_s: float, current=None):
         raise ConfigError(f"--pass must be 1 or more (1 = the next pass); got {args.pass_no}")
     spec = rotator_from_args(args)
     station = station_from_args(args, quiet=True)
+    if capabilities is not None:
+        spec = _inside_the_controller(spec, station, capabilities)
     target = target_from_args(args.target, args)
     now = datetime.fromtimestamp(now_s, timezone.utc)
     warn_element_age([target], now)
@@ -118,6 +124,18 @@ def build_program(args: argparse.Namespace, now_s: float, current=None):
     return program, header
 
 
+def _inside_the_controller(spec: RotatorSpec, station, capabilities: Capabilities
+                           ) -> RotatorSpec:
+    """The spec narrowed to the controller's effective limits (said when it narrows)."""
+    from tracker.session import EffectiveLimits
+
+    limits = EffectiveLimits.of(spec, station, capabilities)
+    narrowed = limits.rotator()
+    if narrowed != spec:
+        print(f"planning inside the controller's limits: {limits.describe()}", flush=True)
+    return narrowed
+
+
 def run(args: argparse.Namespace) -> int:
     from tracker.errors import ConfigError
     from tracker.steptable import (
@@ -127,6 +145,7 @@ def run(args: argparse.Namespace) -> int:
         read_plan_text,
         table_profile,
     )
+    from tracker.transport import is_emulated
     from tracker.upload import resume_schedule
 
     check_baud_arg(args)
@@ -138,6 +157,11 @@ def run(args: argparse.Namespace) -> int:
     if args.now and not args.from_file:
         raise ConfigError("--now only applies to --from FILE")
     clock = clock_from_args(args)
+    if args.port and is_emulated(args.port):
+        from tracker.emulator.virtual import clock_of
+
+        # an emu:// bench made by the caller brings its own (virtual) clock
+        clock = clock_of(args.port) or clock
     simulate = not args.port and not args.dry_run
     if args.from_file:
         plan = read_plan_file(args.from_file)
@@ -162,15 +186,24 @@ def run(args: argparse.Namespace) -> int:
         return _send(args, tables, clock, simulate, spec)
 
     now_s = clock.timestamp()
-    program, header = build_program(args, now_s)
-    if args.dry_run:
-        sys.stdout.write(format_plan_file(program, header))
-        return 0
-    print(program.summary())
-    tables = list(program.tables)
-    if args.port:
-        tables = resume_schedule(tables, clock.timestamp(), args.baud)
-    return _send(args, tables, clock, simulate, program.spec)
+    if not args.port or args.dry_run:
+        # a dry run, or a simulation on an emulator made from the rotator spec itself
+        program, header = build_program(args, now_s)
+        if args.dry_run:
+            sys.stdout.write(format_plan_file(program, header))
+            return 0
+        print(program.summary())
+        return _send(args, list(program.tables), clock, simulate, program.spec)
+    # A real controller: connect first, so the pass is planned inside what it accepts.
+    driver = _open_driver(args, args.port, rotator_from_args(args))
+    try:
+        program, _header = build_program(args, now_s, capabilities=driver.capabilities)
+        print(program.summary())
+        tables = resume_schedule(list(program.tables), clock.timestamp(), args.baud)
+    except BaseException:
+        driver.close()
+        raise
+    return _send(args, tables, clock, simulate, program.spec, driver)
 
 
 def _plan_file_rotator(args: argparse.Namespace, header: dict) -> RotatorSpec:
@@ -191,13 +224,24 @@ def _plan_file_rotator(args: argparse.Namespace, header: dict) -> RotatorSpec:
                           f"config file; name the rotator with --rotator") from None
 
 
-def _send(args, tables, clock, simulate: bool, spec: RotatorSpec) -> int:
+def _open_driver(args: argparse.Namespace, url: str, spec: RotatorSpec, **timing):
+    """The driver for ``url`` at the rotator's scale; the runner decides about all-stop."""
+    from tracker.protocols import open_driver
+    from tracker.session import driver_limits
+
+    driver = open_driver(url, args.protocol, baudrate=args.baud, **driver_limits(spec),
+                         **timing)
+    driver.stop_on_exit = False  # the runner decides: all-stop on every path but --detach
+    return driver
+
+
+def _send(args, tables, clock, simulate: bool, spec: RotatorSpec, driver=None) -> int:
+    """Run ``tables`` on ``driver`` (opened here for ``--from`` and the simulation)."""
     from datetime import datetime, timezone
 
     from tracker.clock import SimClock
     from tracker.errors import ConfigError
-    from tracker.protocols import open_driver
-    from tracker.session import ControllerSession, driver_limits
+    from tracker.session import ControllerSession
     from tracker.upload import TableRunner
 
     server = None
@@ -223,13 +267,11 @@ def _send(args, tables, clock, simulate: bool, spec: RotatorSpec) -> int:
         url = args.port
         timing = {}
     try:
-        driver = open_driver(url, args.protocol, baudrate=args.baud, **driver_limits(spec),
-                             **timing)
+        driver = driver or _open_driver(args, url, spec, **timing)
     except BaseException:
         if server is not None:
             server.close()
         raise
-    driver.stop_on_exit = False  # the runner decides: all-stop on every path but --detach
     log = lambda m: print(f"{_utc(clock)}  {m}", flush=True)  # noqa: E731
     try:
         # The runner stops at the end (not after --detach) and on its own errors; the

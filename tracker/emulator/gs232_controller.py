@@ -20,7 +20,7 @@ from typing import Any, Literal
 from tracker.clock import Clock, SystemClock
 from tracker.emulator.help_text import help_screen
 from tracker.errors import ProtocolError
-from tracker.mount import MotorModel, RotatorSpec, preset
+from tracker.mount import MotorModel, MountFrame, RotatorSpec, preset
 from tracker.protocols.framing import LineFramer
 from tracker.protocols.gs232 import (
     ERROR_REPLY,
@@ -193,15 +193,19 @@ class Gs232Controller:
     def _wire_az_max(self) -> int:
         return 450 if self.mode_450 else 360
 
+    def _wire_frame(self) -> MountFrame:
+        """The frame the box's current mode puts on the wire: in south-centre 360 mode it
+        takes bearings on a scale whose CCW end is south, else the mechanical angle."""
+        south = self.south_centre and not self.mode_450
+        return MountFrame(self.spec.az_span_deg, 180.0 if south else 0.0, south)
+
     def _mech_of_wire(self, az: int) -> float:
-        if self.south_centre and not self.mode_450:
-            return float((az - 180) % 360)
-        return float(az)
+        return float(self._wire_frame().mech_of_wire(az))
 
     def _wire_of_mech(self, m: float) -> int:
         w = round(m)
         if self.south_centre and not self.mode_450:
-            return (w + 180) % 360
+            return round(self._wire_frame().wire_of(w))
         if self.mode_450:
             return w % 360 if (self.options.readback_360 or self.faults.wrongside) else w
         return w if w <= 360 else w % 360

@@ -47,8 +47,7 @@ class ByteController:
         self.clock = clock or SystemClock()
         self.faults = Faults()
         self._lock = threading.RLock()
-        start_m = None if az_deg is None else float(self.spec.mech_of(az_deg)) \
-            if self.spec.controller_maps_south else float(az_deg)
+        start_m = None if az_deg is None else float(self.spec.frame.mech_of_wire(az_deg))
         self.motor = MotorModel(self.spec.with_(el_max_deg=None, el_rate_deg_s=None), start_m,
                                 None, t_s=self.clock.monotonic())
         self.commands_seen = 0
@@ -65,21 +64,19 @@ class ByteController:
     # Frames: true bearing on the wire <-> mechanical in the motor --------------------------
 
     def mech_of_bearing(self, bearing: float) -> float:
-        if self.spec.controller_maps_south:
+        frame = self.spec.frame
+        if frame.wire_takes_bearing and frame.az_span_deg > 360.0:
             # Like the GS-232B's south-centre mode: the lowest mechanical angle, so the stop
             # bearing itself is the CCW end; only a rotator with overlap (span > 360) has a
             # choice, and it takes the nearer way.
-            cands = self.spec.mech_candidates(bearing % 360.0)
-            if self.spec.az_span_deg <= 360.0 or len(cands) < 2:
-                return cands[0] if cands else 0.0
-            here = float(self.motor.az.position(self._now()))
-            return min(cands, key=lambda m: abs(m - here))
-        return float(bearing)
+            cands = frame.mech_candidates(bearing % 360.0)
+            if len(cands) > 1:
+                here = float(self.motor.az.position(self._now()))
+                return min(cands, key=lambda m: abs(m - here))
+        return float(frame.mech_of_wire(bearing))
 
     def bearing_of_mech(self, m: float) -> float:
-        if self.spec.controller_maps_south:
-            return float(self.spec.bearing_of(m))
-        return float(m)
+        return self.spec.frame.wire_of(m)
 
     def readback(self) -> int:
         """The controller's 0-359 reading now."""

@@ -89,10 +89,9 @@ def open_loop_estimate(clock: Clock, spec: RotatorSpec | None, rate_deg_s: float
         return OpenLoopAz(clock, rate_deg_s, start_delay_s, start_az_deg, stop_bearing_deg)
     # The wire carries true bearings only when the controller maps them (docs/architecture.md);
     # otherwise it carries mechanical degrees, whose "stop bearing" is 0.
-    if spec.controller_maps_south:
-        park, stop = float(spec.bearing_of(spec.park_az_deg)), spec.stop_bearing_deg
-    else:
-        park, stop = float(spec.park_az_deg), 0.0
+    frame = spec.frame
+    park = frame.wire_of(float(spec.park_az_deg))
+    stop = frame.stop_bearing_deg if frame.wire_takes_bearing else 0.0
     return OpenLoopAz(clock, spec.az_rate_deg_s, spec.start_delay_s, park, stop,
                       min(spec.az_span_deg, 359.0))
 
