@@ -26,8 +26,9 @@ The test suite runs this example (``tests/test_api.py``).
 To follow the pass live, open a driver (:func:`open_driver`) on a port URL - a serial device,
 ``socket://host:port``, or ``emu://gs232b`` for the in-process emulator - and run
 :func:`run_pass` inside a :class:`ControllerSession` (or :func:`follow_passes` for several
-passes in a row, re-planned from the antenna's real position); to let the controller track by itself,
-give :attr:`StepProgram.tables` to a :class:`TableRunner`.
+passes in a row, re-planned from the antenna's real position: ``examples/follow_passes.py``);
+to let the controller track by itself, give :attr:`StepProgram.tables` to a
+:class:`TableRunner`.
 """
 
 from __future__ import annotations
