@@ -26,6 +26,7 @@ import threading
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from functools import partial
+from typing import TYPE_CHECKING
 
 from tracker.clock import Clock, LockstepClock, SimClock
 from tracker.commands._common import (
@@ -41,6 +42,14 @@ from tracker.commands._common import (
 )
 from tracker.errors import ConfigError, TargetError
 from tracker.transport import is_emulated
+
+if TYPE_CHECKING:  # pragma: no cover - typing only
+    from tracker.controllers import Controller
+    from tracker.mount import RotatorSpec
+    from tracker.passes import Pass
+    from tracker.station import Station
+    from tracker.stream import StreamSettings
+    from tracker.targets import Target
 
 
 def register(sub) -> None:
@@ -114,7 +123,7 @@ def _first_pass(target, station, start: datetime):
         raise TargetError(f"{e} (check the station position, --min-el and the mask)") from e
 
 
-def _settings(args, config, spec):
+def _settings(args, config, spec) -> StreamSettings:
     from tracker.stream import StreamSettings
 
     tr = config.tracking
@@ -138,14 +147,14 @@ class _Run:
     args: argparse.Namespace
     port: str | None
     protocol: str
-    entry: object
-    station: object
-    targets: list
-    specs: list
-    settings: list
+    entry: Controller
+    station: Station
+    targets: list[Target]
+    specs: list[RotatorSpec]
+    settings: list[StreamSettings]
     start: datetime
     notes: list[str]
-    firsts: list = field(default_factory=list)
+    firsts: list[Pass] = field(default_factory=list)
 
     @property
     def dual(self) -> bool:
