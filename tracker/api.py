@@ -25,8 +25,10 @@ planned for a G-5500 and compiled into a GS-232B step table (one point every 2 s
 The test suite runs this example (``tests/test_api.py``).
 To follow the pass live, open a driver (:func:`open_driver`) on a port URL - a serial device,
 ``socket://host:port``, or ``emu://gs232b`` for the in-process emulator - and run
-:func:`run_pass` inside a :class:`ControllerSession`; to let the controller track by itself,
-give :attr:`StepProgram.tables` to a :class:`TableRunner`.
+:func:`run_pass` inside a :class:`ControllerSession` (or :func:`follow_passes` for several
+passes in a row, re-planned from the antenna's real position: ``examples/follow_passes.py``);
+to let the controller track by itself, give :attr:`StepProgram.tables` to a
+:class:`TableRunner`.
 """
 
 from __future__ import annotations
@@ -101,6 +103,17 @@ from tracker.steptable import (
 )
 from tracker.stream import Link, PassResult, Status, StreamSettings, TrackCore, run_pass
 from tracker.targets import SatelliteTarget, Target, event_labels, resolve_target
+from tracker.tracking import (
+    DemoTime,
+    PassFollower,
+    SharedAzAz,
+    demo_speed,
+    demo_start,
+    describe_pass,
+    follow_passes,
+    follow_together,
+    next_pass,
+)
 from tracker.transport import open_port
 from tracker.upload import TableRunner, UploadReport
 
@@ -132,6 +145,9 @@ __all__ = [  # noqa: RUF022 (grouped by topic, the order the docs follow)
     # the live session
     "ControllerSession", "EffectiveLimits", "Interrupted", "Link", "PassResult", "Status",
     "StreamSettings", "TrackCore", "driver_limits", "run_pass",
+    # following passes: one antenna pass after pass, the demo's time, two antennas on AZ/AZ
+    "DemoTime", "PassFollower", "SharedAzAz", "demo_speed", "demo_start", "describe_pass",
+    "follow_passes", "follow_together", "next_pass",
     # emulated controllers
     "Bench", "EmulatorOptions", "Gs232Controller", "make_controller", "parse_fault",
     "serve_pty", "serve_tcp",

@@ -17,6 +17,7 @@ import json
 import math
 import os
 import sys
+import threading
 from datetime import datetime, timezone
 from typing import IO, Any
 
@@ -278,3 +279,42 @@ class Fanout:
     def close(self) -> None:
         for s in self.sinks:
             s.close()
+
+
+class PrefixedLines:
+    """Plain timestamped lines of one antenna: ``02:07:10  ant1 ISS (ZARYA)  command ...``."""
+
+    def __init__(self, clock: Clock, prefix: str):
+        self.prefix = prefix
+        self.lines = PlainLines(clock, stream=self)
+
+    def write(self, text: str) -> None:
+        # PlainLines writes "HH:MM:SS  text\n" in one call: put the antenna after the time.
+        hms, sep, rest = text.partition("  ")
+        sys.stdout.write(f"{hms}{sep}{self.prefix}  {rest}" if sep else text)
+
+    def flush(self) -> None:
+        sys.stdout.flush()
+
+
+class AntennaOut:
+    """One antenna's sinks of a two-antenna run: its prefixed plain lines and the shared JSON
+    log (records carry ``antenna``); one lock, so the two loops' lines never interleave."""
+
+    def __init__(self, n: int, prefix: str, clock: Clock, log: JsonLinesLog | None,
+                 lock: threading.Lock):
+        self.n, self.log, self.lock = n, log, lock
+        self.lines = PrefixedLines(clock, prefix).lines
+
+    def event(self, kind: str, **data: Any) -> None:
+        with self.lock:
+            self.lines.event(kind, **data)
+            if self.log is not None:
+                self.log.event(kind, antenna=self.n, **data)
+
+    def status(self, st: Status) -> None:
+        with self.lock:
+            self.lines.status(st)
+
+    def close(self) -> None:
+        return None

@@ -21,12 +21,12 @@ from _rigs import default_signals
 from tracker.cli import build_parser, main
 from tracker.clock import LockstepClock, SimClock
 from tracker.commands._common import station_from_args, target_from_args
-from tracker.commands.track import PAD_S, _next_pass
 from tracker.config import load_config
 from tracker.emulator import serve_pty, serve_tcp
 from tracker.emulator.azaz_controller import AzAzController
 from tracker.emulator.virtual import Bench
 from tracker.stream import StreamSettings
+from tracker.tracking import PAD_S, next_pass
 
 # Two overlapping passes over the default station with the bundled elements:
 # ISS 02:07:45-02:17:04 (az 201 -> 81), UO-11 02:09:07-02:20:15 (az 28 -> 150).
@@ -107,7 +107,7 @@ def _pass_of(name, config):
     args = build_parser().parse_args(["track", name, "--config", str(config)])
     station = station_from_args(args, quiet=True)
     start = datetime.fromisoformat(AT.replace("Z", "+00:00")).timestamp()
-    return _next_pass(target_from_args(name, args), station, start)
+    return next_pass(target_from_args(name, args), station, start)
 
 
 def test_two_antennas_each_track_their_own_target_over_one_port(config, tmp_path, capsys):
