@@ -100,3 +100,16 @@ def angular_separation_deg(az1_deg, el1_deg, az2_deg, el2_deg) -> np.ndarray:
     cross = np.linalg.norm(np.cross(a, b), axis=-1)
     dot = np.sum(a * b, axis=-1)
     return np.degrees(np.arctan2(cross, dot))
+
+
+COMPASS_POINTS = ("N", "NNE", "NE", "ENE", "E", "ESE", "SE", "SSE",
+                  "S", "SSW", "SW", "WSW", "W", "WNW", "NW", "NNW")
+
+
+def compass_point(az_deg):
+    """16-point compass name (N, NNE, NE, ... NNW) of a bearing; for an array of bearings,
+    an array of names."""
+    index = ((np.mod(np.asarray(az_deg, dtype=float), 360.0) + 11.25) // 22.5).astype(int) % 16
+    if np.ndim(index) == 0:
+        return COMPASS_POINTS[int(index)]
+    return np.array(COMPASS_POINTS, dtype=object)[index]

@@ -180,8 +180,8 @@ def plans_for(args: argparse.Namespace, table, elements) -> list | None:
         satrecs[i] = elements[i].satrec()
     on_plan = None
     if sky_dir:
-        from tracker.export import iso
         from tracker.plot import sky_plot
+        from tracker.timescale import iso_utc
 
         folder = Path(sky_dir)
         if not folder.is_dir():
@@ -194,7 +194,7 @@ def plans_for(args: argparse.Namespace, table, elements) -> list | None:
             row = table.passes[i]
             stem = "".join(c if c.isalnum() or c in "-_" else "_" for c in
                            f"{table.names[int(row['sat'])]}_{station.name}_"
-                           f"{iso(row['aos_s'])}")
+                           f"{iso_utc(float(row['aos_s']))}")
             drawn.append(sky_plot(plan, station, folder / f"{stem}.png", force=args.force,
                                   label="--sky-plots"))
 
@@ -223,13 +223,11 @@ def emit(args: argparse.Namespace, text: str) -> None:
 
 
 def meta_of(args, table, start, elapsed_s: float) -> dict:
-    from tracker.export import iso
+    from tracker.export import station_meta
+    from tracker.timescale import iso_utc
 
-    return {"source": args.source, "start": iso(start.timestamp()),
-            "end": iso(table.end.timestamp()),
-            "stations": [{"name": s.name, "lat_deg": s.lat_deg, "lon_deg": s.lon_deg,
-                          "alt_m": s.alt_m, "min_el_deg": s.min_el_deg}
-                         for s in table.stations],
+    return {"source": args.source, "start": iso_utc(start), "end": iso_utc(table.end),
+            "stations": [station_meta(s) for s in table.stations],
             "min_el_deg": args.min_el, "min_max_el_deg": args.min_max_el,
             "filter": "visible" if args.visible else "sunlit" if args.sunlit else None,
             "rotator": args.rotator, "satellites": len(table.names),
@@ -237,10 +235,10 @@ def meta_of(args, table, start, elapsed_s: float) -> dict:
 
 
 def error_records(table) -> list[dict]:
-    from tracker.export import iso
+    from tracker.timescale import iso_utc
 
-    return [{"satellite": e.name, "code": e.code, "message": e.message,
-             "from": iso(e.first_s)} for e in table.errors]
+    return [{"target": e.name, "code": e.code, "message": e.message,
+             "from": iso_utc(e.first_s)} for e in table.errors]
 
 
 def report_errors(table) -> None:
