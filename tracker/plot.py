@@ -11,13 +11,13 @@
 
 from __future__ import annotations
 
-from datetime import datetime, timezone
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from tracker.errors import ConfigError
+from tracker.timescale import to_datetime
 
 if TYPE_CHECKING:  # pragma: no cover
     from tracker.planner import MountPlan
@@ -134,7 +134,7 @@ def timeline_plot(records, path: str | Path, start_s: float, end_s: float,
     cmaps = ["Blues", "Oranges", "Greens", "Purples", "Reds", "Greys"]
 
     def when(t: float):
-        return mdates.date2num(datetime.fromtimestamp(t, timezone.utc))
+        return mdates.date2num(to_datetime(t))
 
     fig, ax = plt.subplots(figsize=(11, max(2.5, 0.28 * len(names) + 1.5)))
     spans = zip(targets, at_station, records["aos_s"].tolist(), records["los_s"].tolist(),

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from datetime import datetime, timezone
+from datetime import datetime
 
 import numpy as np
+
+from tracker.timescale import to_datetime
 
 
 @dataclass(frozen=True)
@@ -50,11 +52,11 @@ class SkyTrack:
 
     @property
     def start(self) -> datetime:
-        return datetime.fromtimestamp(float(self.t_s[0]), timezone.utc)
+        return to_datetime(self.t_s[0])
 
     @property
     def end(self) -> datetime:
-        return datetime.fromtimestamp(float(self.t_s[-1]), timezone.utc)
+        return to_datetime(self.t_s[-1])
 
     def unit_vectors(self) -> np.ndarray:
         """East-north-up unit vectors, shape ``(n, 3)``."""

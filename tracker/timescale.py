@@ -70,17 +70,17 @@ def to_datetime(t_s: float) -> datetime:
 
 
 def parse_iso_utc(text: str) -> datetime:
-    """An ISO-8601 time as an aware UTC datetime: ``Z``/``z`` or an offset, or none (UTC).
+    """An ISO-8601 time as an aware datetime: with its offset (``Z``/``z`` is UTC), or UTC
+    when it has none.
 
-    Raises ``ValueError`` for text that is not an ISO-8601 time.
+    Raises ``ValueError`` for text that is not an ISO-8601 time. The offset is kept (not
+    converted) so a time at the edge of ``datetime``'s range still parses.
     """
     s = text.strip()
     if s.endswith(("Z", "z")):
         s = s[:-1] + "+00:00"
     t = datetime.fromisoformat(s)
-    if t.tzinfo is None:
-        return t.replace(tzinfo=timezone.utc)
-    return t.astimezone(timezone.utc)
+    return t.replace(tzinfo=timezone.utc) if t.tzinfo is None else t
 
 
 def iso_utc(t: datetime | float, timespec: str = "seconds") -> str:
