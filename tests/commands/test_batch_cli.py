@@ -17,7 +17,7 @@ from _paths import DATA, REPO
 from tracker.cli import main
 
 AT = "2026-08-22T13:45Z"
-STATIONS = "name,lat,lon,alt,min_el\nDelft,52.0,4.37,10,0\nQuito,-0.2,-78.5,2850,5\n"
+STATIONS = "name,lat_deg,lon_deg,alt_m,min_el_deg\nDelft,52.0,4.37,10,0\nQuito,-0.2,-78.5,2850,5\n"
 
 
 @pytest.fixture(autouse=True)

@@ -1,9 +1,10 @@
 """``tracker batch SOURCE``: every pass of a catalogue over one or many stations.
 
 ``SOURCE`` is a TLE/3LE/OMM file, a catalogue group (``amateur``, ``weather``, ...) or ``all``.
-Stations come from ``--stations FILE`` (CSV ``name,lat,lon,alt[,min_el]`` or TOML
-``[[station]]`` tables) or the usual station options. Output: ``--format table|csv|json|ics``
-to stdout or ``--out FILE`` (written atomically). ``--rotator NAME`` adds the planner's
+Stations come from ``--stations FILE`` (the config's station fields as CSV
+``name,lat_deg,lon_deg[,alt_m[,min_el_deg]]`` or TOML ``[[station]]`` tables) or the usual
+station options. Output: ``--format table|csv|json|ics`` to stdout or ``--out FILE`` (written
+atomically). ``--rotator NAME`` adds the planner's
 summary (mode, predicted max error, pre-position time) to passes above ``--min-max-el``.
 """
 
@@ -33,7 +34,8 @@ def add_batch_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("source", metavar="CATALOG|GROUP",
                    help="TLE/3LE/OMM file, catalogue group (amateur, weather, ...) or 'all'")
     p.add_argument("--stations", metavar="FILE",
-                   help="stations file: CSV name,lat,lon,alt[,min_el] or TOML [[station]]")
+                   help="stations file: CSV name,lat_deg,lon_deg[,alt_m[,min_el_deg]] (or a "
+                        "header row naming the columns) or TOML [[station]] tables")
     p.add_argument("--days", type=float, default=1.0, help="window length in days (default 1)")
     p.add_argument("--min-max-el", type=float, default=0.0, metavar="DEG", dest="min_max_el",
                    help="keep passes whose max elevation reaches DEG (default 0)")
