@@ -95,7 +95,7 @@ from tracker.pointing_file import ScheduleError, ScheduleTarget, parse_schedule
 from tracker.protocols import Capabilities, RotatorDriver, open_driver
 from tracker.session import ControllerSession, EffectiveLimits, Interrupted, driver_limits
 from tracker.skytrack import SkyTrack
-from tracker.station import HorizonMask, Station
+from tracker.station import HorizonMask, Station, parse_station
 from tracker.steptable import (
     MountPath,
     StepProgram,
@@ -124,7 +124,7 @@ __all__ = [  # noqa: RUF022 (grouped by topic, the order the docs follow)
     "SolarSystemTarget", "Target", "event_labels", "parse_radec", "parse_schedule",
     "resolve_target",
     # station and configuration
-    "Config", "HorizonMask", "Station", "load_config",
+    "Config", "HorizonMask", "Station", "load_config", "parse_station",
     # passes
     "Pass", "find_passes",
     # rotators
