@@ -23,13 +23,13 @@ from tracker.api import (
     Catalog,
     ConfigError,
     Station,
-    build_schedule,
     find_passes_batch,
     parse_priorities,
     pass_records,
     plan_summaries,
     preset,
     satrecs_of,
+    schedule_passes,
     to_csv,
     to_ics,
     write_atomic,
@@ -69,13 +69,12 @@ def main(argv: list[str] | None = None) -> int:
     write_atomic(out / "passes.ics", to_ics(records, start.timestamp(),
                                            f"Amateur passes over {station.name}"),
                  force=args.force)
-    sched = build_schedule(records, spec, parse_priorities(args.priority))
-    write_atomic(out / "schedule.csv", to_csv([records[i] for i in sched.chosen]),
-                 force=args.force)
+    sched = schedule_passes(records, spec, parse_priorities(args.priority))
+    write_atomic(out / "schedule.csv", to_csv(records.take(sched.chosen)), force=args.force)
     modes: dict[str, int] = {}
-    for r in records:
-        if r["plan"]:
-            modes[r["plan"]["mode"]] = modes.get(r["plan"]["mode"], 0) + 1
+    for mode in records["plan_mode"].tolist():
+        if mode:
+            modes[mode] = modes.get(mode, 0) + 1
     print(f"{len(records)} passes of {len(names)} amateur satellites above "
           f"{args.min_max_el:g} deg over {station.name}, {start:%Y-%m-%d %H:%M} UTC + "
           f"{args.days:g} days")

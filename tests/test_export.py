@@ -20,6 +20,7 @@ from tracker.errors import ConfigError
 from tracker.export import (
     CSV_FIELDS,
     JSON_SCHEMA_ID,
+    PASS_FIELDS,
     pass_records,
     pass_uid,
     to_csv,
@@ -55,16 +56,56 @@ def records(table):
 
 
 def test_csv_round_trips(records):
-    rows = list(csv.DictReader(io.StringIO(to_csv(records))))
+    text = to_csv(records)
+    rows = list(csv.DictReader(io.StringIO(text)))
     assert len(rows) == len(records) > 10
     assert tuple(rows[0]) == CSV_FIELDS
-    for row, rec in zip(rows, records, strict=True):
-        assert row["satellite"] == rec["satellite"]
+    assert any(r["target"] == 'ODD; NAME, WITH \\ "ALL"' for r in rows)  # quoted
+    for row, rec in zip(rows, records.rows(), strict=True):
+        assert row["target"] == rec["target"]
         assert datetime.fromisoformat(row["aos"].replace("Z", "+00:00")).timestamp() == \
             pytest.approx(rec["aos_s"], abs=0.5)
         assert float(row["max_el_deg"]) == rec["max_el_deg"]
         assert row["sunlit"] in ("true", "false")
-        assert row["plan_mode"] == ("flip" if rec["plan"] else "")
+        assert row["plan_mode"] == (rec["plan_mode"] or "")
+        assert row["aos_known"] == ("true" if rec["aos_known"] else "false")
+        assert row["priority"] == ""
+
+
+def test_csv_is_what_the_csv_module_writes(records):
+    # The column-wise writer must quote exactly as csv.writer does.
+    records.set("priority", range(len(records)))
+    records.set("chosen", (i % 2 == 0 for i in range(len(records))))
+    try:
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(CSV_FIELDS)
+        for rec in records.rows():
+            w.writerow([("true" if v else "false") if isinstance(v, bool) else v
+                        for v in (rec[k] for k in CSV_FIELDS)])
+        assert to_csv(records) == buf.getvalue()
+    finally:
+        records.set("priority", [None] * len(records))
+        records.set("chosen", [None] * len(records))
+
+
+def test_single_target_passes_give_the_same_record():
+    from tle.catalog import Catalog
+    from tracker.passes import find_passes
+    from tracker.targets import SatelliteTarget
+
+    iss = SatelliteTarget(Catalog.bundled_snapshot().find("ISS (ZARYA)"))
+    station = Station("Delft", 52.0, 4.37, 10.0)
+    passes = find_passes(iss, station, START, START + timedelta(days=1))
+    recs = pass_records(passes)
+    assert len(recs) == len(passes) > 0
+    for rec, p in zip(recs.rows(), passes, strict=True):
+        assert tuple(rec) == PASS_FIELDS
+        assert rec["target"] == "ISS (ZARYA)" and rec["station"] == "Delft"
+        assert rec["aos_s"] == p.aos.timestamp() and rec["aos"].endswith("Z")
+        assert rec["aos_known"] == p.aos_known and rec["always_up"] == p.always_up
+        assert rec["aos_az_deg"] == round(p.aos_az_deg, 1)
+        assert rec["plan_mode"] is None and rec["priority"] is None
 
 
 def test_json_follows_the_documented_schema(records):
@@ -73,12 +114,12 @@ def test_json_follows_the_documented_schema(records):
                                                                "from": "2026-08-23T00:00:00Z"}]))
     assert doc["schema"] == JSON_SCHEMA_ID
     assert doc["meta"]["source"] == "amateur" and doc["errors"][0]["code"] == 6
-    schema_doc = (REPO / "docs" / "batch-json-schema.md").read_text()
+    schema_doc = (REPO / "docs" / "pass-schema.md").read_text()
+    assert f"`{JSON_SCHEMA_ID}`" in schema_doc
+    assert [tuple(p) for p in doc["passes"]] == [PASS_FIELDS] * len(records)
+    for key in PASS_FIELDS:
+        assert f"`{key}`" in schema_doc, f"{key} is not documented"
     for p in doc["passes"]:
-        for key, value in p.items():
-            assert f"`{key}`" in schema_doc, f"{key} is not documented"
-            if key == "plan" and value:
-                assert set(value) == {"mode", "max_error_deg", "preposition", "reason"}
         assert p["aos_s"] <= p["tca_s"] <= p["los_s"]
 
 
@@ -89,14 +130,14 @@ def test_ics_is_valid_rfc5545_and_parses_back(records):
     cal = icalendar.Calendar.from_ical(text)
     events = [c for c in cal.walk() if c.name == "VEVENT"]
     assert len(events) == len(records)
-    for ev, rec in zip(events, records, strict=True):
+    for ev, rec in zip(events, records.rows(), strict=True):
         assert ev["DTSTART"].dt == datetime.fromtimestamp(round(rec["aos_s"]), timezone.utc)
         assert ev["DTEND"].dt == datetime.fromtimestamp(round(rec["los_s"]), timezone.utc)
-        assert str(ev["SUMMARY"]) == f"{rec['satellite']} max {rec['max_el_deg']:.0f}°"
+        assert str(ev["SUMMARY"]) == f"{rec['target']} max {rec['max_el_deg']:.0f}°"
         assert str(ev["LOCATION"]) == rec["station"]
         desc = str(ev["DESCRIPTION"])
-        assert desc.splitlines()[0] == f"{rec['satellite']} from {rec['station']}"
-        if rec["plan"]:
+        assert desc.splitlines()[0] == f"{rec['target']} from {rec['station']}"
+        if rec["plan_mode"]:
             assert "plan: flip, predicted max error 1.25 deg" in desc
         assert str(ev["UID"]) == pass_uid(rec)
     assert len({str(e["UID"]) for e in events}) == len(events)
@@ -137,19 +178,25 @@ def test_write_atomic_failed_rename_keeps_what_is_there(tmp_path):
 
 
 def test_records_carry_clipping_and_flags(table, records):
-    assert [r["aos_clipped"] for r in records] == table.passes["aos_clipped"].tolist()
-    assert np.array_equal([r["sunlit"] for r in records], table.passes["sunlit"])
+    assert np.array_equal(records["aos_known"], ~table.passes["aos_clipped"])
+    assert np.array_equal(records["los_known"], ~table.passes["los_clipped"])
+    assert np.array_equal(records["in_progress_at_start"], table.passes["aos_clipped"])
+    assert np.array_equal(records["always_up"],
+                          table.passes["aos_clipped"] & table.passes["los_clipped"])
+    assert np.array_equal(records["sunlit"], table.passes["sunlit"])
+    assert records.take([1, 0])["aos_s"].tolist() == records["aos_s"][[1, 0]].tolist()
+    assert len(records.take([])) == 0
 
 
 def test_clipped_passes_say_so_in_the_calendar(records):
-    clipped = [r for r in records if r["aos_clipped"] or r["los_clipped"]]
+    clipped = [r for r in records.rows() if not (r["aos_known"] and r["los_known"])]
     assert clipped  # a one-day window over GEO/long passes cuts some at the edges
     cal = icalendar.Calendar.from_ical(to_ics(records, START.timestamp()))
     by_uid = {str(e["UID"]): str(e["DESCRIPTION"]) for e in cal.walk("VEVENT")}
-    for rec in records:
+    for rec in records.rows():
         desc = by_uid[pass_uid(rec)]
-        assert ("already up at the window start" in desc) == rec["aos_clipped"]
-        assert ("still up at the window end" in desc) == rec["los_clipped"]
+        assert ("already up at the window start" in desc) == (not rec["aos_known"])
+        assert ("still up at the window end" in desc) == (not rec["los_known"])
 
 
 def test_write_atomic_gives_normal_file_permissions(tmp_path):

@@ -23,7 +23,7 @@ def bearing_slew_s(spec, from_bearing, from_el, to_bearing, to_el):
 
 
 def rec(name, aos, los, aos_az=0.0, los_az=0.0, el=30.0, station="S"):
-    return {"satellite": name, "station": station, "aos_s": float(aos), "los_s": float(los),
+    return {"target": name, "station": station, "aos_s": float(aos), "los_s": float(los),
             "tca_s": (aos + los) / 2, "aos_az_deg": aos_az, "los_az_deg": los_az,
             "max_el_deg": el}
 

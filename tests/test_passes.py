@@ -17,7 +17,8 @@ from _paths import DATA
 from tle.catalog import Catalog
 from tracker.clock import utc
 from tracker.errors import PropagationError
-from tracker.passes import Pass, compass_point, find_passes
+from tracker.passes import Pass, find_passes
+from tracker.skytrack import compass_point
 from tracker.station import HorizonMask, Station
 from tracker.targets import SatelliteTarget
 
@@ -234,3 +235,8 @@ def test_bad_window_is_rejected(catalog):
                                           (359.9, "N"), (-90, "W")])
 def test_compass_point(az, name):
     assert compass_point(az) == name
+
+
+def test_compass_point_of_many_bearings_matches_one_by_one():
+    az = np.array([0, 11.2, 11.3, 90, 202.5, 348.8, 337.5, 359.9, -90, 720.0])
+    assert compass_point(az).tolist() == [compass_point(float(a)) for a in az]

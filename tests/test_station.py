@@ -57,3 +57,34 @@ def test_topos_matches_station():
     assert topos.latitude.degrees == pytest.approx(52.0)
     assert topos.longitude.degrees == pytest.approx(4.4)
     assert topos.elevation.m == pytest.approx(12.0)
+
+
+def test_parse_station_one_schema_two_spellings(tmp_path):
+    from tracker.station import parse_station
+
+    (tmp_path / "m.txt").write_text("0 5\n")
+    full = parse_station({"name": "A", "lat_deg": 10, "lon_deg": 20, "alt_m": 5,
+                          "min_el_deg": 3, "mask": "m.txt"}, "f:", base_dir=tmp_path)
+    short = parse_station({"NAME": "A", "lat": "10", "lon": "20", "alt": "5", "min_el": "3",
+                           "mask": str(tmp_path / "m.txt")}, "f:", from_text=True)
+    assert full == short and full.mask is not None
+    assert parse_station({"lat_deg": 1, "lon_deg": 2}, "f:", default_name="home").name == "home"
+
+
+@pytest.mark.parametrize(("values", "message"), [
+    ({"name": "A", "lat_deg": "10", "lon_deg": 2}, 'f: lat_deg = "10" is invalid; allowed: a '
+                                                   'number from -90 to 90'),
+    ({"name": "A", "lat_deg": True, "lon_deg": 2}, "f: lat_deg = true is invalid"),
+    ({"name": "A", "lat": 91, "lon_deg": 2}, "f: lat = 91 is invalid"),
+    ({"name": " ", "lat_deg": 1, "lon_deg": 2}, 'f: name = " " is invalid'),
+    ({"name": "A", "lat_deg": 1}, "f: lon_deg is missing; add e.g. lon_deg = 4.4"),
+    ({"lat_deg": 1, "lon_deg": 2}, "f: name is missing"),
+    ({"name": "A", "lat_deg": 1, "lon_deg": 2, "height": 3}, "f: unknown key 'height'"),
+    ({"name": "A", "lat_deg": 1, "lon_deg": 2, "mask": 3}, "f: mask = 3 is invalid"),
+])
+def test_parse_station_errors(values, message):
+    from tracker.station import parse_station
+
+    with pytest.raises(ConfigError) as e:
+        parse_station(values, "f:")
+    assert message in str(e.value)

@@ -78,18 +78,27 @@ from tracker.errors import (
     TargetError,
     TrackerError,
 )
-from tracker.export import pass_records, to_csv, to_ics, to_json, to_table
+from tracker.export import (
+    CSV_FIELDS,
+    PASS_FIELDS,
+    PassRecords,
+    pass_records,
+    to_csv,
+    to_ics,
+    to_json,
+    to_table,
+)
 from tracker.files import write_atomic
 from tracker.geometry import MountPath
 from tracker.mount import PRESETS, MotorModel, MountFrame, RotatorSpec, preset
-from tracker.pass_schedule import Schedule, build_schedule, parse_priorities
+from tracker.pass_schedule import Schedule, build_schedule, parse_priorities, schedule_passes
 from tracker.passes import Pass, find_passes
 from tracker.planner import MountPlan, Move, park_position, plan_pass
 from tracker.pointing_file import ScheduleError, ScheduleTarget, parse_schedule
 from tracker.protocols import Capabilities, RotatorDriver, open_driver
 from tracker.session import ControllerSession, EffectiveLimits, Interrupted, driver_limits
 from tracker.skytrack import SkyTrack
-from tracker.station import HorizonMask, Station
+from tracker.station import HorizonMask, Station, parse_station
 from tracker.steptable import (
     StepProgram,
     StepTable,
@@ -128,7 +137,7 @@ __all__ = [  # noqa: RUF022 (grouped by topic, the order the docs follow)
     "SolarSystemTarget", "Target", "event_labels", "parse_radec", "parse_schedule",
     "resolve_target",
     # station and configuration
-    "Config", "HorizonMask", "Station", "load_config",
+    "Config", "HorizonMask", "Station", "load_config", "parse_station",
     # passes
     "Pass", "find_passes",
     # rotators
@@ -152,8 +161,9 @@ __all__ = [  # noqa: RUF022 (grouped by topic, the order the docs follow)
     "Bench", "EmulatorOptions", "Gs232Controller", "make_controller", "parse_fault",
     "serve_pty", "serve_tcp",
     # batch, scheduling, export
-    "PassTable", "Schedule", "build_schedule", "find_passes_batch", "find_passes_dask",
-    "load_stations", "parse_priorities", "pass_records", "plan_summaries", "satrecs_of",
+    "CSV_FIELDS", "PASS_FIELDS", "PassRecords", "PassTable", "Schedule", "build_schedule",
+    "find_passes_batch", "find_passes_dask", "load_stations", "parse_priorities",
+    "pass_records", "plan_summaries", "satrecs_of", "schedule_passes",
     "to_csv", "to_ics", "to_json", "to_table", "write_atomic",
     # errors (TrackerError and TleError are the two roots)
     "TrackerError", "ConfigError", "TargetError", "PropagationError", "LimitError",

@@ -27,7 +27,7 @@ from typing import Any
 
 from tracker.errors import ConfigError
 from tracker.mount import PRESETS, RotatorSpec, preset
-from tracker.station import HorizonMask, Station
+from tracker.station import STATION_RANGES, Station, mask_file, parse_station
 
 ENV_VAR = "TRACKER_CONFIG"
 FILE_NAME = "config.toml"
@@ -37,9 +37,6 @@ FILE_NAME = "config.toml"
 DEFAULT_STATION = Station(name="default-52.0N-4.4E", lat_deg=52.0, lon_deg=4.4, alt_m=0.0,
                           min_el_deg=0.0)
 
-_STATION_RANGES: dict[str, tuple[float, float]] = {
-    "lat_deg": (-90.0, 90.0), "lon_deg": (-180.0, 180.0), "alt_m": (-500.0, 9000.0),
-    "min_el_deg": (-5.0, 90.0)}
 
 # [tracking] keys: name -> (type(s), description of what is allowed). Other parts of the
 # program read these through Config.tracking; an unknown key is a typo and is rejected.
@@ -157,7 +154,7 @@ def _toml_value(v: Any) -> str:
 
 def _station_lines(st: Station, mask_path: str | None = None) -> list[str]:
     out = [f"name = {_toml_value(st.name)}"]
-    out += [f"{k} = {_toml_value(float(getattr(st, k)))}" for k in _STATION_RANGES]
+    out += [f"{k} = {_toml_value(float(getattr(st, k)))}" for k in STATION_RANGES]
     if mask_path:
         out.append(f"mask = {_toml_value(mask_path)}")
     if st.mask is not None:
@@ -197,41 +194,15 @@ def _number(path: Path, section: str, key: str, value: Any, lo: float, hi: float
 
 def _parse_station(path: Path, section: str, table: dict, name_default: str,
                    mask_paths: dict[str, str] | None = None) -> Station:
-    kwargs: dict[str, Any] = {"name": name_default}
-    mask_file = None
-    for key, value in table.items():
-        if isinstance(value, dict):
-            continue  # a nested [station.NAME], handled by the caller
-        if key == "name":
-            if not isinstance(value, str) or not value.strip():
-                raise ConfigError(f"{path}: [{section}] name = {_toml_value(value)} is "
-                                  f"invalid; allowed: a non-empty string")
-            kwargs["name"] = value
-        elif key in _STATION_RANGES:
-            kwargs[key] = _number(path, section, key, value, *_STATION_RANGES[key])
-        elif key == "mask":
-            if not isinstance(value, str):
-                raise ConfigError(f"{path}: [{section}] mask = {_toml_value(value)} is "
-                                  f"invalid; allowed: a path to a horizon mask file")
-            mask_path = Path(value).expanduser()
-            if not mask_path.is_absolute():
-                mask_path = path.parent / mask_path
-            kwargs["mask"] = HorizonMask.load(mask_path)
-            mask_file = str(mask_path)
-        else:
-            allowed = ", ".join(["name", *_STATION_RANGES, "mask"])
-            raise ConfigError(f"{path}: [{section}] unknown key {key!r}; allowed keys: "
-                              f"{allowed}")
-    for key in ("lat_deg", "lon_deg"):
-        if key not in kwargs:
-            raise ConfigError(f"{path}: [{section}] {key} is missing; add e.g. "
-                              f"{key} = {getattr(DEFAULT_STATION, key)}")
-    if mask_file and mask_paths is not None:
-        mask_paths[name_default if section != "station" else kwargs["name"]] = mask_file
-    return Station(**kwargs)
+    fields = {k: v for k, v in table.items() if not isinstance(v, dict)}  # [station.NAME]
+    where = f"{path}: [{section}]"
+    station = parse_station(fields, where, base_dir=path.parent, default_name=name_default)
+    if "mask" in fields and mask_paths is not None:
+        key = name_default if section != "station" else station.name
+        mask_paths[key] = str(mask_file(fields["mask"], where, path.parent))
+    return station
 
 
-# One guard per [rotator.NAME] key, each with its own message.
 def _parse_rotator(path: Path, name: str, table: dict, mains_hz: int) -> RotatorSpec:  # noqa: C901
     section = f"rotator.{name}"
     if not isinstance(table, dict):

@@ -1,106 +1,227 @@
-"""Export pass lists: records, CSV, JSON (schema in docs/batch-json-schema.md), iCalendar.
+"""The pass record and its exports: CSV, JSON (schema in docs/pass-schema.md), iCalendar.
 
-Everything goes through plain *records* (one dict per pass, see :func:`pass_records`), so the
-batch list and the one-rotator schedule export the same way; files are written by
-:func:`tracker.files.write_atomic`.
+``tracker passes``, ``tracker batch`` and ``tracker schedule`` all write one record per pass
+with the fields :data:`PASS_FIELDS`, whatever found the pass: :func:`pass_records` turns a
+batch :class:`~tracker.batch.PassTable` or a list of single-target
+:class:`~tracker.passes.Pass` values into a :class:`PassRecords`, a set of columns (numpy
+arrays), so CSV and JSON are written column-wise without a Python object per cell. Files are
+written by :func:`tracker.files.write_atomic`.
 """
 
 from __future__ import annotations
 
-import csv
 import hashlib
-import io
 import json
 from collections.abc import Iterable, Sequence
-from datetime import datetime, timezone
+from dataclasses import dataclass
+from datetime import datetime
+from typing import Any
+
+import numpy as np
 
 from tracker.errors import ConfigError
+from tracker.skytrack import compass_point
+from tracker.timescale import iso_utc, iso_utc_array, to_datetime
 
-JSON_SCHEMA_ID = "rotator-tracker/batch-passes/1"
+JSON_SCHEMA_ID = "rotator-tracker/passes/2"
 
-CSV_FIELDS = (
-    "satellite", "station", "aos", "tca", "los", "duration_s", "max_el_deg", "aos_az_deg",
-    "tca_az_deg", "los_az_deg", "aos_clipped", "los_clipped", "sunlit", "visible",
-    "plan_mode", "plan_max_error_deg", "plan_preposition", "priority",
+# The pass record: the JSON keys, in this order (meanings: docs/pass-schema.md).
+PASS_FIELDS = (
+    "target", "kind", "station", "aos", "tca", "los", "aos_s", "tca_s", "los_s",
+    "duration_s", "max_el_deg", "aos_az_deg", "tca_az_deg", "los_az_deg", "aos_compass",
+    "los_compass", "sunlit", "visible", "in_progress_at_start", "aos_known", "los_known",
+    "always_up", "plan_mode", "plan_max_error_deg", "plan_preposition", "plan_reason",
+    "priority", "chosen", "conflicts_with",
 )
+# CSV leaves out the POSIX seconds (the ISO columns say the same to the second).
+CSV_FIELDS = tuple(k for k in PASS_FIELDS if k not in ("aos_s", "tca_s", "los_s"))
+_FLAGS = ("sunlit", "visible", "in_progress_at_start", "aos_known", "los_known", "always_up")
+# Decimals kept per number field (times in *_s keep full precision).
+_DECIMALS = {"duration_s": 1, "max_el_deg": 2, "aos_az_deg": 1, "tca_az_deg": 1,
+             "los_az_deg": 1}
+# Filled by the planner (--rotator) and the schedule; None (CSV: empty) otherwise.
+_OPTIONAL = ("plan_mode", "plan_max_error_deg", "plan_preposition", "plan_reason",
+             "priority", "chosen", "conflicts_with")
 
 
-def iso(t_s: float) -> str:
-    """POSIX seconds as ISO-8601 UTC, to the second (``2026-08-22T13:45:07Z``)."""
-    return datetime.fromtimestamp(round(float(t_s)), timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+@dataclass
+class PassRecords:
+    """Pass records as columns: ``columns[field]`` is an array with one entry per pass, for
+    every field of :data:`PASS_FIELDS` (object arrays holding None where a field is unset)."""
+
+    columns: dict[str, np.ndarray]
+
+    def __len__(self) -> int:
+        return len(self.columns["aos_s"])
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.columns[name]
+
+    def take(self, index) -> PassRecords:
+        """The records at ``index`` (indices or a boolean mask), in that order."""
+        index = np.asarray(index)
+        if index.dtype != bool:
+            index = index.astype(np.intp)
+        return PassRecords({k: v[index] for k, v in self.columns.items()})
+
+    def set(self, name: str, values: Iterable) -> None:
+        """Fill an optional field (``priority``, ``chosen``, ...) for every record."""
+        if name not in _OPTIONAL:
+            raise KeyError(f"{name!r} is not an optional pass field")
+        column = np.empty(len(self), dtype=object)
+        column[:] = list(values)
+        self.columns[name] = column
+
+    def rows(self) -> list[dict[str, Any]]:
+        """One dict per pass with plain Python values (the JSON objects)."""
+        cols = [self.columns[k].tolist() for k in PASS_FIELDS]
+        return [dict(zip(PASS_FIELDS, values, strict=True))
+                for values in zip(*cols, strict=True)]
 
 
-def pass_records(table, plans: Sequence[dict | None] | None = None,
-                 rows: Iterable[int] | None = None) -> list[dict]:
-    """One dict per pass of a :class:`~tracker.batch.PassTable` (optionally only ``rows``),
-    with the planner summary from ``plans`` (same order as the table) when given."""
-    out = []
-    idx = range(len(table.passes)) if rows is None else rows
-    for i in idx:
-        p = table.passes[i]
-        plan = plans[i] if plans is not None else None
-        out.append({
-            "satellite": table.names[int(p["sat"])],
-            "station": table.stations[int(p["station"])].name,
-            "aos": iso(p["aos_s"]), "tca": iso(p["tca_s"]), "los": iso(p["los_s"]),
-            "aos_s": float(p["aos_s"]), "tca_s": float(p["tca_s"]), "los_s": float(p["los_s"]),
-            "duration_s": round(float(p["los_s"] - p["aos_s"]), 1),
-            "max_el_deg": round(float(p["max_el_deg"]), 2),
-            "aos_az_deg": round(float(p["aos_az_deg"]), 1),
-            "tca_az_deg": round(float(p["tca_az_deg"]), 1),
-            "los_az_deg": round(float(p["los_az_deg"]), 1),
-            "aos_clipped": bool(p["aos_clipped"]), "los_clipped": bool(p["los_clipped"]),
-            "sunlit": bool(p["sunlit"]), "visible": bool(p["visible"]),
-            "plan": None if plan is None else {
-                "mode": plan["mode"], "max_error_deg": plan["max_error_deg"],
-                "preposition": iso(plan["preposition_s"]), "reason": plan.get("reason", "")},
-        })
-    return out
+def _none(n: int) -> np.ndarray:
+    return np.full(n, None, dtype=object)
 
 
-def _flat(rec: dict) -> dict:
-    plan = rec.get("plan") or {}
-    row = {k: rec.get(k, "") for k in CSV_FIELDS}
-    row["plan_mode"] = plan.get("mode", "")
-    row["plan_max_error_deg"] = plan.get("max_error_deg", "")
-    row["plan_preposition"] = plan.get("preposition", "")
-    row["priority"] = rec.get("priority", "")
-    for k in ("aos_clipped", "los_clipped", "sunlit", "visible"):
-        row[k] = "true" if rec.get(k) else "false"
-    return row
+def _records(target, kind, station, t_s: dict[str, np.ndarray], angles: dict[str, np.ndarray],
+             flags: dict[str, np.ndarray], plans: Sequence[dict | None] | None) -> PassRecords:
+    """The one builder of the record, from arrays (``t_s``: aos/tca/los; ``angles``: max_el_deg,
+    aos/tca/los_az_deg; ``flags``: :data:`_FLAGS`)."""
+    n = len(t_s["aos"])
+    cols: dict[str, np.ndarray] = {"target": target, "kind": kind, "station": station}
+    for key in ("aos", "tca", "los"):
+        cols[key] = iso_utc_array(t_s[key])
+    for key in ("aos", "tca", "los"):
+        cols[f"{key}_s"] = np.asarray(t_s[key], dtype=float)
+    cols["duration_s"] = np.round(cols["los_s"] - cols["aos_s"], _DECIMALS["duration_s"])
+    for key, value in angles.items():
+        cols[key] = np.round(np.asarray(value, dtype=float), _DECIMALS[key])
+    cols["aos_compass"] = compass_point(angles["aos_az_deg"])
+    cols["los_compass"] = compass_point(angles["los_az_deg"])
+    for key in _FLAGS:
+        cols[key] = np.asarray(flags[key], dtype=bool)
+    for key in _OPTIONAL:
+        cols[key] = _none(n)
+    if plans is not None:
+        for i, plan in enumerate(plans):
+            if plan:
+                cols["plan_mode"][i] = plan["mode"]
+                cols["plan_max_error_deg"][i] = plan["max_error_deg"]
+                cols["plan_preposition"][i] = iso_utc(plan["preposition_s"])
+                cols["plan_reason"][i] = plan.get("reason", "")
+    return PassRecords(cols)
 
 
-def to_csv(records: Sequence[dict]) -> str:
-    """CSV with a header row (columns :data:`CSV_FIELDS`; times ISO-8601 UTC)."""
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=CSV_FIELDS, lineterminator="\n")
-    w.writeheader()
-    for rec in records:
-        w.writerow(_flat(rec))
-    return buf.getvalue()
+def pass_records(passes, plans: Sequence[dict | None] | None = None) -> PassRecords:
+    """The pass records of a batch :class:`~tracker.batch.PassTable` or of a sequence of
+    :class:`~tracker.passes.Pass`, with the planner summaries ``plans`` (same order, None for
+    a pass without one) when given.
+
+    A PassTable's ``aos_clipped``/``los_clipped`` become ``aos_known``/``los_known`` false
+    (and ``in_progress_at_start`` / ``always_up``), the meanings :class:`Pass` has.
+    """
+    table = getattr(passes, "passes", None)
+    if isinstance(table, np.ndarray):
+        n = len(table)
+        sat = table["sat"].astype(np.intp)
+        st = table["station"].astype(np.intp)
+        aos_clipped = table["aos_clipped"].astype(bool)
+        los_clipped = table["los_clipped"].astype(bool)
+        return _records(
+            np.array(passes.names, dtype=object)[sat], np.full(n, "satellite", dtype=object),
+            np.array([s.name for s in passes.stations], dtype=object)[st],
+            {k: table[f"{k}_s"] for k in ("aos", "tca", "los")},
+            {k: table[k] for k in ("max_el_deg", "aos_az_deg", "tca_az_deg", "los_az_deg")},
+            {"sunlit": table["sunlit"], "visible": table["visible"],
+             "in_progress_at_start": aos_clipped, "aos_known": ~aos_clipped,
+             "los_known": ~los_clipped, "always_up": aos_clipped & los_clipped},
+            plans)
+    passes = list(passes)
+
+    def column(get, dtype=object) -> np.ndarray:
+        out = np.empty(len(passes), dtype=dtype)
+        out[:] = [get(p) for p in passes]
+        return out
+
+    return _records(
+        column(lambda p: p.target_name), column(lambda p: p.kind),
+        column(lambda p: p.station.name if p.station is not None else ""),
+        {k: column(lambda p, k=k: getattr(p, k).timestamp(), float)
+         for k in ("aos", "tca", "los")},
+        {k: column(lambda p, k=k: getattr(p, k), float)
+         for k in ("max_el_deg", "aos_az_deg", "tca_az_deg", "los_az_deg")},
+        {k: column(lambda p, k=k: getattr(p, k), bool) for k in _FLAGS},
+        plans)
 
 
-def to_json(records: Sequence[dict], meta: dict | None = None,
+def station_meta(station) -> dict:
+    """A station as the ``meta.stations`` entries of the JSON document."""
+    return {"name": station.name, "lat_deg": station.lat_deg, "lon_deg": station.lon_deg,
+            "alt_m": station.alt_m, "min_el_deg": station.min_el_deg,
+            "mask": station.mask is not None}
+
+
+def _csv_text(value: Any) -> str:
+    """One CSV cell as the csv module writes it (minimal quoting), flags as true/false."""
+    if value is None:
+        return ""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    text = value if isinstance(value, str) else repr(value)
+    if any(c in text for c in ',"\r\n'):
+        return '"' + text.replace('"', '""') + '"'
+    return text
+
+
+def _csv_column(col: np.ndarray) -> list[str]:
+    """The cells of one column, formatted column-wise (the batch table has 10^5 rows)."""
+    if col.dtype == bool:
+        return np.where(col, "true", "false").tolist()
+    if col.dtype.kind == "f":
+        return list(map(repr, col.tolist()))
+    if col.dtype.kind == "U":  # ISO times: never need quoting
+        return col.tolist()
+    values = col.tolist()
+    # Object columns hold few distinct values (names, modes, None): format each once. Each
+    # column holds one type besides None, so True and 1 never share a key.
+    text = {v: _csv_text(v) for v in set(values)}
+    return list(map(text.__getitem__, values))
+
+
+def to_csv(records: PassRecords) -> str:
+    """CSV with a header row (columns :data:`CSV_FIELDS`; times ISO-8601 UTC, flags
+    ``true``/``false``, unset fields empty)."""
+    cols = [_csv_column(records[key]) for key in CSV_FIELDS]
+    lines = [",".join(CSV_FIELDS), *map(",".join, zip(*cols, strict=True))]
+    return "\n".join(lines) + "\n"
+
+
+def to_json(records: PassRecords, meta: dict | None = None,
             errors: Sequence[dict] = ()) -> str:
-    """The documented JSON document: ``{"schema", "meta", "passes", "errors"}``."""
-    doc = {"schema": JSON_SCHEMA_ID, "meta": dict(meta or {}), "passes": list(records),
-           "errors": list(errors)}
-    return json.dumps(doc, indent=1) + "\n"
+    """The documented JSON document: ``{"schema", "meta", "passes", "errors"}``, one pass
+    object per line."""
+    def block(value: Any) -> str:
+        return json.dumps(value, indent=1).replace("\n", "\n ")
+
+    rows = records.rows()
+    passes = "[\n  " + ",\n  ".join(map(json.dumps, rows)) + "\n ]" if rows else "[]"
+    parts = [f'"schema": {json.dumps(JSON_SCHEMA_ID)}', f'"meta": {block(dict(meta or {}))}',
+             f'"passes": {passes}', f'"errors": {block(list(errors))}']
+    return "{\n " + ",\n ".join(parts) + "\n}\n"
 
 
-def to_table(records: Sequence[dict]) -> str:
+def to_table(records: PassRecords) -> str:
     """A fixed-width text table for the terminal."""
     head = (f"{'satellite':<24} {'station':<12} {'AOS (UTC)':<20} {'LOS':>8} {'max el':>6} "
             f"{'az AOS>LOS':>11} {'lit':>3} {'plan':<8} {'err':>5}")
     lines = [head, "-" * len(head)]
-    for r in records:
-        plan = r.get("plan") or {}
-        err = plan.get("max_error_deg")
+    for r in records.rows():
+        err = r["plan_max_error_deg"]
         lines.append(
-            f"{r['satellite'][:24]:<24} {r['station'][:12]:<12} "
+            f"{r['target'][:24]:<24} {r['station'][:12]:<12} "
             f"{r['aos'].replace('T', ' ')[:19]:<20} {r['los'][11:19]:>8} "
             f"{r['max_el_deg']:>6.1f} {r['aos_az_deg']:>5.0f}>{r['los_az_deg']:<5.0f} "
-            f"{'yes' if r['sunlit'] else 'no':>3} {plan.get('mode', '-'):<8} "
+            f"{'yes' if r['sunlit'] else 'no':>3} {r['plan_mode'] or '-':<8} "
             f"{'-' if err is None else f'{err:.1f}':>5}")
     return "\n".join(lines) + "\n"
 
@@ -109,40 +230,40 @@ def to_table(records: Sequence[dict]) -> str:
 
 
 def _utc(t_s: float) -> datetime:
-    return datetime.fromtimestamp(round(float(t_s)), timezone.utc)
+    return to_datetime(round(float(t_s)))
 
 
 def pass_uid(rec: dict) -> str:
-    """A UID stable across runs: satellite, station and the TCA minute."""
-    key = f"{rec['satellite']}|{rec['station']}|{round(rec['tca_s'] / 60.0)}"
+    """A UID stable across runs: target, station and the TCA minute."""
+    key = f"{rec['target']}|{rec['station']}|{round(rec['tca_s'] / 60.0)}"
     return hashlib.sha1(key.encode()).hexdigest()[:20] + "@rotator-tracker"
 
 
 def _description(rec: dict) -> str:
-    parts = [f"{rec['satellite']} from {rec['station']}",
+    parts = [f"{rec['target']} from {rec['station']}",
              f"AOS {rec['aos']} az {rec['aos_az_deg']:.0f}",
              f"TCA {rec['tca']} el {rec['max_el_deg']:.1f} az {rec['tca_az_deg']:.0f}",
              f"LOS {rec['los']} az {rec['los_az_deg']:.0f}",
              f"sunlit: {'yes' if rec['sunlit'] else 'no'}, "
              f"visible: {'yes' if rec['visible'] else 'no'}"]
     # A clipped pass's DTSTART/DTEND are the window edges, not a rise or a set: say so.
-    if rec.get("aos_clipped"):
+    if not rec["aos_known"]:
         parts.append("already up at the window start (AOS shown is the start)")
-    if rec.get("los_clipped"):
+    if not rec["los_known"]:
         parts.append("still up at the window end, or the elements stopped propagating "
                      "(LOS shown is that time)")
-    plan = rec.get("plan")
-    if plan:
-        parts.append(f"plan: {plan['mode']}, predicted max error {plan['max_error_deg']} deg, "
-                     f"pre-position at {plan['preposition']}")
-        if plan.get("reason"):
-            parts.append(plan["reason"])
-    if rec.get("priority") not in (None, ""):
+    if rec["plan_mode"]:
+        parts.append(f"plan: {rec['plan_mode']}, predicted max error "
+                     f"{rec['plan_max_error_deg']} deg, pre-position at "
+                     f"{rec['plan_preposition']}")
+        if rec["plan_reason"]:
+            parts.append(rec["plan_reason"])
+    if rec["priority"] is not None:
         parts.append(f"priority {rec['priority']}")
     return "\n".join(parts)
 
 
-def to_ics(records: Sequence[dict], stamp_s: float, name: str = "Satellite passes") -> str:
+def to_ics(records: PassRecords, stamp_s: float, name: str = "Satellite passes") -> str:
     """An RFC 5545 calendar with one VEVENT per pass (AOS -> LOS).
 
     ``stamp_s`` is the DTSTAMP (the run's "as of" time, so the same input gives the same
@@ -156,13 +277,13 @@ def to_ics(records: Sequence[dict], stamp_s: float, name: str = "Satellite passe
     cal.add("calscale", "GREGORIAN")
     cal.add("method", "PUBLISH")
     cal.add("x-wr-calname", name)
-    for rec in records:
+    for rec in records.rows():
         event = Event()
         event.add("uid", pass_uid(rec))
         event.add("dtstamp", _utc(stamp_s))
         event.add("dtstart", _utc(rec["aos_s"]))
         event.add("dtend", _utc(max(rec["los_s"], rec["aos_s"] + 1)))
-        event.add("summary", f"{rec['satellite']} max {rec['max_el_deg']:.0f}°")
+        event.add("summary", f"{rec['target']} max {rec['max_el_deg']:.0f}°")
         event.add("location", rec["station"])
         event.add("description", _description(rec))
         event.add("transp", "TRANSPARENT")
@@ -173,7 +294,7 @@ def to_ics(records: Sequence[dict], stamp_s: float, name: str = "Satellite passe
 FORMATS = ("table", "csv", "json", "ics")
 
 
-def render(fmt: str, records: Sequence[dict], *, meta: dict | None = None,
+def render(fmt: str, records: PassRecords, *, meta: dict | None = None,
            errors: Sequence[dict] = (), stamp_s: float = 0.0, name: str = "") -> str:
     if fmt == "table":
         return to_table(records)

@@ -19,6 +19,7 @@ import numpy as np
 
 from tle.textfile import read_text_file
 from tracker.errors import ConfigError
+from tracker.export import PassRecords
 from tracker.geometry import slew_s
 from tracker.mount import RotatorSpec
 
@@ -86,7 +87,8 @@ def _rivals(chosen: list[int], usable: np.ndarray, aos: np.ndarray, los: np.ndar
 
 def build_schedule(records: list[dict], spec: RotatorSpec, priorities: dict[str, int],
                    default_priority: int = 1, settle_s: float = 0.0) -> Schedule:
-    """Best set of non-conflicting passes for one rotator (records of one station).
+    """Best set of non-conflicting passes for one rotator (pass records of one station, as
+    :meth:`tracker.export.PassRecords.rows` gives them).
 
     ``settle_s`` is extra time to keep free between passes (e.g. for a step-table upload).
     Records get a ``priority`` key.
@@ -95,7 +97,7 @@ def build_schedule(records: list[dict], spec: RotatorSpec, priorities: dict[str,
         raise ConfigError("a schedule is for one rotator at one station; give one station")
     n = len(records)
     for r in records:
-        r["priority"] = priority_of(r["satellite"], priorities, default_priority)
+        r["priority"] = priority_of(r["target"], priorities, default_priority)
     if n == 0:
         return Schedule([], {}, 0)
     aos = np.array([r["aos_s"] for r in records])
@@ -141,3 +143,18 @@ def build_schedule(records: list[dict], spec: RotatorSpec, priorities: dict[str,
     skipped = _rivals(chosen, usable, aos, los, max_slew)
     total = int(sum(records[i]["priority"] for i in chosen))
     return Schedule(chosen, skipped, total)
+
+
+def schedule_passes(records: PassRecords, spec: RotatorSpec, priorities: dict[str, int],
+                    default_priority: int = 1, settle_s: float = 0.0) -> Schedule:
+    """:func:`build_schedule` on pass records, filling their ``priority``, ``chosen`` and
+    ``conflicts_with`` fields (the target of the chosen pass a skipped one lost to)."""
+    rows = records.rows()
+    sched = build_schedule(rows, spec, priorities, default_priority, settle_s)
+    chosen = set(sched.chosen)
+    lost = [sched.skipped.get(i) for i in range(len(rows))]
+    records.set("priority", (r["priority"] for r in rows))
+    records.set("chosen", (i in chosen for i in range(len(rows))))
+    records.set("conflicts_with", (rows[k]["target"] if k is not None and k >= 0 else None
+                                   for k in lost))
+    return sched

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
 from datetime import datetime
 from typing import Any
 
@@ -97,15 +97,6 @@ class Pass:
         if len(t) == 0 or t1 - t[-1] > 1e-6:
             t = np.append(t, t1)
         return self.target.observe(self.station, t)
-
-    def as_dict(self) -> dict[str, Any]:
-        """Plain values for CSV/JSON (times as ISO-8601 UTC strings)."""
-        d = asdict(replace(self, target=None, station=None))
-        d.pop("target")
-        d.pop("station")
-        for key in ("aos", "tca", "los"):
-            d[key] = d[key].isoformat().replace("+00:00", "Z")
-        return d
 
 
 # Sampling helpers ------------------------------------------------------------------------------
@@ -493,10 +484,3 @@ def _sun_elevation(station: Station, t_s: np.ndarray) -> np.ndarray:
     observer = eph["earth"] + station.topos()
     alt, _, _ = observer.at(t).observe(eph["sun"]).apparent().altaz()
     return np.atleast_1d(alt.degrees)
-
-
-def compass_point(az_deg: float) -> str:
-    """16-point compass name for a bearing (N, NNE, NE, ... NNW)."""
-    names = ("N", "NNE", "NE", "ENE", "E", "ESE", "SE", "SSE",
-             "S", "SSW", "SW", "WSW", "W", "WNW", "NW", "NNW")
-    return names[int(((float(az_deg) % 360.0) + 11.25) // 22.5) % 16]

@@ -11,14 +11,13 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from datetime import datetime, timezone
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from tracker.errors import ConfigError
+from tracker.timescale import to_datetime
 
 if TYPE_CHECKING:  # pragma: no cover
     from tracker.planner import MountPlan
@@ -115,35 +114,39 @@ def sky_plot(plan: MountPlan, station: Station, path: str | Path, *, force: bool
         plt.close(fig)
 
 
-def timeline_plot(records: Sequence[dict], path: str | Path, start_s: float, end_s: float,
+def timeline_plot(records, path: str | Path, start_s: float, end_s: float,
                   title: str = "", chosen: set[int] | None = None, *,
                   force: bool = False, label: str = "") -> Path:
-    """Write the timeline of ``records`` (from :func:`tracker.export.pass_records`)."""
+    """Write the timeline of ``records`` (a :class:`tracker.export.PassRecords`)."""
     path = check_plot_path(path, force=force, label=label)
     plt = _pyplot()
     from matplotlib import dates as mdates
 
+    targets = records["target"].tolist()
+    at_station = records["station"].tolist()
     counts: dict[str, int] = {}
-    for r in records:
-        counts[r["satellite"]] = counts.get(r["satellite"], 0) + 1
+    for name in targets:
+        counts[name] = counts.get(name, 0) + 1
     names = sorted(counts, key=lambda n: (-counts[n], n))[:TIMELINE_MAX_ROWS]
     names.sort()
     row_of = {n: i for i, n in enumerate(names)}
-    stations = sorted({r["station"] for r in records})
+    stations = sorted(set(at_station))
     cmaps = ["Blues", "Oranges", "Greens", "Purples", "Reds", "Greys"]
 
     def when(t: float):
-        return mdates.date2num(datetime.fromtimestamp(t, timezone.utc))
+        return mdates.date2num(to_datetime(t))
 
     fig, ax = plt.subplots(figsize=(11, max(2.5, 0.28 * len(names) + 1.5)))
-    for i, r in enumerate(records):
-        if r["satellite"] not in row_of:
+    spans = zip(targets, at_station, records["aos_s"].tolist(), records["los_s"].tolist(),
+                records["max_el_deg"].tolist(), strict=True)
+    for i, (name, station, aos_s, los_s, max_el_deg) in enumerate(spans):
+        if name not in row_of:
             continue
-        cmap = plt.get_cmap(cmaps[stations.index(r["station"]) % len(cmaps)])
-        shade = cmap(0.35 + 0.6 * min(1.0, max(0.0, r["max_el_deg"]) / 90.0))
+        cmap = plt.get_cmap(cmaps[stations.index(station) % len(cmaps)])
+        shade = cmap(0.35 + 0.6 * min(1.0, max(0.0, max_el_deg) / 90.0))
         hollow = chosen is not None and i not in chosen
-        x0, x1 = when(r["aos_s"]), when(r["los_s"])
-        ax.broken_barh([(x0, max(x1 - x0, 1e-5))], (row_of[r["satellite"]] - 0.35, 0.7),
+        x0, x1 = when(aos_s), when(los_s)
+        ax.broken_barh([(x0, max(x1 - x0, 1e-5))], (row_of[name] - 0.35, 0.7),
                        facecolors="none" if hollow else shade, edgecolors=shade,
                        linewidth=0.6)
     ax.set_yticks(range(len(names)))

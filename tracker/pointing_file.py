@@ -25,7 +25,6 @@ Bad files raise :class:`ScheduleError` with ``file:line: what is wrong``.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +33,7 @@ from tle.textfile import read_text_file
 from tracker.errors import ConfigError
 from tracker.skytrack import SkyTrack
 from tracker.station import Station
+from tracker.timescale import parse_iso_utc, to_datetime
 
 EL_MIN_DEG = -5.0
 EL_MAX_DEG = 180.0
@@ -42,16 +42,6 @@ FORMAT_HELP = "expected 'utc_time,az_deg[,el_deg]' e.g. '2026-08-22T18:00:00Z,27
 
 class ScheduleError(ConfigError):
     """A schedule file that cannot be used; the message starts with ``file:line:``."""
-
-
-def _parse_time(text: str) -> float:
-    text = text.strip()
-    if text.endswith(("Z", "z")):
-        text = text[:-1] + "+00:00"
-    t = datetime.fromisoformat(text)  # ValueError on junk
-    if t.tzinfo is None:
-        t = t.replace(tzinfo=timezone.utc)
-    return t.timestamp()
 
 
 def _is_number(text: str) -> bool:
@@ -90,7 +80,7 @@ def parse_schedule(text: str, source: str = "<schedule>"  # noqa: C901
             raise ScheduleError(f"{where}: {len(parts)} fields but the first point has {n_cols};"
                                 " give el_deg on every line or on none")
         try:
-            t_s = _parse_time(parts[0])
+            t_s = parse_iso_utc(parts[0]).timestamp()
         except ValueError:
             raise ScheduleError(f"{where}: cannot read time {parts[0]!r}; use ISO 8601 UTC "
                                 "such as 2026-08-22T18:00:00Z") from None
@@ -109,7 +99,7 @@ def parse_schedule(text: str, source: str = "<schedule>"  # noqa: C901
             raise ScheduleError(f"{where}: elevation {values[1]:g} is out of range; allowed "
                                 f"{EL_MIN_DEG:g} to {EL_MAX_DEG:g} degrees")
         if times and t_s <= times[-1]:
-            prev = datetime.fromtimestamp(times[-1], timezone.utc).isoformat()
+            prev = to_datetime(times[-1]).isoformat()
             raise ScheduleError(f"{where}: time {parts[0]} is not after the previous point "
                                 f"({prev}); times must be strictly increasing")
         times.append(t_s)

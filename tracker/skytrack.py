@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from datetime import datetime, timezone
+from datetime import datetime
 
 import numpy as np
+
+from tracker.timescale import to_datetime
 
 
 @dataclass(frozen=True)
@@ -50,11 +52,11 @@ class SkyTrack:
 
     @property
     def start(self) -> datetime:
-        return datetime.fromtimestamp(float(self.t_s[0]), timezone.utc)
+        return to_datetime(self.t_s[0])
 
     @property
     def end(self) -> datetime:
-        return datetime.fromtimestamp(float(self.t_s[-1]), timezone.utc)
+        return to_datetime(self.t_s[-1])
 
     def unit_vectors(self) -> np.ndarray:
         """East-north-up unit vectors, shape ``(n, 3)``."""
@@ -103,3 +105,16 @@ def angle_between_deg(a, b) -> np.ndarray:
 def angular_separation_deg(az1_deg, el1_deg, az2_deg, el2_deg) -> np.ndarray:
     """Great-circle angle between two directions (el may exceed 90 for flipped pointing)."""
     return angle_between_deg(azel_to_enu(az1_deg, el1_deg), azel_to_enu(az2_deg, el2_deg))
+
+
+COMPASS_POINTS = ("N", "NNE", "NE", "ENE", "E", "ESE", "SE", "SSE",
+                  "S", "SSW", "SW", "WSW", "W", "WNW", "NW", "NNW")
+
+
+def compass_point(az_deg):
+    """16-point compass name (N, NNE, NE, ... NNW) of a bearing; for an array of bearings,
+    an array of names."""
+    index = ((np.mod(np.asarray(az_deg, dtype=float), 360.0) + 11.25) // 22.5).astype(int) % 16
+    if np.ndim(index) == 0:
+        return COMPASS_POINTS[int(index)]
+    return np.array(COMPASS_POINTS, dtype=object)[index]

@@ -1,10 +1,18 @@
-"""Ground station: position, minimum elevation and an optional horizon mask."""
+"""Ground station: position, minimum elevation and an optional horizon mask.
+
+Also the one station schema: :func:`parse_station` reads a station from a table of
+``name``, ``lat_deg``, ``lon_deg``, ``alt_m``, ``min_el_deg`` and ``mask`` (a horizon mask
+file), for the config file's ``[station]`` sections and the batch stations files alike.
+"""
 
 from __future__ import annotations
 
+import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -69,6 +77,16 @@ class HorizonMask:
         return cls(tuple(az_sorted), tuple(points[a] for a in az_sorted))
 
 
+# The station schema: field -> allowed range (numbers), plus name and mask.
+STATION_RANGES: dict[str, tuple[float, float]] = {
+    "lat_deg": (-90.0, 90.0), "lon_deg": (-180.0, 180.0), "alt_m": (-500.0, 9000.0),
+    "min_el_deg": (-5.0, 90.0)}
+STATION_FIELDS = ("name", *STATION_RANGES, "mask")
+# Short spellings that stations files written for earlier versions use; read, never written.
+STATION_ALIASES = {"lat": "lat_deg", "lon": "lon_deg", "alt": "alt_m", "min_el": "min_el_deg"}
+_EXAMPLE = {"name": '"Delft"', "lat_deg": "52.0", "lon_deg": "4.4"}
+
+
 @dataclass(frozen=True)
 class Station:
     """A ground station. ``min_el_deg`` applies everywhere; the mask adds to it per bearing."""
@@ -81,13 +99,12 @@ class Station:
     mask: HorizonMask | None = field(default=None)
 
     def __post_init__(self) -> None:
-        checks = (("lat_deg", self.lat_deg, -90, 90), ("lon_deg", self.lon_deg, -180, 180),
-                  ("alt_m", self.alt_m, -500, 9000), ("min_el_deg", self.min_el_deg, -5, 90))
-        for key, value, lo, hi in checks:
+        for key, (lo, hi) in STATION_RANGES.items():
+            value = getattr(self, key)
             if not (isinstance(value, (int, float)) and math.isfinite(value)
                     and lo <= value <= hi):
                 raise ConfigError(f"station.{key} = {value!r} is out of range; allowed: "
-                                  f"{lo} to {hi}")
+                                  f"{lo:g} to {hi:g}")
 
     def horizon_at(self, az_deg):
         """The elevation below which the target counts as not visible, at bearing(s) az_deg."""
@@ -102,3 +119,59 @@ class Station:
         from skyfield.api import wgs84
 
         return wgs84.latlon(self.lat_deg, self.lon_deg, elevation_m=self.alt_m)
+
+
+def _shown(value: Any) -> str:
+    return json.dumps(value, default=str)
+
+
+def mask_file(value: Any, where: str, base_dir: Path | None) -> Path:
+    """The horizon mask file a station's ``mask`` names (relative to ``base_dir``)."""
+    if not isinstance(value, str) or not value.strip():
+        raise ConfigError(f"{where} mask = {_shown(value)} is invalid; allowed: a path to a "
+                          f"horizon mask file")
+    path = Path(value).expanduser()
+    return path if path.is_absolute() or base_dir is None else base_dir / path
+
+
+def _station_number(key: str, field_name: str, value: Any, where: str,
+                    from_text: bool) -> float:
+    lo, hi = STATION_RANGES[field_name]
+    number = value
+    if from_text and isinstance(value, str):
+        try:
+            number = float(value)
+        except ValueError:
+            pass
+    if isinstance(number, bool) or not isinstance(number, (int, float)) or not math.isfinite(
+            number) or not lo <= number <= hi:
+        raise ConfigError(f"{where} {key} = {_shown(number)} is invalid; allowed: a number "
+                          f"from {lo:g} to {hi:g}")
+    return float(number)
+
+
+def parse_station(values: Mapping[str, Any], where: str, *, base_dir: Path | None = None,
+                  default_name: str | None = None, from_text: bool = False) -> Station:
+    """A :class:`Station` from a table of :data:`STATION_FIELDS` (or
+    :data:`STATION_ALIASES`); ``where`` starts every error message (``file:line:`` or
+    ``file: [section]``). ``mask`` is a horizon mask file relative to ``base_dir``;
+    ``from_text`` accepts numbers written as text (CSV cells)."""
+    kwargs: dict[str, Any] = {} if default_name is None else {"name": default_name}
+    for key, value in values.items():
+        name = STATION_ALIASES.get(str(key).strip().lower(), str(key).strip().lower())
+        if name == "name":
+            if not isinstance(value, str) or not value.strip():
+                raise ConfigError(f"{where} name = {_shown(value)} is invalid; allowed: a "
+                                  f"non-empty string")
+            kwargs["name"] = value.strip()
+        elif name in STATION_RANGES:
+            kwargs[name] = _station_number(key, name, value, where, from_text)
+        elif name == "mask":
+            kwargs["mask"] = HorizonMask.load(mask_file(value, where, base_dir))
+        else:
+            raise ConfigError(f"{where} unknown key {key!r}; allowed keys: "
+                              f"{', '.join(STATION_FIELDS)}")
+    for key in ("name", "lat_deg", "lon_deg"):
+        if key not in kwargs:
+            raise ConfigError(f"{where} {key} is missing; add e.g. {key} = {_EXAMPLE[key]}")
+    return Station(**kwargs)

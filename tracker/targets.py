@@ -123,16 +123,16 @@ class SatelliteTarget:
     def check_span(self, t0_s: float, t1_s: float) -> None:
         """Raise PropagationError if ``[t0_s, t1_s]`` reaches further than
         :data:`MAX_PROPAGATION_DAYS` from the elements' epoch (in either direction)."""
-        from datetime import datetime, timezone
+        from tracker.timescale import utc_strftime
 
         epoch_s = self.epoch_s
         worst_s = t0_s if abs(t0_s - epoch_s) >= abs(t1_s - epoch_s) else t1_s
         days = (worst_s - epoch_s) / 86400.0
         if abs(days) <= MAX_PROPAGATION_DAYS:
             return
-        epoch = datetime.fromtimestamp(epoch_s, timezone.utc).strftime("%Y-%m-%d %H:%M")
+        epoch = utc_strftime(epoch_s, "%Y-%m-%d %H:%M")
         try:
-            when = datetime.fromtimestamp(worst_s, timezone.utc).strftime("%Y-%m-%d")
+            when = utc_strftime(worst_s, "%Y-%m-%d")
         except (OverflowError, OSError, ValueError):
             when = "the requested time"
         side = "after" if days > 0 else "before"

@@ -1,7 +1,10 @@
-"""One skyfield Timescale per process, from skyfield's built-in tables (never downloads).
+"""UTC time: one skyfield Timescale per process, conversions, and the text forms of times.
 
-Also the conversions between UTC POSIX seconds (what :class:`~tracker.skytrack.SkyTrack` and
-the clocks use) and skyfield ``Time``.
+The one place for: the shared skyfield ``Timescale`` (built-in tables, never downloads);
+UTC POSIX seconds (what :class:`~tracker.skytrack.SkyTrack` and the clocks use) to and from
+skyfield ``Time`` and aware datetimes; ISO-8601 UTC text, read (:func:`parse_iso_utc`) and
+written (:func:`iso_utc`, vectorised :func:`iso_utc_array`, and :func:`utc_strftime` for
+other layouts).
 """
 
 from __future__ import annotations
@@ -64,3 +67,42 @@ def to_posix(t: datetime | float) -> float:
 def to_datetime(t_s: float) -> datetime:
     """Aware UTC datetime of POSIX seconds."""
     return datetime.fromtimestamp(float(t_s), timezone.utc)
+
+
+def parse_iso_utc(text: str) -> datetime:
+    """An ISO-8601 time as an aware datetime: with its offset (``Z``/``z`` is UTC), or UTC
+    when it has none.
+
+    Raises ``ValueError`` for text that is not an ISO-8601 time. The offset is kept (not
+    converted) so a time at the edge of ``datetime``'s range still parses.
+    """
+    s = text.strip()
+    if s.endswith(("Z", "z")):
+        s = s[:-1] + "+00:00"
+    t = datetime.fromisoformat(s)
+    return t.replace(tzinfo=timezone.utc) if t.tzinfo is None else t
+
+
+def iso_utc(t: datetime | float, timespec: str = "seconds") -> str:
+    """ISO-8601 UTC with a ``Z``: ``2026-08-22T13:45:07Z``.
+
+    ``timespec="seconds"`` rounds to the nearest second (the form of every export);
+    ``"milliseconds"`` keeps milliseconds (``...T13:45:07.250Z``, logs), truncating.
+    """
+    t_s = to_posix(t)
+    if timespec == "seconds":
+        return datetime.fromtimestamp(round(t_s), timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    return datetime.fromtimestamp(t_s, timezone.utc).isoformat(timespec=timespec) \
+        .replace("+00:00", "Z")
+
+
+def iso_utc_array(t_s) -> np.ndarray:
+    """:func:`iso_utc` (to the second) of many POSIX times at once, as a numpy string array."""
+    whole = np.round(np.asarray(t_s, dtype=float)).astype(np.int64).astype("datetime64[s]")
+    return np.char.add(np.datetime_as_string(whole, unit="s"), "Z")
+
+
+def utc_strftime(t: datetime | float, layout: str) -> str:
+    """A UTC time (POSIX seconds or aware datetime) in a ``strftime`` layout, e.g.
+    ``"%H:%M:%S"`` (seconds truncated, as a clock shows them)."""
+    return datetime.fromtimestamp(to_posix(t), timezone.utc).strftime(layout)

@@ -18,21 +18,12 @@ import math
 import os
 import sys
 import threading
-from datetime import datetime, timezone
 from typing import IO, Any
 
 from tracker.clock import Clock
 from tracker.errors import ConfigError
 from tracker.stream import Phase, Status
-
-
-def _hms(t_s: float) -> str:
-    return datetime.fromtimestamp(t_s, timezone.utc).strftime("%H:%M:%S")
-
-
-def _iso(t_s: float) -> str:
-    return datetime.fromtimestamp(t_s, timezone.utc).isoformat(timespec="milliseconds") \
-        .replace("+00:00", "Z")
+from tracker.timescale import iso_utc, utc_strftime
 
 
 def _mmss(seconds: float) -> str:
@@ -75,7 +66,7 @@ class JsonLinesLog:
         if self._fd is None:
             return
         t = self.clock.timestamp()
-        rec = {"t": _iso(t), "t_s": round(t, 3), "kind": kind}
+        rec = {"t": iso_utc(t, timespec="milliseconds"), "t_s": round(t, 3), "kind": kind}
         rec.update({k: v for k, v in data.items() if v is not None})
         line = (json.dumps(rec, default=str) + "\n").encode("utf-8")
         written = 0
@@ -145,7 +136,7 @@ class PlainLines:
         self._last_status = -math.inf
 
     def _line(self, text: str) -> None:
-        self.stream.write(f"{_hms(self.clock.timestamp())}  {text}\n")
+        self.stream.write(f"{utc_strftime(self.clock.timestamp(), '%H:%M:%S')}  {text}\n")
         self.stream.flush()
 
     def event(self, kind: str, **data: Any) -> None:
@@ -217,7 +208,7 @@ class RichPanel:
         if st is None:
             grid.add_row("status", "connecting...")
         else:
-            grid.add_row("time", f"{_hms(st.t_s)} UTC   {countdown(st)}")
+            grid.add_row("time", f"{utc_strftime(st.t_s, '%H:%M:%S')} UTC   {countdown(st)}")
             grid.add_row("phase / mode", f"{st.phase.value} / {st.mode}")
             grid.add_row("target", f"az {st.target_az_deg:6.1f}   el {st.target_el_deg:6.1f}")
             cmd = ("-" if st.command_az_m_deg is None else
@@ -251,7 +242,7 @@ class RichPanel:
                     else f"{data.get('state')} {data.get('note') or ''}".strip())
         else:
             text = str(data.get("text", ""))
-        self._events.append(f"{_hms(self.clock.timestamp())} {text}")
+        self._events.append(f"{utc_strftime(self.clock.timestamp(), '%H:%M:%S')} {text}")
         self._live.update(self._render())
 
     def status(self, st: Status) -> None:

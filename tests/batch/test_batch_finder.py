@@ -186,10 +186,33 @@ def test_stations_file_csv_and_toml(tmp_path):
                                                                         ("B", 3.0)]
 
 
+def test_stations_file_takes_the_config_schema(tmp_path):
+    # The config's field names (and a horizon mask file next to the stations file) work in
+    # both forms, and give the same stations as the short spelling.
+    (tmp_path / "roof.txt").write_text("0 10\n180 20\n")
+    csv_file = tmp_path / "st.csv"
+    csv_file.write_text("name,lat_deg,lon_deg,alt_m,min_el_deg,mask\n"
+                        "Delft,52.0,4.37,10,5,roof.txt\n")
+    toml_file = tmp_path / "st.toml"
+    toml_file.write_text('[[station]]\nname = "Delft"\nlat_deg = 52.0\nlon_deg = 4.37\n'
+                         'alt_m = 10\nmin_el_deg = 5\nmask = "roof.txt"\n')
+    short = tmp_path / "short.csv"
+    short.write_text("Delft,52.0,4.37,10,5\n")
+    from_csv, from_toml = load_stations(csv_file)[0], load_stations(toml_file)[0]
+    assert from_csv == from_toml
+    assert from_csv.mask is not None and from_csv.mask.min_el_deg == (10.0, 20.0)
+    plain = load_stations(short)[0]
+    assert (plain.name, plain.lat_deg, plain.lon_deg, plain.alt_m, plain.min_el_deg) == (
+        from_csv.name, from_csv.lat_deg, from_csv.lon_deg, from_csv.alt_m,
+        from_csv.min_el_deg)
+
+
 @pytest.mark.parametrize("text,match", [
-    ("Delft,52.0\n", r"st\.csv:1: expected 'name,lat,lon"),
+    ("Delft,52.0\n", r"st\.csv:1: expected 'name,lat_deg,lon_deg"),
     ("Delft,52.0,4.37\nBad,95,4,0\n", r"st\.csv:2: .*lat_deg = 95"),
-    ("Delft,north,4.37\n", r"st\.csv:1: lat = 'north' is not a number"),
+    ("Delft,north,4.37\n", r'st\.csv:1: lat_deg = "north" is invalid; allowed: a number'),
+    ("name,lat,lon\nDelft,inf,4.37\n", r"st\.csv:2: lat = Infinity is invalid"),
+    ("Delft,52,4.37,10,5,x\n", r"st\.csv:1: expected"),
     ("Delft,1,2\nDelft,3,4\n", "appears twice"),
     ("# nothing\n", "no stations"),
 ])
@@ -204,10 +227,11 @@ def test_stations_toml_errors(tmp_path):
     path = tmp_path / "st.toml"
     path.write_text('[[station]]\nname = "A"\nlat = 10\n\n[[station]]\nname = "B"\nlat = 1\n'
                     'lon = 2\nheight = 3\n')
-    with pytest.raises(ConfigError, match=r"st\.toml:1: station needs"):
+    with pytest.raises(ConfigError, match=r"st\.toml:1: lon_deg is missing"):
         load_stations(path)
     path.write_text('[[station]]\nname = "B"\nlat = 1\nlon = 2\nheight = 3\n')
-    with pytest.raises(ConfigError, match=r"st\.toml:1: unknown station key 'height'"):
+    with pytest.raises(ConfigError, match=r"st\.toml:1: unknown key 'height'; allowed keys: "
+                                          r"name, lat_deg, lon_deg, alt_m, min_el_deg, mask"):
         load_stations(path)
     path.write_text("[[station]\n")
     with pytest.raises(ConfigError, match=r"st\.toml"):

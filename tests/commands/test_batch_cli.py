@@ -17,7 +17,7 @@ from _paths import DATA, REPO
 from tracker.cli import main
 
 AT = "2026-08-22T13:45Z"
-STATIONS = "name,lat,lon,alt,min_el\nDelft,52.0,4.37,10,0\nQuito,-0.2,-78.5,2850,5\n"
+STATIONS = "name,lat_deg,lon_deg,alt_m,min_el_deg\nDelft,52.0,4.37,10,0\nQuito,-0.2,-78.5,2850,5\n"
 
 
 @pytest.fixture(autouse=True)
@@ -58,9 +58,9 @@ def test_batch_json_with_plans_and_visible_filter(capsys, stations, tmp_path):
     assert code == 0, err
     assert out == ""
     doc = json.loads(out_file.read_text())
-    assert doc["schema"] == "rotator-tracker/batch-passes/1"
+    assert doc["schema"] == "rotator-tracker/passes/2"
     assert doc["meta"]["rotator"] == "G-5500"
-    modes = {p["plan"]["mode"] for p in doc["passes"] if p["plan"]}
+    modes = {p["plan_mode"] for p in doc["passes"] if p["plan_mode"]}
     assert modes and modes <= {"normal", "overlap", "flip", "keyhole", "unwind"}
     assert all(p["max_el_deg"] >= 30 for p in doc["passes"])
     code, out, err = run(capsys, "batch", "amateur", "--lat", "52", "--lon", "4.37", "--at",
@@ -104,7 +104,7 @@ def test_schedule_picks_by_priority(capsys, tmp_path):
     chosen = [p for p in passes if p["chosen"]]
     assert 0 < len(chosen) < len(passes)
     assert doc["meta"]["chosen"] == len(chosen)
-    ao73 = [p for p in passes if p["satellite"] == "FUNCUBE-1 (AO-73)"]
+    ao73 = [p for p in passes if p["target"] == "FUNCUBE-1 (AO-73)"]
     assert ao73 and all(p["chosen"] for p in ao73)  # the top priority is never dropped
     chosen.sort(key=lambda p: p["aos_s"])
     assert all(a["los_s"] < b["aos_s"] for a, b in itertools.pairwise(chosen))
@@ -183,7 +183,7 @@ def test_dask_missing_is_one_clear_line(tmp_path):
 
 
 def test_json_meta_and_schedule_fields_are_documented(capsys):
-    doc_text = (REPO / "docs" / "batch-json-schema.md").read_text()
+    doc_text = (REPO / "docs" / "pass-schema.md").read_text()
     code, out, err = run(capsys, "schedule", "amateur", "--lat", "52", "--lon", "4.37",
                          "--at", AT, "--days", "0.3", "--min-max-el", "20", "--format", "json",
                          "--rotator", "G-5500", "--all")

@@ -18,7 +18,8 @@ import pytest
 from _paths import DATA
 
 from tracker.cli import main
-from tracker.commands.passes import CSV_COLUMNS, format_duration
+from tracker.commands.passes import format_duration
+from tracker.export import CSV_FIELDS, JSON_SCHEMA_ID, PASS_FIELDS
 
 SATS = str(DATA / "passes_sats.tle")
 AT = "2026-08-23T00:00:00Z"
@@ -57,11 +58,12 @@ def test_csv_columns_and_values(capsys):
                        "--format", "csv", "--hours", "12")
     assert code == 0
     reader = csv.DictReader(io.StringIO(out))
-    assert tuple(reader.fieldnames) == CSV_COLUMNS
+    assert tuple(reader.fieldnames) == CSV_FIELDS
     rows = list(reader)
     assert rows and all(r["target"] == "ISS (ZARYA)" for r in rows)
+    assert all(r["station"] == "command-line" and r["plan_mode"] == "" for r in rows)
     for r in rows:
-        assert r["aos_utc"] < r["tca_utc"] < r["los_utc"] and r["aos_utc"].endswith("Z")
+        assert r["aos"] < r["tca"] < r["los"] and r["aos"].endswith("Z")
         assert 0 < float(r["max_el_deg"]) <= 90 and r["sunlit"] in ("true", "false")
         assert r["aos_known"] == "true" and r["always_up"] == "false"
 
@@ -71,10 +73,13 @@ def test_json_and_min_el(capsys):
                        "--format", "json", "--days", "2", "--min-el", "30")
     assert code == 0
     doc = json.loads(out)
-    assert doc["station"]["min_el_deg"] == 30.0
-    assert doc["window"] == {"start": "2026-08-23T00:00:00Z", "end": "2026-08-25T00:00:00Z"}
+    assert doc["schema"] == JSON_SCHEMA_ID and doc["errors"] == []
+    assert doc["meta"]["stations"][0]["min_el_deg"] == 30.0
+    assert (doc["meta"]["start"], doc["meta"]["end"]) == ("2026-08-23T00:00:00Z",
+                                                          "2026-08-25T00:00:00Z")
+    assert doc["meta"]["targets"] == ["ISS (ZARYA)"]
     assert doc["passes"] and all(p["max_el_deg"] > 30 for p in doc["passes"])
-    assert set(doc["passes"][0]) == set(CSV_COLUMNS)
+    assert tuple(doc["passes"][0]) == PASS_FIELDS
 
 
 def test_group_lists_several_targets(capsys):

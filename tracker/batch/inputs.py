@@ -1,8 +1,10 @@
 """The inputs of a batch run: the stations file, and the element sets SGP4 is given.
 
-Stations file: CSV with columns ``name,lat,lon,alt[,min_el]`` (degrees, metres; a header
-row and ``#`` comments are allowed), or TOML with one ``[[station]]`` table per station
-(keys ``name``, ``lat``, ``lon``, ``alt``, optional ``min_el``). Errors name ``file:line``.
+Stations file: the station schema of the config file (:func:`tracker.station.parse_station`:
+``name``, ``lat_deg``, ``lon_deg``, ``alt_m``, ``min_el_deg``, ``mask``; the short ``lat``,
+``lon``, ``alt``, ``min_el`` are read too) as CSV (columns ``name,lat_deg,lon_deg[,alt_m[,
+min_el_deg]]`` without a header row, or the columns a header row names; ``#`` comments
+allowed) or as TOML with one ``[[station]]`` table per station. Errors name ``file:line``.
 """
 
 from __future__ import annotations
@@ -14,11 +16,7 @@ from pathlib import Path
 
 from tle.textfile import read_text_file
 from tracker.errors import ConfigError
-from tracker.station import Station
-
-_KEYS = {"name": "name", "lat": "lat_deg", "lat_deg": "lat_deg", "lon": "lon_deg",
-         "lon_deg": "lon_deg", "alt": "alt_m", "alt_m": "alt_m", "min_el": "min_el_deg",
-         "min_el_deg": "min_el_deg"}
+from tracker.station import Station, parse_station
 
 
 def satrecs_of(elements: Iterable) -> tuple[list, list[str]]:
@@ -43,44 +41,22 @@ def split_by_epoch(elements: Iterable, start_s: float, end_s: float) -> tuple[li
 
 
 def _station(path: Path, line_no: int, values: dict) -> Station:
-    where = f"{path}:{line_no}"
-    kwargs: dict = {}
-    for key, value in values.items():
-        field = _KEYS.get(str(key).strip().lower())
-        if field is None:
-            raise ConfigError(f"{where}: unknown station key {key!r}; use name, lat, lon, alt, "
-                              f"min_el")
-        if field == "name":
-            kwargs[field] = str(value).strip()
-            continue
-        try:
-            kwargs[field] = float(value)
-        except (TypeError, ValueError):
-            raise ConfigError(f"{where}: {key} = {value!r} is not a number") from None
-    missing = [k for k in ("name", "lat_deg", "lon_deg") if k not in kwargs or kwargs[k] == ""]
-    if missing:
-        raise ConfigError(f"{where}: station needs name, lat and lon (missing "
-                          f"{', '.join(m.split('_')[0] for m in missing)}); example line: "
-                          f"'Delft,52.0,4.37,10'")
-    try:
-        return Station(**kwargs)
-    except ConfigError as e:
-        raise ConfigError(f"{where}: {e}") from None
+    return parse_station(values, f"{path}:{line_no}:", base_dir=path.parent, from_text=True)
 
 
 def _load_csv(path: Path, text: str) -> list[Station]:
     stations = []
     rows = [(i, line) for i, line in enumerate(text.splitlines(), 1)
             if line.strip() and not line.lstrip().startswith("#")]
-    header = ["name", "lat", "lon", "alt", "min_el"]
+    header = ["name", "lat_deg", "lon_deg", "alt_m", "min_el_deg"]
     for n, (line_no, line) in enumerate(rows):
         cells = [c.strip() for c in next(csv.reader(io.StringIO(line)))]
         if n == 0 and cells and cells[0].lower() == "name":
             header = [c.lower() for c in cells]
             continue
         if not (3 <= len(cells) <= len(header)):
-            raise ConfigError(f"{path}:{line_no}: expected 'name,lat,lon[,alt[,min_el]]', got "
-                              f"{line.strip()!r}")
+            raise ConfigError(f"{path}:{line_no}: expected 'name,lat_deg,lon_deg[,alt_m[,"
+                              f"min_el_deg]]', got {line.strip()!r}")
         stations.append(_station(path, line_no, dict(zip(header, cells, strict=False))))
     return stations
 
@@ -96,10 +72,11 @@ def _load_toml(path: Path, text: str) -> list[Station]:
         raise ConfigError(f"{path}: {e}") from None
     except RecursionError:   # the parser nests one call per [ : a stations file has two levels
         raise ConfigError(f"{path}: TOML nested too deeply to be a stations file; expected "
-                          "[[station]] tables with name, lat, lon, alt") from None
+                          "[[station]] tables with name, lat_deg, lon_deg, alt_m") from None
     tables = data.get("station")
     if not isinstance(tables, list):
-        raise ConfigError(f"{path}: expected [[station]] tables with name, lat, lon, alt")
+        raise ConfigError(f"{path}: expected [[station]] tables with name, lat_deg, lon_deg, "
+                          f"alt_m")
     lines = text.splitlines()
     marks = [i for i, line in enumerate(lines, 1) if line.strip() == "[[station]]"]
     return [_station(path, marks[i] if i < len(marks) else 0, table)

@@ -148,16 +148,14 @@ def parse_utc(text: str) -> datetime:
     raw = text.strip()
     if not raw:
         raise ConfigError("empty time; use ISO-8601 UTC such as 2026-08-23T12:00:00Z")
+    from tracker.timescale import parse_iso_utc
+
     s = raw.replace(" ", "T", 1) if "T" not in raw and " " in raw else raw
-    if s.endswith(("Z", "z")):
-        s = s[:-1] + "+00:00"
     try:
-        t = datetime.fromisoformat(s)
+        t = parse_iso_utc(s)
     except ValueError:
         raise ConfigError(f"cannot read the time {text!r}; use ISO-8601 UTC such as "
                           f"2026-08-23T12:00:00Z or '2026-08-23 12:00'") from None
-    if t.tzinfo is None:
-        t = t.replace(tzinfo=timezone.utc)
     if not AT_YEARS[0] <= t.year <= AT_YEARS[1]:
         raise ConfigError(f"the time {text!r} is outside {AT_YEARS[0]}-{AT_YEARS[1]}, the "
                           f"years this tool can compute for; give a time in that range")

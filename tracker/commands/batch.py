@@ -1,9 +1,10 @@
 """``tracker batch SOURCE``: every pass of a catalogue over one or many stations.
 
 ``SOURCE`` is a TLE/3LE/OMM file, a catalogue group (``amateur``, ``weather``, ...) or ``all``.
-Stations come from ``--stations FILE`` (CSV ``name,lat,lon,alt[,min_el]`` or TOML
-``[[station]]`` tables) or the usual station options. Output: ``--format table|csv|json|ics``
-to stdout or ``--out FILE`` (written atomically). ``--rotator NAME`` adds the planner's
+Stations come from ``--stations FILE`` (the config's station fields as CSV
+``name,lat_deg,lon_deg[,alt_m[,min_el_deg]]`` or TOML ``[[station]]`` tables) or the usual
+station options. Output: ``--format table|csv|json|ics`` to stdout or ``--out FILE`` (written
+atomically). ``--rotator NAME`` adds the planner's
 summary (mode, predicted max error, pre-position time) to passes above ``--min-max-el``.
 """
 
@@ -33,7 +34,8 @@ def add_batch_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("source", metavar="CATALOG|GROUP",
                    help="TLE/3LE/OMM file, catalogue group (amateur, weather, ...) or 'all'")
     p.add_argument("--stations", metavar="FILE",
-                   help="stations file: CSV name,lat,lon,alt[,min_el] or TOML [[station]]")
+                   help="stations file: CSV name,lat_deg,lon_deg[,alt_m[,min_el_deg]] (or a "
+                        "header row naming the columns) or TOML [[station]] tables")
     p.add_argument("--days", type=float, default=1.0, help="window length in days (default 1)")
     p.add_argument("--min-max-el", type=float, default=0.0, metavar="DEG", dest="min_max_el",
                    help="keep passes whose max elevation reaches DEG (default 0)")
@@ -180,8 +182,8 @@ def plans_for(args: argparse.Namespace, table, elements) -> list | None:
         satrecs[i] = elements[i].satrec()
     on_plan = None
     if sky_dir:
-        from tracker.export import iso
         from tracker.plot import sky_plot
+        from tracker.timescale import iso_utc
 
         folder = Path(sky_dir)
         if not folder.is_dir():
@@ -194,7 +196,7 @@ def plans_for(args: argparse.Namespace, table, elements) -> list | None:
             row = table.passes[i]
             stem = "".join(c if c.isalnum() or c in "-_" else "_" for c in
                            f"{table.names[int(row['sat'])]}_{station.name}_"
-                           f"{iso(row['aos_s'])}")
+                           f"{iso_utc(float(row['aos_s']))}")
             drawn.append(sky_plot(plan, station, folder / f"{stem}.png", force=args.force,
                                   label="--sky-plots"))
 
@@ -223,13 +225,11 @@ def emit(args: argparse.Namespace, text: str) -> None:
 
 
 def meta_of(args, table, start, elapsed_s: float) -> dict:
-    from tracker.export import iso
+    from tracker.export import station_meta
+    from tracker.timescale import iso_utc
 
-    return {"source": args.source, "start": iso(start.timestamp()),
-            "end": iso(table.end.timestamp()),
-            "stations": [{"name": s.name, "lat_deg": s.lat_deg, "lon_deg": s.lon_deg,
-                          "alt_m": s.alt_m, "min_el_deg": s.min_el_deg}
-                         for s in table.stations],
+    return {"source": args.source, "start": iso_utc(start), "end": iso_utc(table.end),
+            "stations": [station_meta(s) for s in table.stations],
             "min_el_deg": args.min_el, "min_max_el_deg": args.min_max_el,
             "filter": "visible" if args.visible else "sunlit" if args.sunlit else None,
             "rotator": args.rotator, "satellites": len(table.names),
@@ -237,10 +237,10 @@ def meta_of(args, table, start, elapsed_s: float) -> dict:
 
 
 def error_records(table) -> list[dict]:
-    from tracker.export import iso
+    from tracker.timescale import iso_utc
 
-    return [{"satellite": e.name, "code": e.code, "message": e.message,
-             "from": iso(e.first_s)} for e in table.errors]
+    return [{"target": e.name, "code": e.code, "message": e.message,
+             "from": iso_utc(e.first_s)} for e in table.errors]
 
 
 def report_errors(table) -> None:

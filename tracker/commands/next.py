@@ -41,7 +41,8 @@ def next_line(target, station, now, days: float) -> tuple[str, bool]:
     """The one-line answer and whether a pass was found."""
     from tracker.commands.passes import format_duration
     from tracker.errors import ConfigError
-    from tracker.passes import compass_point, find_passes
+    from tracker.passes import find_passes
+    from tracker.skytrack import compass_point
 
     if not (0 < days <= 60):
         raise ConfigError(f"--days must be more than 0 and at most 60; got {days:g}")

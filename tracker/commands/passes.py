@@ -4,16 +4,13 @@ Output formats (``--format``):
 
 * ``table`` (default): rich table on a terminal, aligned plain text otherwise — AOS in local
   time and UTC, duration, max elevation, AOS/LOS azimuth with compass point, sunlit/visible.
-* ``csv``: one row per pass, columns :data:`CSV_COLUMNS` (times ISO-8601 UTC, angles in
-  degrees, durations in seconds, flags true/false).
-* ``json``: ``{"station": {...}, "window": {"start", "end"}, "passes": [{CSV_COLUMNS...}]}``.
+* ``csv`` and ``json``: the pass record shared with ``tracker batch`` and ``tracker schedule``
+  (:data:`tracker.export.PASS_FIELDS`, docs/pass-schema.md).
 """
 
 from __future__ import annotations
 
 import argparse
-import csv
-import json
 import sys
 from datetime import datetime, timedelta
 
@@ -28,10 +25,6 @@ from tracker.commands._common import (
 )
 from tracker.targets import event_labels
 
-CSV_COLUMNS = ("target", "kind", "aos_utc", "tca_utc", "los_utc", "duration_s", "max_el_deg",
-               "aos_az_deg", "tca_az_deg", "los_az_deg", "aos_compass", "los_compass",
-               "sunlit", "visible", "in_progress_at_start", "aos_known", "los_known",
-               "always_up")
 MAX_AGE_LINES = 3  # more stale targets than this get one summary line
 
 
@@ -141,51 +134,16 @@ def run(args: argparse.Namespace) -> int:
     note = ephemeris_note()
     if note and args.format == "table":
         print(f"tracker: note: {note}", file=sys.stderr)
-    if args.format == "csv":
-        write_csv(passes, sys.stdout)
-    elif args.format == "json":
-        write_json(passes, station, now, end, sys.stdout)
+    if args.format in ("csv", "json"):
+        from tracker.export import pass_records, render, station_meta
+        from tracker.timescale import iso_utc
+
+        meta = {"start": iso_utc(now), "end": iso_utc(end), "stations": [station_meta(station)],
+                "targets": [t.name for t in targets]}
+        sys.stdout.write(render(args.format, pass_records(passes), meta=meta))
     else:
         write_table(passes, station, targets, now, end, sys.stdout)
     return 0
-
-
-def pass_row(p) -> dict:
-    from tracker.passes import compass_point
-
-    d = p.as_dict()
-    return {"target": p.target_name, "kind": p.kind, "aos_utc": d["aos"],
-            "tca_utc": d["tca"], "los_utc": d["los"],
-            "duration_s": round(p.duration_s, 1), "max_el_deg": round(p.max_el_deg, 2),
-            "aos_az_deg": round(p.aos_az_deg, 2), "tca_az_deg": round(p.tca_az_deg, 2),
-            "los_az_deg": round(p.los_az_deg, 2), "aos_compass": compass_point(p.aos_az_deg),
-            "los_compass": compass_point(p.los_az_deg), "sunlit": p.sunlit,
-            "visible": p.visible, "in_progress_at_start": p.in_progress_at_start,
-            "aos_known": p.aos_known, "los_known": p.los_known, "always_up": p.always_up}
-
-
-def write_csv(passes, out) -> None:
-    w = csv.DictWriter(out, fieldnames=CSV_COLUMNS, lineterminator="\n")
-    w.writeheader()
-    for p in passes:
-        row = pass_row(p)
-        w.writerow({k: (str(v).lower() if isinstance(v, bool) else v) for k, v in row.items()})
-
-
-def write_json(passes, station, start: datetime, end: datetime, out) -> None:
-    doc = {
-        "station": {"name": station.name, "lat_deg": station.lat_deg,
-                    "lon_deg": station.lon_deg, "alt_m": station.alt_m,
-                    "min_el_deg": station.min_el_deg, "mask": station.mask is not None},
-        "window": {"start": _iso(start), "end": _iso(end)},
-        "passes": [pass_row(p) for p in passes],
-    }
-    json.dump(doc, out, indent=2)
-    out.write("\n")
-
-
-def _iso(t: datetime) -> str:
-    return t.isoformat().replace("+00:00", "Z")
 
 
 def format_duration(seconds: float) -> str:
@@ -201,7 +159,7 @@ def format_duration(seconds: float) -> str:
 
 
 def _az(az_deg: float) -> str:
-    from tracker.passes import compass_point
+    from tracker.skytrack import compass_point
 
     return f"{az_deg:3.0f} {compass_point(az_deg):<3}"
 

@@ -14,7 +14,7 @@ import argparse
 import json
 import sys
 from collections.abc import Callable
-from datetime import datetime, timedelta, timezone
+from datetime import timedelta
 
 from tracker.commands._common import (
     add_rotator_args,
@@ -123,7 +123,9 @@ def _check_outputs(args: argparse.Namespace) -> None:
 
 
 def _utc(t_s: float) -> str:
-    return datetime.fromtimestamp(float(t_s), timezone.utc).strftime("%Y-%m-%d %H:%M:%S")
+    from tracker.timescale import utc_strftime
+
+    return utc_strftime(t_s, "%Y-%m-%d %H:%M:%S")
 
 
 def format_plan(plan, station_name: str) -> str:

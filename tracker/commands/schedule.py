@@ -81,7 +81,7 @@ def check_priority_names(args: argparse.Namespace, elements: list) -> None:
 def run(args: argparse.Namespace) -> int:
     from tracker.errors import ConfigError
     from tracker.export import pass_records, render
-    from tracker.pass_schedule import build_schedule, parse_priorities
+    from tracker.pass_schedule import parse_priorities, schedule_passes
 
     if args.default_priority < 0:
         raise ConfigError("--default-priority must be 0 or more")
@@ -101,15 +101,10 @@ def run(args: argparse.Namespace) -> int:
         args.rotator = None
     spec = rotator_spec(args)
     records = pass_records(table, plans_for(args, table, elements))
-    sched = build_schedule(records, spec, priorities, args.default_priority, args.settle)
+    sched = schedule_passes(records, spec, priorities, args.default_priority, args.settle)
     elapsed = time.perf_counter() - t0
     chosen = set(sched.chosen)
-    for i, rec in enumerate(records):
-        rec["chosen"] = i in chosen
-        lost_to = sched.skipped.get(i)
-        rec["conflicts_with"] = (records[lost_to]["satellite"]
-                                 if lost_to is not None and lost_to >= 0 else None)
-    out = records if args.show_all else [records[i] for i in sched.chosen]
+    out = records if args.show_all else records.take(sched.chosen)
     report_errors(table)
     meta = meta_of(args, table, start, elapsed)
     meta.update(rotator=spec.name, total_priority=sched.total_priority,
