@@ -12,8 +12,6 @@ from tracker.errors import ConfigError, LimitError, ProtocolError
 from tracker.protocols.framing import LineFramer
 from tracker.protocols.gs232 import (
     PROFILES,
-    encode_goto,
-    encode_table,
     format_position,
     get_profile,
     is_error_reply,
@@ -21,6 +19,7 @@ from tracker.protocols.gs232 import (
     parse_position,
     parse_table_status,
 )
+from tracker.protocols.gs232_codec import encode_goto, encode_table
 
 
 def test_encode_goto_three_digit_fields():
