@@ -120,12 +120,15 @@ def encode(msg: Command) -> bytes:
     elif isinstance(msg, SetGear):
         text = f"P {msg.pulses} {msg.degrees}"
     elif isinstance(msg, (FindLimits, Stop, Gs23Position)):
-        text = {FindLimits: "K", Stop: "S", Gs23Position: "C"}[type(msg)]
+        text = next(head for head, bare in _BARE.items() if bare == msg)
     elif isinstance(msg, Gs23Goto):
         text = f"M{msg.az:03d}"
     else:
         raise ValueError(f"{msg!r} is not a command a host sends")
     return text.encode("ascii")
+
+
+_BARE: dict[str, Command] = {"S": Stop(), "K": FindLimits(), "C": Gs23Position()}
 
 
 def _one_azimuth(nums: list[int]) -> int | None:
@@ -141,8 +144,8 @@ def decode_command(line: bytes) -> Command:
     except (UnicodeDecodeError, IndexError, ValueError):
         return Invalid(line)
     az = _one_azimuth(nums)
-    if head in ("S", "K", "C") and not nums:
-        return {"S": Stop(), "K": FindLimits(), "C": Gs23Position()}[head]
+    if head in _BARE and not nums:
+        return _BARE[head]
     if head in ("A", "O") and az is not None:
         return GotoAz(az) if head == "A" else Orient(az)
     if head == "R" and len(nums) == 1 and abs(nums[0]) <= 999:
