@@ -5,6 +5,10 @@ One :class:`Gs232Controller` is one box (one antenna, one memory); each connecti
 from an injected Clock: stepping tables and motor motion are evaluated at exact clock times, so
 a SimClock with ``speed`` > 1 replays a pass quickly and a ManualClock makes tests exact.
 
+A line is decoded by the drivers' codec (:mod:`tracker.protocols.gs232_codec`) into one
+message, which ``_handlers`` maps to its handler; the replies are formatted by
+:mod:`tracker.protocols.gs232`'s reply codec, which the driver parses.
+
 Where the manuals are silent (docs/protocols.md, Step tables) the choices are: after the last table
 point the antenna stays there (``end_behaviour``), S stops stepping, a short M/W stops stepping
 but keeps the list, N answers with the current point while a list is loaded.
