@@ -402,7 +402,7 @@ def _encoders(data: bytes) -> None:
     """Random numbers into the GS-232 encoders: bytes out or LimitError, nothing else."""
     import struct
 
-    from tracker.protocols.gs232 import encode_goto, encode_table
+    from tracker.protocols.gs232_codec import encode_goto, encode_table
 
     vals = [struct.unpack("<d", data[i:i + 8].ljust(8, b"\0"))[0]
             for i in range(0, max(len(data), 1), 8)][:8]

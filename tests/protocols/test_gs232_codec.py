@@ -12,8 +12,6 @@ from tracker.errors import ConfigError, LimitError, ProtocolError
 from tracker.protocols.framing import LineFramer
 from tracker.protocols.gs232 import (
     PROFILES,
-    encode_goto,
-    encode_table,
     format_position,
     get_profile,
     is_error_reply,
@@ -21,6 +19,7 @@ from tracker.protocols.gs232 import (
     parse_position,
     parse_table_status,
 )
+from tracker.protocols.gs232_codec import encode_goto, encode_table
 
 
 def test_encode_goto_three_digit_fields():
@@ -162,3 +161,99 @@ def test_framer_line_limit():
     assert f.feed(b"ok\r") == [b"ok"]   # usable again after the error
     big = LineFramer(b"\r")
     assert big.feed(b"M" + b"1" * 20000 + b"\r") == [b"M" + b"1" * 20000]
+
+
+# Commands, both directions (tracker.protocols.gs232_codec) -------------------------------------
+
+def _host_messages():
+    from tracker.protocols import gs232_codec as codec
+    from tracker.protocols.gs232_tables import TableLine
+
+    fixed = [codec.Query("C"), codec.Query("C2"), codec.Query("B"), codec.Stop("all"),
+             codec.Stop("az"), codec.Stop("el"), *(codec.Turn(d) for d in
+                                                   ("cw", "ccw", "up", "down")),
+             *(codec.Speed(n) for n in range(1, 5)), codec.SetMode450(True),
+             codec.SetMode450(False), codec.ToggleCentre(), codec.Calibrate("O"),
+             codec.Calibrate("O2"), codec.FullScale("F"), codec.FullScale("F2"),
+             codec.Help(""), codec.Help("2"), codec.Help("3"), codec.StartTable(),
+             codec.TableStatus(), codec.Goto(0), codec.Goto(450), codec.Goto(5, 180),
+             codec.Table(TableLine("M", 5, [10, 20], None)),
+             codec.Table(TableLine("W", 999, [450, 0], [0, 180]))]
+    azaz = [codec.Sync(0), codec.Sync(45), codec.Sync(360), codec.Unsync(), codec.GotoB(360),
+            codec.TableB(TableLine("M", 1, [0, 360], None)),
+            *(codec.SpeedB(n) for n in range(1, 5)), codec.ToggleCentreB(),
+            codec.SetMode450B(True), codec.SetMode450B(False), codec.StartTableB(),
+            codec.TableStatusB()]
+    return fixed, azaz
+
+
+def test_every_host_command_decodes_to_what_was_encoded():
+    from tracker.protocols import gs232_codec as codec
+
+    fixed, azaz = _host_messages()
+    for msg in fixed:
+        assert codec.decode_command(codec.encode(msg)) == msg, msg
+        assert codec.decode_command(codec.encode(msg), dialect="azaz") == msg, msg
+    for msg in azaz:
+        assert codec.decode_command(codec.encode(msg), dialect="azaz") == msg, msg
+    assert codec.encode(codec.Stop("all")) == b"S"
+    assert codec.encode(codec.Goto(5, 180)) == b"W005 180"
+    assert codec.encode(codec.Sync(0)) == b"Y" and codec.encode(codec.Sync(7)) == b"Y007"
+    assert codec.encode(codec.TableB(fixed[-2].line)) == b"MB005 010 020"
+    for not_sent in (codec.Invalid("Q"), codec.BadTable("M"), codec.InvalidB("FB")):
+        with pytest.raises(ValueError):
+            codec.encode(not_sent)
+
+
+@given(st.integers(0, 450), st.one_of(st.none(), st.integers(0, 180)))
+def test_goto_round_trips(az, el):
+    from tracker.protocols import gs232_codec as codec
+
+    msg = codec.Goto(az, el)
+    assert codec.decode_command(codec.encode(msg) + b"\r") == msg
+
+
+@pytest.mark.parametrize(("line", "kw", "want"), [
+    (b" m 090 ", {}, "Goto(az=90, el=None)"),
+    (b"W5 7", {}, "Goto(az=5, el=7)"),
+    (b"M451", {}, "Invalid(text='M451')"),
+    (b"M361", {"az_max_deg": 360}, "Invalid(text='M361')"),
+    (b"W360 181", {}, "Invalid(text='W360 181')"),
+    (b"W360 360", {"el_max_deg": 360}, "Goto(az=360, el=360)"),
+    (b"M0900", {}, "Invalid(text='M0900')"),
+    (b"M", {}, "BadTable(text='M')"),
+    (b"W123", {}, "BadTable(text='W123')"),
+    (b"M005 361", {"az_max_deg": 360}, "BadTable(text='M005 361')"),
+    (b"", {}, "Invalid(text='')"),
+    (b"X5", {}, "Invalid(text='X5')"),
+    (b"H4", {}, "Invalid(text='H4')"),
+    (b"Y", {}, "Invalid(text='Y')"),
+    (b"MB090", {}, "Invalid(text='MB090')"),
+    (b"\xff", {}, "Invalid(text='\ufffd')"),
+    (b"Y", {"dialect": "azaz"}, "Sync(offset_deg=0)"),
+    (b"Y361", {"dialect": "azaz"}, "Invalid(text='Y361')"),
+    (b"Y12", {"dialect": "azaz"}, "Invalid(text='Y12')"),
+    (b"MB90", {"dialect": "azaz"}, "InvalidB(text='MB90')"),
+    (b"MB361", {"dialect": "azaz"}, "InvalidB(text='MB361')"),
+    (b"MB", {"dialect": "azaz"}, "BadTableB(text='MB')"),
+    (b"XB5", {"dialect": "azaz"}, "InvalidB(text='XB5')"),
+    (b"FB2", {"dialect": "azaz"}, "InvalidB(text='FB2')"),
+])
+def test_decode_command_reads_what_a_controller_reads(line, kw, want):
+    from tracker.protocols import gs232_codec as codec
+
+    assert repr(codec.decode_command(line, **kw)).removeprefix("codec.") == want
+
+
+def test_every_decoded_message_has_an_emulator_handler():
+    """The emulators dispatch through a table: a message type without a handler would fail."""
+    import typing
+
+    from tracker.emulator.azaz_controller import AzAzController
+    from tracker.emulator.gs232_controller import Gs232Controller
+    from tracker.protocols import gs232_codec as codec
+
+    every = set(typing.get_args(codec.Command))
+    assert set(AzAzController()._handlers) == every
+    assert set(Gs232Controller()._handlers) == {m for m in every if m.__name__[-1] != "B"
+                                                and m not in (codec.Sync, codec.Unsync)}

@@ -5,10 +5,14 @@ from __future__ import annotations
 import pytest
 from _gs232_helpers import RawPeer, wait_until
 
-from tracker.emulator.rotorez_controller import BANNER
 from tracker.errors import LimitError, RotatorTimeout
 from tracker.protocols import open_driver
-from tracker.protocols.rotorez import encode_bearing, parse_ai_reply  # registers rotorez, dcu1
+from tracker.protocols import rotorez as codec
+from tracker.protocols.rotorez import (  # registers rotorez, dcu1
+    BANNER,
+    encode_bearing,
+    parse_ai_reply,
+)
 
 
 def test_codec_rounding_and_limits_match_hamlib():
@@ -28,6 +32,33 @@ def test_ai_reply_found_among_banner_and_stray_bytes():
     assert parse_ai_reply(b";08") is None            # incomplete
     assert parse_ai_reply(b"080;") is None
     assert parse_ai_reply(b"080;", accept_old=True) == 80
+    assert parse_ai_reply(codec.format_ai_reply(5)) == 5
+
+
+def test_commands_decode_to_what_the_driver_encoded():
+    """One codec both ways: every command the driver sends, read back as the emulator reads
+    it (a terminated command, or a single byte while nothing is pending)."""
+    import typing
+
+    from tracker.emulator.rotorez_controller import RotorEzController
+
+    sent = [codec.SetBearing(0, True), codec.SetBearing(360, False), codec.Execute(),
+            codec.QueryBearing(), codec.StopAxis(), codec.Stop(), codec.Version(),
+            *(codec.SetOption(name, on) for name in codec.OPTION_BYTES for on in (True, False))]
+    for msg in sent:
+        wire = codec.encode(msg)
+        got = (codec.decode_single(wire) if len(wire) == 1
+               else codec.decode_command(wire[:-1], wire[-1:]))
+        assert got == msg, (msg, wire)
+    assert codec.encode(codec.SetBearing(7, True)) == b"AP1007\r"
+    assert codec.encode(codec.SetOption("jam", False)) == b"j"
+    assert codec.decode_command(b"AP1361", b";") == codec.Invalid(b"AP1361")
+    assert codec.decode_command(b"AM1", b"\r") == codec.Invalid(b"AM1\r")
+    assert codec.decode_command(b"ap1010", b";") == codec.Invalid(b"ap1010;")
+    assert codec.decode_single(b"A") is None
+    with pytest.raises(ValueError):
+        codec.encode(codec.Invalid(b"x"))
+    assert set(RotorEzController()._handlers) == set(typing.get_args(codec.Command))
 
 
 @pytest.fixture

@@ -13,6 +13,7 @@ from tracker.emulator.sak232_controller import ZELPRO_RAU, Sak232Controller, Sak
 from tracker.errors import LimitError
 from tracker.mount import RotatorSpec
 from tracker.protocols import open_driver
+from tracker.protocols import sak232 as codec
 from tracker.protocols.sak232 import check_gear, encode_azimuth  # registers "sak232"
 
 
@@ -26,6 +27,25 @@ def test_codec_limits():
     for p, d in ((25, 1), (5, 25), (2, 3), (0, 1), (1000, 24)):
         with pytest.raises(LimitError):
             check_gear(p, d)
+
+
+def test_commands_decode_to_what_the_driver_encoded():
+    import typing
+
+    sent = [codec.GotoAz(0), codec.GotoAz(359), codec.MoveRelative(-359),
+            codec.MoveRelative(999), codec.Orient(12), codec.FindLimits(),
+            codec.SetGear(24, 1), codec.Stop(), codec.Gs23Goto(5), codec.Gs23Position()]
+    for msg in sent:
+        assert codec.decode_command(codec.encode(msg)) == msg, msg
+    assert codec.encode(codec.MoveRelative(-5)) == b"R -5"
+    assert codec.encode(codec.SetGear(6, 4)) == b"P 6 4"
+    for line in (b"A 360", b"a 10", b"R 1000", b"P 25 1", b"S 1", b"M0900", b"M360", b"",
+                 b"A x", b"\xff"):
+        assert codec.decode_command(line) == codec.Invalid(line), line
+    assert codec.decode_command(b"  A   7 ") == codec.GotoAz(7)
+    with pytest.raises(ValueError):
+        codec.encode(codec.Invalid(b"x"))
+    assert set(Sak232Controller()._handlers) == set(typing.get_args(codec.Command))
 
 
 def test_driver_moves_the_antenna_and_estimate_follows(emulated_rig):

@@ -34,16 +34,26 @@ from tracker.emulator.gs232_controller import (
     _Table,
 )
 from tracker.mount import PRESETS, AxisMotor, RotatorSpec
+from tracker.protocols import gs232_codec as codec
 from tracker.protocols.azaz import AZAZ_PROFILE
 from tracker.protocols.gs232 import format_table_status
-from tracker.protocols.gs232_tables import decode_table_line
 
 AZ_360 = PRESETS["AZ-360"]
-SET3 = ("U", "D", "E", "ZB", "P36B", "P45B", "TB", "NB", "O2B", "FB", "FB2")
+# Command set 3 (azimuth 2), which the interface ignores while the antennas are synced.
+SET3 = (codec.GotoB, codec.TableB, codec.BadTableB, codec.SpeedB, codec.ToggleCentreB,
+        codec.SetMode450B, codec.StartTableB, codec.TableStatusB, codec.InvalidB)
+
+
+def _is_set3(msg: codec.Command) -> bool:
+    """``U``/``D``/``E`` are the elevation commands, which drive azimuth 2 here."""
+    return (isinstance(msg, SET3)
+            or (isinstance(msg, codec.Turn) and msg.direction in ("up", "down"))
+            or (isinstance(msg, codec.Stop) and msg.axis == "el"))
 
 
 class AzAzController(Gs232Controller):
     el_field_max_deg = 360            # the second field of W is azimuth 2
+    dialect: codec.Dialect = "azaz"
 
     def __init__(self, spec: RotatorSpec | None = None, spec2: RotatorSpec | None = None,
                  clock: Clock | None = None, options: EmulatorOptions | None = None,
@@ -62,6 +72,14 @@ class AzAzController(Gs232Controller):
         self.speed_step_b = 4
         self.flags_b = {"P45B": False, "ZB": False}
         self.table_b: _Table | None = None
+        self._handlers |= {
+            codec.Sync: self._on_sync, codec.Unsync: self._on_unsync,
+            codec.GotoB: self._on_goto_b, codec.TableB: self._on_table_b,
+            codec.BadTableB: self._on_bad_table_b, codec.SpeedB: self._on_speed_b,
+            codec.ToggleCentreB: self._on_toggle_centre_b,
+            codec.SetMode450B: self._on_mode_450_b, codec.StartTableB: self._on_start_table_b,
+            codec.TableStatusB: self._on_table_status_b, codec.InvalidB: self._on_invalid,
+        }
 
     def power_cycle(self, reset_sessions: bool = False) -> None:
         with self._lock:
@@ -92,89 +110,96 @@ class AzAzController(Gs232Controller):
         if getattr(self, "table_b", None) is not None:
             self._with_table_b(lambda: Gs232Controller._advance(self, now))
 
-    # Interpreter -----------------------------------------------------------------------------
+    # Handlers: the GS-232B ones, with azimuth 2 on command set 3 -----------------------------
 
-    # Protocol dispatch: one branch per command of the wire protocol.
-    def _dispatch(self, raw: bytes, st: _SessionState, t: float) -> bytes:  # noqa: C901
-        try:
-            line = raw.decode("ascii").strip().upper()
-        except UnicodeDecodeError:
-            return self._err()
-        if st.calibration is not None or not line:
-            return super()._dispatch(raw, st, t)
-        az2 = self.motor.el
-        if line[0] == "Y" and (line == "Y" or (line[1:].isdigit() and len(line) == 4)):
-            n = 0 if line == "Y" else int(line[1:])
-            if n == 999:
-                self.sync_offset = None
-                return self._ack()
-            if n > 360:
-                return self._err()
-            self.sync_offset = n % 360
-            az2.command(self._follow(self.motor.az.position(t)), t)
-            if self.table_b:
-                self.table_b.running = False
-            return self._ack()
-        is_set3 = line in SET3 or line.startswith(("MB", "XB"))
-        if is_set3 and self.sync_offset is not None:
+    def _handle(self, msg: codec.Command, st: _SessionState, t: float) -> bytes:
+        if self.sync_offset is not None and _is_set3(msg):
             return self._ack()                       # ignored while synced (proposal)
-        if line.startswith("MB"):
-            return self._mb(line[2:].split(), t)
-        if line.startswith("XB") and line[2:] in ("1", "2", "3", "4"):
-            self.speed_step_b = int(line[2])
-            rates = self.spec2.az_speed_rates_deg_s
-            if rates:
-                az2.set_rate(rates[min(self.speed_step_b, len(rates)) - 1], t)
-            return self._ack()
-        if line in ("ZB", "P36B", "P45B"):
-            key = "ZB" if line == "ZB" else "P45B"
-            self.flags_b[key] = (not self.flags_b["ZB"]) if line == "ZB" else line == "P45B"
-            return self._ack()
-        if line == "TB":
-            return self._with_table_b(lambda: self._start_table(t))
-        if line == "NB":
-            if self.table_b is None:
-                return self._err()
-            return self._data(format_table_status(self.profile, self.table_b.index + 1,
-                                                  len(self.table_b.points)))
-        if line == "S" and self.s_stops != "both":
-            line = "A" if self.s_stops == "az1" else "E"
-            raw = line.encode()
-        reply = super()._dispatch(raw, st, t)
-        if line == "S" and self.table_b:
+        return super()._handle(msg, st, t)
+
+    def _on_stop(self, msg: codec.Stop, st: _SessionState, t: float) -> bytes:
+        all_stop = msg.axis == "all" and self.s_stops == "both"
+        if msg.axis == "all" and not all_stop:
+            msg = codec.Stop("az" if self.s_stops == "az1" else "el")
+        reply = super()._on_stop(msg, st, t)
+        if all_stop and self.table_b:
             self.table_b.running = False
-        if self.sync_offset is not None:
-            if line in ("R", "L"):
-                az2.command(az2.max_deg if line == "R" else az2.min_deg, t)
-            elif line == "A":
-                az2.stop(t)
-            elif line[:1] == "X" and line[1:] in ("1", "2", "3", "4"):
-                rates = self.spec2.az_speed_rates_deg_s
-                if rates:
-                    az2.set_rate(rates[min(int(line[1]), len(rates)) - 1], t)
+        if self.sync_offset is not None and msg.axis == "az":
+            self.motor.el.stop(t)
         return reply
 
-    def _mb(self, args: list[str], t: float) -> bytes:
-        if len(args) == 1:
-            v = self._parse_ints(args, 0, 360)
-            if v is None or len(args[0]) != 3:
-                return self._err()
-            if self.table_b:
-                self.table_b.running = False
-            self.motor.el.command(v[0], t)
-            return self._ack()
-        try:   # MBsss aaa ... is the long-form M line of antenna 2: the shared codec
-            decoded = decode_table_line("M" + " ".join(args), strict=False, az_max_deg=360)
-        except ValueError:
-            decoded = None
-        p = self.profile
-        if decoded is None or not (p.min_table_points <= len(decoded.az) <= p.max_table_points):
+    def _on_turn(self, msg: codec.Turn, st: _SessionState, t: float) -> bytes:
+        reply = super()._on_turn(msg, st, t)
+        az2 = self.motor.el
+        if self.sync_offset is not None and msg.direction in ("cw", "ccw"):
+            az2.command(az2.max_deg if msg.direction == "cw" else az2.min_deg, t)
+        return reply
+
+    def _on_speed(self, msg: codec.Speed, st: _SessionState, t: float) -> bytes:
+        reply = super()._on_speed(msg, st, t)
+        if self.sync_offset is not None:
+            self._set_rate_b(msg.step, t)
+        return reply
+
+    def _set_rate_b(self, step: int, t: float) -> None:
+        rates = self.spec2.az_speed_rates_deg_s
+        if rates:
+            self.motor.el.set_rate(rates[min(step, len(rates)) - 1], t)
+
+    def _on_sync(self, msg: codec.Sync, st: _SessionState, t: float) -> bytes:
+        self.sync_offset = msg.offset_deg % 360
+        self.motor.el.command(self._follow(self.motor.az.position(t)), t)
+        if self.table_b:
+            self.table_b.running = False
+        return self._ack()
+
+    def _on_unsync(self, msg: codec.Unsync, st: _SessionState, t: float) -> bytes:
+        self.sync_offset = None
+        return self._ack()
+
+    def _on_goto_b(self, msg: codec.GotoB, st: _SessionState, t: float) -> bytes:
+        if self.table_b:
+            self.table_b.running = False
+        self.motor.el.command(msg.az, t)
+        return self._ack()
+
+    def _on_table_b(self, msg: codec.TableB, st: _SessionState, t: float) -> bytes:
+        p, angles = self.profile, msg.line.az
+        if not p.min_table_points <= len(angles) <= p.max_table_points:
             self.table_b = None
             return self._err()
-        angles = decoded.az
-        self.table_b = _Table(interval_s=decoded.interval_s, points=[(None, a) for a in angles])
+        self.table_b = _Table(interval_s=msg.line.interval_s,
+                              points=[(None, a) for a in angles])
         self.motor.el.command(angles[0], t)
         return self._ack()
+
+    def _on_bad_table_b(self, msg: codec.BadTableB, st: _SessionState, t: float) -> bytes:
+        self.table_b = None
+        return self._err()
+
+    def _on_speed_b(self, msg: codec.SpeedB, st: _SessionState, t: float) -> bytes:
+        self.speed_step_b = msg.step
+        self._set_rate_b(msg.step, t)
+        return self._ack()
+
+    def _on_toggle_centre_b(self, msg: codec.ToggleCentreB, st: _SessionState,
+                            t: float) -> bytes:
+        self.flags_b["ZB"] = not self.flags_b["ZB"]
+        return self._ack()
+
+    def _on_mode_450_b(self, msg: codec.SetMode450B, st: _SessionState, t: float) -> bytes:
+        self.flags_b["P45B"] = msg.enabled
+        return self._ack()
+
+    def _on_start_table_b(self, msg: codec.StartTableB, st: _SessionState, t: float) -> bytes:
+        return self._with_table_b(lambda: self._start_table(t))
+
+    def _on_table_status_b(self, msg: codec.TableStatusB, st: _SessionState,
+                           t: float) -> bytes:
+        if self.table_b is None:
+            return self._err()
+        return self._data(format_table_status(self.profile, self.table_b.index + 1,
+                                              len(self.table_b.points)))
 
     def antenna(self) -> tuple[float, float]:
         """(azimuth 1, azimuth 2) of the simulated antennas now."""

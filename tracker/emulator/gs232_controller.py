@@ -5,6 +5,10 @@ One :class:`Gs232Controller` is one box (one antenna, one memory); each connecti
 from an injected Clock: stepping tables and motor motion are evaluated at exact clock times, so
 a SimClock with ``speed`` > 1 replays a pass quickly and a ManualClock makes tests exact.
 
+A line is decoded by the drivers' codec (:mod:`tracker.protocols.gs232_codec`) into one
+message, which ``_handlers`` maps to its handler; the replies are formatted by
+:mod:`tracker.protocols.gs232`'s reply codec, which the driver parses.
+
 Where the manuals are silent (docs/protocols.md, Step tables) the choices are: after the last table
 point the antenna stays there (``end_behaviour``), S stops stepping, a short M/W stops stepping
 but keeps the list, N answers with the current point while a list is loaded.
@@ -21,6 +25,7 @@ from tracker.clock import Clock, SystemClock
 from tracker.emulator.help_text import help_screen
 from tracker.errors import ProtocolError
 from tracker.mount import MotorModel, MountFrame, RotatorSpec, preset
+from tracker.protocols import gs232_codec as codec
 from tracker.protocols.framing import LineFramer
 from tracker.protocols.gs232 import (
     ERROR_REPLY,
@@ -29,7 +34,6 @@ from tracker.protocols.gs232 import (
     format_table_status,
     get_profile,
 )
-from tracker.protocols.gs232_tables import decode_table_line
 
 # What a GS-232B reads while the rotator's own control box is switched off (captured on real units).
 OFF_AZ, OFF_EL = -1, -2
@@ -96,6 +100,7 @@ class Gs232Controller:
 
     # The largest value the second field of W takes (elevation; AZ/AZ: azimuth 2).
     el_field_max_deg = 180
+    dialect: codec.Dialect = "gs232"
 
     def __init__(self, profile: str | Gs232Profile = "gs232b", spec: RotatorSpec | None = None,
                  clock: Clock | None = None, options: EmulatorOptions | None = None,
@@ -120,6 +125,15 @@ class Gs232Controller:
             self.profile = self.profile.with_(c2_separator=b" ")
         if self.options.strict_acks and not self.profile.set_ack:
             self.profile = self.profile.with_(set_ack=b"\r")
+        self._handlers: dict[type, Callable[[Any, _SessionState, float], bytes]] = {
+            codec.Query: self._on_query, codec.Stop: self._on_stop, codec.Turn: self._on_turn,
+            codec.Speed: self._on_speed, codec.SetMode450: self._on_mode_450,
+            codec.ToggleCentre: self._on_toggle_centre, codec.Calibrate: self._on_calibrate,
+            codec.FullScale: self._on_full_scale, codec.Help: self._on_help,
+            codec.StartTable: self._on_start_table, codec.TableStatus: self._on_table_status,
+            codec.Goto: self._on_goto, codec.Table: self._on_table,
+            codec.BadTable: self._on_bad_table, codec.Invalid: self._on_invalid,
+        }
 
     # Sessions ----------------------------------------------------------------------------------
 
@@ -271,138 +285,127 @@ class Gs232Controller:
     def _data(self, payload: bytes) -> bytes:
         return payload + self.profile.reply_eol
 
-    # Protocol dispatch: one branch per command of the wire protocol.
-    def _dispatch(self, raw: bytes, st: _SessionState, t: float) -> bytes:  # noqa: C901
-        p = self.profile
-        if len(raw) > p.max_line_chars:
+    def _dispatch(self, raw: bytes, st: _SessionState, t: float) -> bytes:
+        """Decode one line with the drivers' codec and hand the message to its handler."""
+        if len(raw) > self.profile.max_line_chars:
             return self._err()
-        try:
-            line = raw.decode("ascii").strip().upper()
-        except UnicodeDecodeError:
+        text = codec.command_text(raw)
+        if text is None:
             return self._err()
+        if st.calibration is not None:
+            return self._calibration_dialogue(text, st)
+        msg = codec.decode_command(text, dialect=self.dialect,
+                                   az_max_deg=self._wire_az_max(),
+                                   el_max_deg=self.el_field_max_deg)
+        return self._handle(msg, st, t)
 
+    def _handle(self, msg: codec.Command, st: _SessionState, t: float) -> bytes:
+        return self._handlers[type(msg)](msg, st, t)
+
+    def _calibration_dialogue(self, text: str, st: _SessionState) -> bytes:
+        """O/O2 wait for Y; F/F2 stream the reading until a blank line."""
         if st.calibration in ("O", "O2"):
             st.calibration = None
-            if line == "Y":
-                return b"Completed.\r\n"
-            return self._err()
-        if st.calibration in ("F", "F2"):
-            if line == "":
-                st.calibration = None
-                return self._ack()
-            return b""
-
-        if line == "":
-            return self._err()
-        head, args = line[0], line[1:].split()
-        if line in ("C", "C2", "B"):
-            if line == "B" and self.motor.el is None and p.family == "b":
-                return self._err()
-            az, el = self._readback(t)
-            return self._data(format_position(p, line, az, el))
-        if line in ("S", "A", "E"):
-            if line == "S":
-                if self.rotator_on:
-                    self.motor.stop(t)
-                if self.table:
-                    self.table.running = False
-                    if p.k3ng_messages:
-                        self.table = None
-            elif line == "A" and self.rotator_on:
-                self.motor.az.stop(t)
-            elif line == "E" and self.motor.el is not None and self.rotator_on:
-                self.motor.el.stop(t)
+            return b"Completed.\r\n" if text == "Y" else self._err()
+        if text == "":
+            st.calibration = None
             return self._ack()
-        if line in ("R", "L", "U", "D"):
-            if not self.rotator_on:
-                return self._ack()
-            if line in ("R", "L"):
-                hi = float(min(self._wire_az_max(), self.spec.az_span_deg))
-                if self.south_centre and not self.mode_450:
-                    hi = 360.0
-                self.motor.az.command(hi if line == "R" else 0.0, t)
-            elif self.motor.el is not None:
-                self.motor.el.command(self.motor.el.max_deg if line == "U"
-                                      else self.motor.el.min_deg, t)
-            return b"\n\r\n" if (line == "R" and p.k3ng_messages) else self._ack()
-        if head == "X" and line[1:] in ("1", "2", "3", "4"):
-            self.speed_step = int(line[1])
-            self._apply_speed(t)
-            return self._ack(b"Speed " + line.encode())
-        if line in ("P36", "P45") and p.b_commands:
-            self.mode_450 = line == "P45"
-            return self._ack(b"Mode 450 degree" if self.mode_450 else b"Mode 360 degree")
-        if line == "Z" and p.b_commands:
-            if not self.mode_450:     # ignored in 450 mode (manual)
-                self.south_centre = not self.south_centre
-            return self._ack(b"S Center" if self.south_centre else b"N Center")
-        if line in ("O", "O2"):
-            st.calibration = line
-            return b"are you sure?\r\n"
-        if line in ("F", "F2"):
-            st.calibration = line
-            st.next_stream_t = t
-            return b""
-        if line in ("H", "H2", "H3"):
-            page = line[1:]
-            if page not in p.help_pages:
-                return self._err()
-            return help_screen(p.family, page, self.mode_450, self.south_centre)
-        if line == "T":
-            return self._start_table(t)
-        if line == "N":
-            if self.table is None:
-                return self._err()
-            return self._data(format_table_status(p, self.table.index + 1,
-                                                  len(self.table.points)))
-        if head in ("M", "W"):
-            return self._set_command(line, args, t)
-        return self._err()
+        return b""
 
-    def _parse_ints(self, args: list[str], lo: int, hi: int) -> list[int] | None:
-        out = []
-        for a in args:
-            if not (a.isdigit() and len(a) <= 3):
-                return None
-            v = int(a)
-            if not lo <= v <= hi:
-                return None
-            out.append(v)
-        return out
+    # Handlers: one per message type of the codec ----------------------------------------------
 
-    def _set_command(self, line: str, args: list[str], t: float) -> bytes:
-        """M/W, short form (go to) or long form (a table, the shared codec decodes it)."""
-        p, head = self.profile, line[0]
-        az_max = self._wire_az_max()
-        if not args:
-            self.table = None               # manual: "?>" returned, memories still cleared
+    def _on_query(self, msg: codec.Query, st: _SessionState, t: float) -> bytes:
+        if msg.kind == "B" and self.motor.el is None and self.profile.family == "b":
             return self._err()
-        short = (head == "M" and len(args) == 1) or (head == "W" and len(args) == 2)
-        if short:
-            az = self._parse_ints(args[:1], 0, az_max)
-            el = self._parse_ints(args[1:], 0, self.el_field_max_deg)
-            if az is None or el is None:
-                return self._err()
-            if self.table:
-                self.table.running = False
-                if p.k3ng_messages:
-                    self.table = None
-            self._goto(t, az[0], el[0] if el else None)
+        az, el = self._readback(t)
+        return self._data(format_position(self.profile, msg.kind, az, el))
+
+    def _on_stop(self, msg: codec.Stop, st: _SessionState, t: float) -> bytes:
+        if msg.axis == "all":
+            if self.rotator_on:
+                self.motor.stop(t)
+            self._halt_table()
+        elif msg.axis == "az" and self.rotator_on:
+            self.motor.az.stop(t)
+        elif msg.axis == "el" and self.motor.el is not None and self.rotator_on:
+            self.motor.el.stop(t)
+        return self._ack()
+
+    def _on_turn(self, msg: codec.Turn, st: _SessionState, t: float) -> bytes:
+        if not self.rotator_on:
             return self._ack()
-        try:
-            decoded = decode_table_line(line, strict=False, az_max_deg=az_max,
-                                        el_max_deg=self.el_field_max_deg)
-        except ValueError:
-            decoded = None
-        if decoded is None or not (
-                (p.min_table_points if head == "M" else 1) <= len(decoded.az)
-                <= (p.max_table_points if head == "M" else p.max_table_pairs)):
+        if msg.direction in ("cw", "ccw"):
+            hi = float(min(self._wire_az_max(), self.spec.az_span_deg))
+            if self.south_centre and not self.mode_450:
+                hi = 360.0
+            self.motor.az.command(hi if msg.direction == "cw" else 0.0, t)
+        elif self.motor.el is not None:
+            self.motor.el.command(self.motor.el.max_deg if msg.direction == "up"
+                                  else self.motor.el.min_deg, t)
+        if msg.direction == "cw" and self.profile.k3ng_messages:
+            return b"\n\r\n"
+        return self._ack()
+
+    def _on_speed(self, msg: codec.Speed, st: _SessionState, t: float) -> bytes:
+        self.speed_step = msg.step
+        self._apply_speed(t)
+        return self._ack(b"Speed " + codec.encode(msg))
+
+    def _on_mode_450(self, msg: codec.SetMode450, st: _SessionState, t: float) -> bytes:
+        if not self.profile.b_commands:
+            return self._err()
+        self.mode_450 = msg.enabled
+        return self._ack(b"Mode 450 degree" if self.mode_450 else b"Mode 360 degree")
+
+    def _on_toggle_centre(self, msg: codec.ToggleCentre, st: _SessionState,
+                          t: float) -> bytes:
+        if not self.profile.b_commands:
+            return self._err()
+        if not self.mode_450:     # ignored in 450 mode (manual)
+            self.south_centre = not self.south_centre
+        return self._ack(b"S Center" if self.south_centre else b"N Center")
+
+    def _on_calibrate(self, msg: codec.Calibrate, st: _SessionState, t: float) -> bytes:
+        st.calibration = msg.command
+        return b"are you sure?\r\n"
+
+    def _on_full_scale(self, msg: codec.FullScale, st: _SessionState, t: float) -> bytes:
+        st.calibration = msg.command
+        st.next_stream_t = t
+        return b""
+
+    def _on_help(self, msg: codec.Help, st: _SessionState, t: float) -> bytes:
+        if msg.page not in self.profile.help_pages:
+            return self._err()
+        return help_screen(self.profile.family, msg.page, self.mode_450, self.south_centre)
+
+    def _on_start_table(self, msg: codec.StartTable, st: _SessionState, t: float) -> bytes:
+        return self._start_table(t)
+
+    def _on_table_status(self, msg: codec.TableStatus, st: _SessionState, t: float) -> bytes:
+        if self.table is None:
+            return self._err()
+        return self._data(format_table_status(self.profile, self.table.index + 1,
+                                              len(self.table.points)))
+
+    def _on_goto(self, msg: codec.Goto, st: _SessionState, t: float) -> bytes:
+        """Short-form M/W: stepping stops (K3NG: the list is dropped too)."""
+        self._halt_table()
+        self._goto(t, msg.az, msg.el)
+        return self._ack()
+
+    def _on_table(self, msg: codec.Table, st: _SessionState, t: float) -> bytes:
+        """Long-form M/W: a new table (the point counts are the profile's)."""
+        p, line = self.profile, msg.line
+        lo, hi = ((p.min_table_points, p.max_table_points) if line.kind == "M"
+                  else (1, p.max_table_pairs))
+        if not lo <= len(line.az) <= hi:
             self.table = None
             return self._err()
         points: list[tuple[int, int | None]] = (
-            [(a, None) for a in decoded.az] if decoded.el is None
-            else list(zip(decoded.az, decoded.el, strict=True)))
-        if head == "W" and p.k3ng_messages and self.table is not None \
+            [(a, None) for a in line.az] if line.el is None
+            else list(zip(line.az, line.el, strict=True)))
+        if line.kind == "W" and p.k3ng_messages and self.table is not None \
                 and not self.table.running:
             # K3NG firmware: long-form W does not clear the list, it appends (docs/protocols.md,
             # K3NG), so a 20-pair table arrives as several <= 50-char lines.
@@ -410,9 +413,22 @@ class Gs232Controller:
             if len(points) > p.max_table_pairs:
                 self.table = None
                 return self._err()
-        self.table = _Table(interval_s=decoded.interval_s, points=points)
+        self.table = _Table(interval_s=line.interval_s, points=points)
         self._goto(t, *points[0])
         return self._ack()
+
+    def _on_bad_table(self, msg: codec.BadTable, st: _SessionState, t: float) -> bytes:
+        self.table = None               # manual: "?>" returned, memories still cleared
+        return self._err()
+
+    def _on_invalid(self, msg: Any, st: _SessionState, t: float) -> bytes:
+        return self._err()
+
+    def _halt_table(self) -> None:
+        if self.table:
+            self.table.running = False
+            if self.profile.k3ng_messages:
+                self.table = None
 
     def _start_table(self, t: float) -> bytes:
         tab = self.table

@@ -23,14 +23,16 @@ class rotator, 360 deg, south stop).
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 from tracker.clock import Clock, SystemClock
 from tracker.emulator.gs232_controller import Faults
 from tracker.mount import PRESETS, MotorModel, RotatorSpec
+from tracker.protocols import rotorez as codec
+from tracker.protocols.rotorez import BANNER
 
-BANNER = b"C2000 IDIOM V1.4S "
 HAM_IV = PRESETS["HAM-IV"]
 
 
@@ -177,7 +179,13 @@ class RotorEzController(ByteController):
             else opts.power_on_byte
         self.max_command = opts.max_command
         self.target_bearing: int | None = None
-        self.settings = {"endpoint": True, "overshoot": True, "unstick": True, "jam": True}
+        self.settings = {name: True for name in codec.OPTION_BYTES}
+        self._handlers: dict[type, Callable[[Any], bytes]] = {
+            codec.SetOption: self._on_option, codec.Version: self._on_version,
+            codec.Stop: self._on_stop, codec.SetBearing: self._on_set_bearing,
+            codec.Execute: self._on_execute, codec.QueryBearing: self._on_query,
+            codec.StopAxis: self._on_stop_axis, codec.Invalid: self._on_invalid,
+        }
 
     def open_session(self) -> ByteSession:
         s = super().open_session()
@@ -189,32 +197,25 @@ class RotorEzController(ByteController):
         self.motor.az.command(self.mech_of_bearing(bearing), self._now())
 
     def handle(self, data: bytes, st: SessionState) -> bytes:
+        """Frame the bytes (a single-byte command only while nothing is pending), decode each
+        command with the driver's codec and hand it to its handler."""
         out = bytearray()
-        rez = self.variant == "rotorez"
         for b in data:
             c = bytes([b])
             if c == b"\n":
                 continue
             if not st.buf:
-                if rez and c in b"EeOoSsJj":
-                    key = {b"E": "endpoint", b"O": "overshoot", b"S": "unstick",
-                           b"J": "jam"}[c.upper()]
-                    self.settings[key] = c.isupper()
-                    out += self._record(c, b"")
-                    continue
-                if rez and c == b"V":
-                    out += self._record(c, BANNER)
-                    continue
-                if c == b";":
-                    idle = not self.motor.az.moving(self._now())
-                    self.motor.az.stop(self._now())
-                    out += self._record(c, BANNER if (rez and idle and self.banner) else b"")
+                single = codec.decode_single(c)
+                if single is not None and (self.variant == "rotorez"
+                                           or isinstance(single, codec.Stop)):
+                    out += self._record(c, self._handlers[type(single)](single))
                     continue
                 if c == b"\r":
                     continue
             if c in (b";", b"\r"):
                 cmd, st.buf = bytes(st.buf), bytearray()
-                out += self._record(cmd + c, self._command(cmd, c))
+                msg = codec.decode_command(cmd, c)
+                out += self._record(cmd + c, self._handlers[type(msg)](msg))
                 continue
             st.buf += c
             if len(st.buf) > self.max_command:
@@ -224,27 +225,43 @@ class RotorEzController(ByteController):
     def _invalid(self) -> bytes:
         return BANNER if self.banner else b""
 
-    def _command(self, cmd: bytes, term: bytes) -> bytes:
-        rez = self.variant == "rotorez"
-        if cmd.startswith(b"AP1") and len(cmd) == 6 and cmd[3:].isdigit():
-            v = int(cmd[3:])
-            if v > 360:
-                return self._invalid()
-            self.target_bearing = v % 360
-            if term == b"\r":
-                if not rez:
-                    return b""     # DCU-1: only the ; form exists
-                self._go(self.target_bearing)
-            return b""
-        if cmd == b"AM1" and term == b";":
-            if self.target_bearing is not None:
-                self._go(self.target_bearing)
-            return b""
-        if cmd == b"AI1" and term == b";" and rez:
-            return b";%03d" % self.readback()
-        if cmd == b"AS1" and term == b";":
-            self.motor.az.stop(self._now())
-            return b""
+    # Handlers: one per message type of the codec; each returns the reply bytes.
+
+    def _on_option(self, msg: codec.SetOption) -> bytes:
+        self.settings[msg.name] = msg.enabled
+        return b""
+
+    def _on_version(self, msg: codec.Version) -> bytes:
+        return BANNER
+
+    def _on_stop(self, msg: codec.Stop) -> bytes:
+        idle = not self.motor.az.moving(self._now())
+        self.motor.az.stop(self._now())
+        return BANNER if (self.variant == "rotorez" and idle and self.banner) else b""
+
+    def _on_set_bearing(self, msg: codec.SetBearing) -> bytes:
+        self.target_bearing = msg.bearing % 360
+        if msg.go:
+            if self.variant != "rotorez":
+                return b""     # DCU-1: only the ; form exists
+            self._go(self.target_bearing)
+        return b""
+
+    def _on_execute(self, msg: codec.Execute) -> bytes:
+        if self.target_bearing is not None:
+            self._go(self.target_bearing)
+        return b""
+
+    def _on_query(self, msg: codec.QueryBearing) -> bytes:
+        if self.variant != "rotorez":
+            return self._invalid()
+        return codec.format_ai_reply(self.readback())
+
+    def _on_stop_axis(self, msg: codec.StopAxis) -> bytes:
+        self.motor.az.stop(self._now())
+        return b""
+
+    def _on_invalid(self, msg: codec.Invalid) -> bytes:
         return self._invalid()
 
     def status_line(self) -> str:

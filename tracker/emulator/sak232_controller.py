@@ -24,13 +24,18 @@ Where the guide is silent, the choices (each an option of :class:`Sak232Options`
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 from tracker.clock import Clock
 from tracker.emulator.rotorez_controller import ByteController, SessionState
 from tracker.mount import PRESETS, RotatorSpec
+from tracker.protocols import sak232 as codec
+from tracker.protocols.gs232 import PROFILES, format_position
 
 ZELPRO_RAU = PRESETS["Zelpro-RAU"]
+GS23 = PROFILES["gs23"]     # the GS-23 subset's position reply, +0aaa
 
 
 @dataclass
@@ -56,6 +61,13 @@ class Sak232Controller(ByteController):
         self.soft = (0.0, float(spec.az_span_deg))
         self.gear = (6, 4)
         self.k_phase = 0
+        self._handlers: dict[type, Callable[[Any, float], bytes]] = {
+            codec.Stop: self._on_stop, codec.GotoAz: self._on_goto,
+            codec.Gs23Goto: self._on_goto, codec.MoveRelative: self._on_relative,
+            codec.Orient: self._on_orient, codec.FindLimits: self._on_find_limits,
+            codec.SetGear: self._on_gear, codec.Gs23Position: self._on_position,
+            codec.Invalid: self._on_invalid,
+        }
 
     # Frames: SAK-232 azimuth (orientation-shifted) <-> mechanical ------------------------
 
@@ -117,61 +129,57 @@ class Sak232Controller(ByteController):
                 st.buf.clear()
         return bytes(out)
 
-    # Protocol dispatch: one branch per command of the wire protocol.
-    def _command(self, raw: bytes) -> bytes:  # noqa: C901
+    def _command(self, raw: bytes) -> bytes:
+        """Decode one line with the driver's codec and hand the message to its handler."""
         t = self._now()
         self._advance(t)
-        o = self.options
-        try:
-            parts = raw.decode("ascii").split()
-        except UnicodeDecodeError:
-            return o.error
-        if not parts:
-            return o.error
-        head, args = parts[0], parts[1:]
-        nums: list[int] = []
-        for a in args:
-            try:
-                nums.append(int(a, 10))
-            except ValueError:
-                return o.error
+        msg = codec.decode_command(raw)
+        return self._handlers[type(msg)](msg, t)
+
+    # Handlers: one per message type of the codec; each returns the reply bytes.
+
+    def _on_stop(self, msg: codec.Stop, t: float) -> bytes:
+        self.k_phase = 0
+        self.motor.az.stop(t)
+        return self.options.ack
+
+    def _on_goto(self, msg: codec.GotoAz | codec.Gs23Goto, t: float) -> bytes:
+        if isinstance(msg, codec.Gs23Goto) and not self.options.gs23:
+            return self.options.error
+        if isinstance(msg, codec.GotoAz):
+            self.k_phase = 0
+        self.motor.az.command(self._clip(self._mech_near(msg.az)), t)
+        return self.options.ack
+
+    def _on_relative(self, msg: codec.MoveRelative, t: float) -> bytes:
+        self.k_phase = 0
         az = self.motor.az
-        if head == "S" and not nums:
-            self.k_phase = 0
-            az.stop(t)
-            return o.ack
-        if head == "A" and len(nums) == 1 and 0 <= nums[0] <= 359:
-            self.k_phase = 0
-            az.command(self._clip(self._mech_near(nums[0])), t)
-            return o.ack
-        if head == "R" and len(nums) == 1 and abs(nums[0]) <= 999:
-            self.k_phase = 0
-            az.command(self._clip(az.position(t) + nums[0]), t)
-            return o.ack
-        if head == "O" and len(nums) == 1 and 0 <= nums[0] <= 359:
-            self.offset_deg = (nums[0] - az.position(t)) % 360.0
-            return o.ack
-        if head == "K" and not nums:
-            az.command(az.min_deg, t)
-            self.k_phase = 1
-            self._advance(t)
-            return o.ack
-        if head == "P" and len(nums) == 2:
-            pp, ddd = nums
-            if 1 <= pp <= 999 and 1 <= ddd <= 24 and ddd <= pp and pp <= 24 * ddd:
-                self.gear = (pp, ddd)
-                az.stop(t)
-                az.resolution_deg = ddd / pp
-                return o.ack
-            return o.error
-        if o.gs23:
-            if head.startswith("M") and not nums and head[1:].isdigit() and len(head) == 4 \
-                    and int(head[1:]) <= 359:
-                az.command(self._clip(self._mech_near(int(head[1:]))), t)
-                return o.ack
-            if head == "C" and not nums:
-                return b"+0%03d\r\n" % self.readback()
-        return o.error
+        az.command(self._clip(az.position(t) + msg.delta_deg), t)
+        return self.options.ack
+
+    def _on_orient(self, msg: codec.Orient, t: float) -> bytes:
+        self.offset_deg = (msg.az - self.motor.az.position(t)) % 360.0
+        return self.options.ack
+
+    def _on_find_limits(self, msg: codec.FindLimits, t: float) -> bytes:
+        self.motor.az.command(self.motor.az.min_deg, t)
+        self.k_phase = 1
+        self._advance(t)
+        return self.options.ack
+
+    def _on_gear(self, msg: codec.SetGear, t: float) -> bytes:
+        self.gear = (msg.pulses, msg.degrees)
+        self.motor.az.stop(t)
+        self.motor.az.resolution_deg = msg.degrees / msg.pulses
+        return self.options.ack
+
+    def _on_position(self, msg: codec.Gs23Position, t: float) -> bytes:
+        if not self.options.gs23:
+            return self.options.error
+        return format_position(GS23, "C", self.readback(), 0) + GS23.reply_eol
+
+    def _on_invalid(self, msg: codec.Invalid, t: float) -> bytes:
+        return self.options.error
 
     def status_line(self) -> str:
         k = {0: "", 1: "  K: seeking CCW limit", 2: "  K: seeking CW limit"}[self.k_phase]

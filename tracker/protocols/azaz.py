@@ -28,13 +28,25 @@ from typing import Any, Literal
 from tracker.clock import Clock
 from tracker.errors import LimitError
 from tracker.protocols.base import Capabilities, Direction, RotatorDriver
-from tracker.protocols.gs232 import (
-    Gs232Driver,
-    Gs232Profile,
-    encode_table,
-    fmt3,
-    parse_table_status,
+from tracker.protocols.gs232 import Gs232Driver, Gs232Profile, parse_table_status
+from tracker.protocols.gs232_codec import (
+    Goto,
+    GotoB,
+    Speed,
+    SpeedB,
+    StartTable,
+    StartTableB,
+    Stop,
+    Sync,
+    TableB,
+    TableStatus,
+    TableStatusB,
+    Turn,
+    Unsync,
+    encode,
+    table_message,
 )
+from tracker.protocols.gs232_tables import field3
 from tracker.protocols.link import driver_on_port
 from tracker.transport import Port
 
@@ -92,24 +104,24 @@ class AzAzDriver(RotatorDriver):
         off = round(float(offset_deg))
         if not 0 <= off <= 360:
             raise LimitError(f"sync offset {offset_deg!r} deg is invalid; allowed 0..360")
-        self.io._command(b"Y" if off == 0 else b"Y" + fmt3(off, "offset", 0, 360))
+        self.io._command(encode(Sync(field3(off, "offset", 0, 360))))
         self.sync_offset = off % 360
 
     def unsync(self) -> None:
-        self.io._command(b"Y999")
+        self.io._command(encode(Unsync()))
         self.sync_offset = None
 
     def set_speed(self, step: int, axis: Literal[1, 2] = 1) -> None:
         if step not in (1, 2, 3, 4):
             raise LimitError(f"speed step {step!r} is invalid; allowed 1..4")
-        self.io._command((b"X" if axis == 1 else b"XB") + b"%d" % step)
+        self.io._command(encode(Speed(step) if axis == 1 else SpeedB(step)))
 
     def stop(self) -> None:
         """``S``: both antennas."""
         self.io.stop()
 
     def _bearing(self, az_deg: float) -> float:
-        fmt3(az_deg, "azimuth", 0, self.az_max_deg)     # raises LimitError, sends nothing
+        field3(az_deg, "azimuth", 0, self.az_max_deg)   # raises LimitError, sends nothing
         return float(az_deg)
 
     # RotatorDriver API: azimuth 1 -----------------------------------------------------------
@@ -147,23 +159,24 @@ class AzAzAxis(RotatorDriver):
 
     def goto(self, az_deg: float, el_deg: float | None = None) -> None:
         p = self.parent
-        a = fmt3(az_deg, "azimuth", 0, p.az_max_deg)
+        a = field3(az_deg, "azimuth", 0, p.az_max_deg)
         if self.n == 2 and p.sync_offset is not None:
             raise LimitError("azimuth 2 is synced to azimuth 1 (Y); the controller ignores "
                              "MB now: drive axis 1 or unsync() first")
-        p.io._command((b"M" if self.n == 1 else b"MB") + a)
+        p.io._command(encode(Goto(a) if self.n == 1 else GotoB(a)))
 
     def stop(self) -> None:
         # A / E, never S: stopping one antenna must not stop the other (proposal §7.5).
-        self.parent.io._command(b"A" if self.n == 1 or self.parent.sync_offset is not None
-                                else b"E")
+        self.parent.io._command(encode(Stop(
+            "az" if self.n == 1 or self.parent.sync_offset is not None else "el")))
 
     def move(self, direction: Direction) -> None:
         d = str(direction).lower()
         if d not in ("cw", "ccw"):
             raise ValueError("an azimuth axis turns cw or ccw")
-        cmd = {(1, "cw"): b"R", (1, "ccw"): b"L", (2, "cw"): b"U", (2, "ccw"): b"D"}
-        self.parent.io._command(cmd[(self.n, d)])
+        turn = {(1, "cw"): Turn("cw"), (1, "ccw"): Turn("ccw"), (2, "cw"): Turn("up"),
+                (2, "ccw"): Turn("down")}
+        self.parent.io._command(encode(turn[(self.n, d)]))
 
     def set_speed(self, step: int) -> None:
         self.parent.set_speed(step, self.n)
@@ -180,14 +193,15 @@ class AzAzAxis(RotatorDriver):
                              f"{AZAZ_PROFILE.max_table_points}")
         if self.n == 2 and p.sync_offset is not None:
             raise LimitError("azimuth 2 is synced to azimuth 1 (Y): unsync() first")
-        line = encode_table(interval_s, points, az_max_deg=p.az_max_deg)[:-1]
-        p.io._command(line if self.n == 1 else b"MB" + line[1:])
+        table = table_message(interval_s, points, az_max_deg=p.az_max_deg)
+        p.io._command(encode(table if self.n == 1 else TableB(table.line)))
 
     def start_table(self) -> None:
-        self.parent.io._command(b"T" if self.n == 1 else b"TB")
+        self.parent.io._command(encode(StartTable() if self.n == 1 else StartTableB()))
 
     def table_status(self) -> tuple[int | None, int]:
-        return parse_table_status(self.parent.io._query(b"N" if self.n == 1 else b"NB"))
+        return parse_table_status(self.parent.io._query(
+            encode(TableStatus() if self.n == 1 else TableStatusB())))
 
     def close(self) -> None:
         if self.owns_port:

@@ -1,7 +1,8 @@
-"""GS-232 family (Yaesu GS-23/GS-232/GS-232A/GS-232B, K3NG): dialect profiles, codec, driver.
+"""GS-232 family (Yaesu GS-23/GS-232/GS-232A/GS-232B, K3NG): dialect profiles, replies, driver.
 
-The codec (``encode_*`` / ``parse_*`` / ``format_*``) is shared by the driver and the emulator,
-so what one sends the other understands by construction. Byte-level facts and their sources
+The codec is shared by the driver and the emulator, so what one sends the other understands
+by construction: the commands both ways are :mod:`tracker.protocols.gs232_codec`'s, the
+replies both ways (``parse_*`` / ``format_*``) are here. Byte-level facts and their sources
 are in ``docs/protocols.md``; the dialects are :data:`PROFILES` below.
 """
 
@@ -23,11 +24,24 @@ from tracker.errors import (
 )
 from tracker.protocols.base import Capabilities, Direction
 from tracker.protocols.framing import LineFramer
-from tracker.protocols.gs232_tables import encode_table_line, field3
+from tracker.protocols.gs232_codec import (
+    CR,
+    Help,
+    Query,
+    SetMode450,
+    Speed,
+    StartTable,
+    Stop,
+    TableStatus,
+    ToggleCentre,
+    Turn,
+    encode,
+    encode_table,
+    goto_message,
+)
 from tracker.protocols.link import ByteLink, LinkDriver, driver_on_port
 from tracker.transport import Port
 
-CR = b"\r"
 ERROR_REPLY = b"?>"
 
 # Profiles -------------------------------------------------------------------------------------
@@ -116,37 +130,6 @@ def get_profile(name: str | Gs232Profile) -> Gs232Profile:
     if p is None:
         raise ConfigError(f"unknown GS-232 profile {name!r}; known: {', '.join(PROFILES)}")
     return p
-
-
-# Codec: encoding -----------------------------------------------------------------------------
-
-
-def fmt3(value: float, what: str, lo: float, hi: float) -> bytes:
-    """``value`` rounded (half to even, like Hamlib's rint) as 3 zero-padded digits."""
-    return b"%03d" % field3(value, what, lo, hi)
-
-
-def encode_goto(az_deg: float, el_deg: float | None = None, *, az_max_deg: float = 450.0,
-                el_max_deg: float = 180.0) -> bytes:
-    """``Waaa eee\\r`` (az/el) or ``Maaa\\r`` (azimuth only)."""
-    a = fmt3(az_deg, "azimuth", 0, az_max_deg)
-    if el_deg is None:
-        return b"M" + a + CR
-    return b"W" + a + b" " + fmt3(el_deg, "elevation", 0, el_max_deg) + CR
-
-
-def encode_table(interval_s: float, points: Sequence, *, az_max_deg: float = 450.0,
-                 el_max_deg: float = 180.0) -> bytes:
-    """Long form: ``Msss aaa bbb ...\\r`` for a list of azimuths, ``Wsss aaa eee ...\\r`` for a
-    list of (az, el) pairs. The line itself is ``gs232_tables.encode_table_line``'s."""
-    if len(points) and not isinstance(points[0], (int, float)):
-        pairs = [(a, e) for a, e in points]
-        az, el = [a for a, _ in pairs], [e for _, e in pairs]
-        line = encode_table_line("W", interval_s, az, el, az_max_deg=az_max_deg,
-                                 el_max_deg=el_max_deg)
-    else:
-        line = encode_table_line("M", interval_s, points, az_max_deg=az_max_deg)
-    return line.encode("ascii") + CR
 
 
 # Codec: replies --------------------------------------------------------------------------------
@@ -248,8 +231,9 @@ def _check_seconds(key: str, value: object, allow_zero: bool = True) -> None:
                           f"{'>= 0' if allow_zero else '> 0'}")
 
 
-_DIRECTIONS: dict[str, bytes] = {"cw": b"R", "ccw": b"L", "up": b"U", "down": b"D",
-                                 "right": b"R", "left": b"L"}
+_DIRECTIONS: dict[str, Turn] = {"cw": Turn("cw"), "ccw": Turn("ccw"), "up": Turn("up"),
+                                 "down": Turn("down"), "right": Turn("cw"),
+                                 "left": Turn("ccw")}
 
 
 class Gs232Driver(LinkDriver):
@@ -394,42 +378,42 @@ class Gs232Driver(LinkDriver):
 
     def position(self) -> tuple[float, float | None]:
         if self.capabilities.has_elevation:
-            line = self._query(b"C2")
+            line = self._query(encode(Query("C2")))
             az, el = parse_position(line, self.profile.second_field_max_deg)
             if el is None:
                 raise ProtocolError("C2 reply has no elevation", line)
             return az, el
-        return parse_position(self._query(b"C"))[0], None
+        return parse_position(self._query(encode(Query("C"))))[0], None
 
     def elevation(self) -> float:
-        return parse_elevation(self._query(b"B"), self.profile.second_field_max_deg)
+        return parse_elevation(self._query(encode(Query("B"))), self.profile.second_field_max_deg)
 
     def goto(self, az_deg: float, el_deg: float | None = None) -> None:
         if not self.capabilities.has_elevation:
             el_deg = None
-        self._command(encode_goto(az_deg, el_deg, az_max_deg=self.az_max_deg,
-                                  el_max_deg=self.el_max_deg)[:-1])
+        self._command(encode(goto_message(az_deg, el_deg, az_max_deg=self.az_max_deg,
+                                          el_max_deg=self.el_max_deg)))
 
     def stop(self) -> None:
-        self._command(b"S")
+        self._command(encode(Stop("all")))
 
     def stop_axis(self, axis: Literal["az", "el"]) -> None:
         if axis not in ("az", "el"):
             raise ValueError(f"axis must be 'az' or 'el', got {axis!r}")
-        self._command(b"A" if axis == "az" else b"E")
+        self._command(encode(Stop(axis)))
 
     def move(self, direction: Direction) -> None:
         """Start turning cw/ccw/up/down until stopped or at the end of travel."""
         cmd = _DIRECTIONS.get(str(direction).lower())
         if cmd is None:
             raise ValueError(f"direction must be one of cw, ccw, up, down; got {direction!r}")
-        self._command(cmd)
+        self._command(encode(cmd))
 
     def set_speed(self, step: int) -> None:
         """Azimuth speed X1 (slowest) .. X4 (fastest)."""
         if step not in (1, 2, 3, 4):
             raise LimitError(f"speed step {step!r} is invalid; allowed 1..4")
-        self._command(b"X%d" % step)
+        self._command(encode(Speed(step)))
 
     def _need_b(self, what: str) -> None:
         if not self.profile.b_commands:
@@ -441,14 +425,14 @@ class Gs232Driver(LinkDriver):
         a real GS-232B sends for a set command nobody reads: the driver narrows its own limit
         so such a goto raises :class:`LimitError` instead of being lost silently."""
         self._need_b("P45/P36")
-        self._command(b"P45" if enabled else b"P36")
+        self._command(encode(SetMode450(enabled)))
         self.az_max_deg = (self._az_max_configured_deg if enabled
                            else min(self._az_max_configured_deg, 360.0))
         self.capabilities = replace(self.capabilities, az_max_deg=self.az_max_deg)
 
     def toggle_centre(self) -> None:
         self._need_b("Z")
-        self._command(b"Z")
+        self._command(encode(ToggleCentre()))
 
     def upload_table(self, interval_s: int, points: Sequence) -> None:
         """Long-form M (azimuths) or W ((az, el) pairs); the controller turns to point 1."""
@@ -470,16 +454,16 @@ class Gs232Driver(LinkDriver):
         self._command(line[:-1])
 
     def start_table(self) -> None:
-        self._command(b"T")
+        self._command(encode(StartTable()))
 
     def table_status(self) -> tuple[int | None, int]:
-        return parse_table_status(self._query(b"N"))
+        return parse_table_status(self._query(encode(TableStatus())))
 
     def help(self, page: int = 1) -> str:
         if page not in (1, 2, 3):
             raise ValueError("help page must be 1, 2 or 3")
-        cmd = b"H" if page == 1 else b"H%d" % page
-        return self._collect(cmd + CR, 0.2).decode("ascii", "replace")
+        page_text: Literal["", "2", "3"] = "" if page == 1 else "2" if page == 2 else "3"
+        return self._collect(encode(Help(page_text)) + CR, 0.2).decode("ascii", "replace")
 
     def autobaud(self, attempts: int = 10, interval_s: float = 0.3) -> None:
         """GS-232B power-up autobaud: send CR until the unit says Connect OK (bounded)."""

@@ -44,28 +44,46 @@ class TableLine(NamedTuple):
     el: list[int] | None
 
 
+def table_line(kind: str, interval_s: float, az: Collection[float],
+               el: Collection[float] | None = None, *, az_max_deg: float = AZ_MAX_DEG,
+               el_max_deg: float = EL_MAX_DEG) -> TableLine:
+    """The checked :class:`TableLine` of a ``W`` table (``kind`` "W", one elevation per
+    azimuth) or an ``M`` table (``kind`` "M"): every number is rounded half to even and
+    range-checked (:class:`LimitError`, nothing sent)."""
+    if kind not in KINDS:
+        raise ValueError(f"table kind {kind!r} is invalid; use W (az/el) or M (azimuth)")
+    if isinstance(interval_s, float) and not interval_s.is_integer():
+        raise LimitError(f"table interval {interval_s!r} s must be a whole number of seconds")
+    interval = field3(interval_s, "table interval", INTERVAL_MIN_S, INTERVAL_MAX_S)
+    if not len(az):
+        raise LimitError("a step table needs at least one point")
+    if kind == "W":
+        if el is None:
+            raise ValueError("a W table line needs one elevation per azimuth")
+        az_out, el_out = [], []
+        for a, e in zip(az, el, strict=True):
+            az_out.append(field3(a, "azimuth", 0, az_max_deg))
+            el_out.append(field3(e, "elevation", 0, el_max_deg))
+        return TableLine(kind, interval, az_out, el_out)
+    return TableLine(kind, interval, [field3(a, "azimuth", 0, az_max_deg) for a in az], None)
+
+
+def format_table_line(line: TableLine) -> str:
+    """``Wsss aaa eee aaa eee ...`` / ``Msss aaa bbb ...`` without the CR, every number as
+    three digits (the values are :func:`table_line`'s or :func:`decode_table_line`'s)."""
+    values = (line.az if line.el is None
+              else [v for pair in zip(line.az, line.el, strict=True) for v in pair])
+    return line.kind + " ".join(f"{v:03d}" for v in (line.interval_s, *values))
+
+
 def encode_table_line(kind: str, interval_s: float, az: Collection[float],
                       el: Collection[float] | None = None, *, az_max_deg: float = AZ_MAX_DEG,
                       el_max_deg: float = EL_MAX_DEG) -> str:
     """``Wsss aaa eee aaa eee ...`` (``kind`` "W", one elevation per azimuth) or
     ``Msss aaa bbb ...`` (``kind`` "M"), without the CR. Every number is range-checked
     (:class:`LimitError`, nothing sent) and written as three digits."""
-    if kind not in KINDS:
-        raise ValueError(f"table kind {kind!r} is invalid; use W (az/el) or M (azimuth)")
-    if isinstance(interval_s, float) and not interval_s.is_integer():
-        raise LimitError(f"table interval {interval_s!r} s must be a whole number of seconds")
-    parts = [f"{field3(interval_s, 'table interval', INTERVAL_MIN_S, INTERVAL_MAX_S):03d}"]
-    if not len(az):
-        raise LimitError("a step table needs at least one point")
-    if kind == "W":
-        if el is None:
-            raise ValueError("a W table line needs one elevation per azimuth")
-        for a, e in zip(az, el, strict=True):
-            parts += [f"{field3(a, 'azimuth', 0, az_max_deg):03d}",
-                      f"{field3(e, 'elevation', 0, el_max_deg):03d}"]
-    else:
-        parts += [f"{field3(a, 'azimuth', 0, az_max_deg):03d}" for a in az]
-    return kind + " ".join(parts)
+    return format_table_line(table_line(kind, interval_s, az, el, az_max_deg=az_max_deg,
+                                        el_max_deg=el_max_deg))
 
 
 def _number(text: str, strict: bool) -> int:

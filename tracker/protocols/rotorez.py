@@ -12,6 +12,10 @@ The DCU-1 has no position query: :class:`OpenLoopAz` keeps the motor model's est
 where the antenna is, and ``capabilities.has_position_query`` is False so callers know the
 position is an estimate.
 
+The commands are one codec both ways (:func:`encode`, :func:`decode_command`,
+:func:`decode_single`; the ``AI1;`` reply :func:`format_ai_reply` / :func:`parse_ai_reply`):
+the driver encodes, the emulator decodes.
+
 Also home of :class:`OpenLoopAz`, used by the SAK-232, AZ/AZ and rotctld drivers too. The
 byte I/O (:class:`ByteLink`) is :mod:`tracker.protocols.link`'s, shared by every driver.
 """
@@ -19,6 +23,7 @@ byte I/O (:class:`ByteLink`) is :mod:`tracker.protocols.link`'s, shared by every
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass
 from typing import Any, Literal
 
 from tracker.clock import Clock
@@ -123,6 +128,95 @@ def parse_ai_reply(buf: bytes, accept_old: bool = False) -> int | None:
     return None
 
 
+def format_ai_reply(bearing: int) -> bytes:
+    """The controller's answer to ``AI1;``: ``;ddd``, no terminator."""
+    return b";%03d" % bearing
+
+
+# Codec: commands both ways (the driver encodes, the emulator decodes) -------------------------
+
+
+@dataclass(frozen=True)
+class SetBearing:
+    """``AP1ddd\\r`` (``go``: set and turn, Rotor-EZ) or ``AP1ddd;`` (set only)."""
+    bearing: int
+    go: bool
+
+
+@dataclass(frozen=True)
+class Execute:
+    """``AM1;``: turn to the bearing set last."""
+
+
+@dataclass(frozen=True)
+class QueryBearing:
+    """``AI1;``: answered ``;ddd`` (Rotor-EZ)."""
+
+
+@dataclass(frozen=True)
+class Stop:
+    """``;`` on its own (Rotor-EZ)."""
+
+
+@dataclass(frozen=True)
+class StopAxis:
+    """``AS1;`` (DCU-1)."""
+
+
+@dataclass(frozen=True)
+class SetOption:
+    """One option byte (:data:`OPTION_BYTES`): upper case switches ``name`` on."""
+    name: str
+    enabled: bool
+
+
+@dataclass(frozen=True)
+class Version:
+    """``V``."""
+
+
+@dataclass(frozen=True)
+class Invalid:
+    """A terminated command no controller of the family takes."""
+    text: bytes
+
+
+Command = (SetBearing | Execute | QueryBearing | Stop | StopAxis | SetOption | Version
+           | Invalid)
+
+_TERMINATED: dict[bytes, Command] = {b"AM1;": Execute(), b"AI1;": QueryBearing(),
+                                     b"AS1;": StopAxis()}
+_SINGLE: dict[bytes, Command] = {
+    b";": Stop(), b"V": Version(),
+    **{byte: SetOption(name, byte.isupper())
+       for name, pair in OPTION_BYTES.items() for byte in pair}}
+_TEXT: dict[Command, bytes] = {msg: text for text, msg in (_TERMINATED | _SINGLE).items()}
+
+
+def encode(msg: Command) -> bytes:
+    """The bytes of ``msg``, terminator included (single-byte commands have none)."""
+    if isinstance(msg, SetBearing):
+        return b"AP1%03d" % msg.bearing + (b"\r" if msg.go else b";")
+    text = _TEXT.get(msg)
+    if text is None:
+        raise ValueError(f"{msg!r} is not a command a host sends")
+    return text
+
+
+def decode_single(byte: bytes) -> Command | None:
+    """A byte that is a whole command when nothing else is pending (``;``, ``V``, an option
+    byte), or None. Which of them a controller takes is its business (a DCU-1: ``;`` only)."""
+    return _SINGLE.get(byte)
+
+
+def decode_command(text: bytes, terminator: bytes) -> Command:
+    """A command ended by ``;`` or CR (``text`` without the terminator); case-sensitive."""
+    if text.startswith(b"AP1") and len(text) == 6 and text[3:].isdigit():
+        bearing = int(text[3:])
+        return SetBearing(bearing, terminator == b"\r") if bearing <= 360 else Invalid(text)
+    return _TERMINATED.get(text + terminator, Invalid(text + terminator))
+
+
 class RotorEzDriver(LinkDriver):
     """Rotor-EZ / RotorCard (``variant="rotorez"``) or DCU-1 (``variant="dcu1"``).
 
@@ -181,7 +275,7 @@ class RotorEzDriver(LinkDriver):
         with self.link.lock:
             for _attempt in range(1 + self.retries):
                 self.link.flush_input()
-                self.link.write(b"AI1;")
+                self.link.write(encode(QueryBearing()))
                 buf, found = self.link.read_until(self._found_ai, self.timeout_s)
                 if found:
                     az = found[0]
@@ -198,18 +292,18 @@ class RotorEzDriver(LinkDriver):
         return None if az is None else (az,)
 
     def goto(self, az_deg: float, el_deg: float | None = None) -> None:
-        bearing = encode_bearing(az_deg)
+        bearing = int(encode_bearing(az_deg))
         with self.link.lock:
             if self.set_style == "cr":
-                self.link.write(b"AP1" + bearing + b"\r")
+                self.link.write(encode(SetBearing(bearing, go=True)))
             else:
-                self.link.write(b"AP1" + bearing + b";")
-                self.link.write(b"AM1;")
-        self.estimate.command(float(int(bearing)))
+                self.link.write(encode(SetBearing(bearing, go=False)))
+                self.link.write(encode(Execute()))
+        self.estimate.command(float(bearing))
 
     def stop(self) -> None:
         with self.link.lock:
-            self.link.write(b";" if self.variant == "rotorez" else b"AS1;")
+            self.link.write(encode(Stop() if self.variant == "rotorez" else StopAxis()))
         self.estimate.stop()
 
     def move(self, direction: Direction) -> None:
@@ -219,17 +313,16 @@ class RotorEzDriver(LinkDriver):
         """Rotor-EZ option switch: endpoint, overshoot, unstick or jam (one byte, no reply)."""
         if self.variant != "rotorez":
             raise LimitError("option commands exist on the Rotor-EZ / RotorCard only")
-        pair = OPTION_BYTES.get(name)
-        if pair is None:
+        if name not in OPTION_BYTES:
             raise ValueError(f"option must be one of {', '.join(OPTION_BYTES)}; got {name!r}")
         with self.link.lock:
-            self.link.write(pair[0] if enabled else pair[1])
+            self.link.write(encode(SetOption(name, enabled)))
 
     def version(self) -> str:
         """``V``: whatever the unit reports (format undocumented), stripped of stray bytes."""
         with self.link.lock:
             self.link.flush_input()
-            self.link.write(b"V")
+            self.link.write(encode(Version()))
             raw = self.link.collect(0.2, self.timeout_s)
         return raw.decode("ascii", "ignore").strip()
 
