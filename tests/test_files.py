@@ -158,7 +158,7 @@ def test_batch_out_refuses_existing_file_and_force_replaces(tmp_path, capsys):
     err = _one_line_exit_2(capsys, argv)
     assert "already exists" in err and "--force" in err and out.read_text() == "mine\n"
     assert main([*argv, "--force"]) == 0
-    assert out.read_text().startswith("satellite,")
+    assert out.read_text().startswith("target,")
 
 
 def test_batch_out_to_a_fifo_or_directory_is_refused(tmp_path, capsys):
@@ -179,7 +179,7 @@ def test_batch_out_writes_through_a_symlink(tmp_path, capsys):
     link.symlink_to(real)
     assert main(["batch", TLE, *WHERE, *AT, "--days", "0.1",
                  "--format", "csv", "--out", str(link), "--force"]) == 0
-    assert link.is_symlink() and real.read_text().startswith("satellite,")
+    assert link.is_symlink() and real.read_text().startswith("target,")
 
 
 @pytest.mark.parametrize("where, expect", [
