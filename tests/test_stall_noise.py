@@ -224,3 +224,49 @@ def test_contradiction_clock_restarts_when_read_back_agrees_again():
     with pytest.raises(ReadbackError):
         for k in range(60):
             core.observe(t + 20.0 + 0.5 * k, float(k * 37 % 360), 10.0)
+
+
+def test_a_turn_through_the_overlap_that_starts_late_is_not_an_early_arrival():
+    """0 -> 360 on a 450 deg rotator: a reading of 0 also names 360, the target. A motor that
+    starts a second later than believed must not be taken as already there (the loop would
+    then believe 450+ and lose the antenna for the whole slew)."""
+    from _stream_fakes import arc_pass, simple_plan
+
+    from tracker.stream import Command
+
+    spec = preset("G-5500", mains_hz=50)
+    track = arc_pass(duration_s=300, pad_s=30)
+    core = TrackCore(simple_plan(track, spec), track, spec, STATION,
+                     StreamSettings(deadband_deg=3.0))
+    t0 = T0 - 200.0
+    assert core.observe(t0, 0.0, 0.0) == "ok"
+    core.commanded(t0, Command(360.0, 0.0, "preposition"))
+    late_s = 1.5                               # the real start, after the believed 0.5 s
+    seen = []
+    for k in range(1, 120):                    # 60 s of the 70 s turn
+        t = t0 + 0.5 * k
+        az = float(round(max(0.0, t - t0 - late_s) * spec.az_rate_deg_s))
+        seen.append(core.observe(t, az, 0.0))
+        assert abs(core.antenna[0] - az) < 1.0, (k, az, core.antenna, core.note)
+    assert set(seen) == {"ok"}, seen
+
+
+def test_a_rotator_still_slewing_after_a_contradiction_is_trusted_again():
+    """After a jump the loop waits for read-backs that agree; a rotator on a long slew moves
+    between readings at its rate, which agrees. It must not be called inconsistent."""
+    from _stream_fakes import arc_pass, simple_plan
+
+    spec = preset("G-5500", mains_hz=50)
+    track = arc_pass(duration_s=300, pad_s=30)
+    core = TrackCore(simple_plan(track, spec), track, spec, STATION,
+                     StreamSettings(deadband_deg=3.0, inconsistent_give_up_s=10.0))
+    t0 = T0 - 200.0
+    core.observe(t0, 100.0, 10.0)
+    assert core.observe(t0 + 0.5, 200.0, 10.0) == "contradiction"    # turned by hand
+    results = [core.observe(t0 + 0.5 * k, 200.0 + 2.5 * (k - 1), 10.0) for k in range(2, 80)]
+    assert results[0] == "contradiction"         # one agreeing step is not yet enough
+    assert set(results[1:]) == {"ok"}, results
+    # Readings that jump further than the rotator can turn stay untrusted, and end the run.
+    with pytest.raises(ReadbackError):
+        for k in range(60):
+            core.observe(t0 + 60.0 + 0.5 * k, float(k * 37 % 360), 10.0)

@@ -122,6 +122,19 @@ class Status:
     note: str = ""
 
 
+def _plausible_step(spec: RotatorSpec, before: tuple[float, float | None],
+                    after: tuple[float, float | None], dt_s: float) -> bool:
+    """True if a rotator at ``before`` can read ``after`` ``dt_s`` later: each axis moved at
+    most its rate allows, plus the read-back's rounding."""
+    slack_deg = 1.5 * spec.resolution_deg
+    dt_s = max(dt_s, 0.0)
+    if abs(after[0] - before[0]) > spec.az_rate_deg_s * dt_s + slack_deg:
+        return False
+    if after[1] is None or before[1] is None or not spec.has_elevation:
+        return True
+    return abs(after[1] - before[1]) <= spec.el_rate_deg_s * dt_s + slack_deg
+
+
 def pass_window(track: SkyTrack, station: Station) -> tuple[float, float]:
     """AOS and LOS (UTC POSIX s) of ``track`` against the station's horizon and mask."""
     up = track.el_deg >= station.horizon_at(track.az_deg)
@@ -183,6 +196,7 @@ class TrackCore:
         self.last_command: Command | None = None
         self.commands = 0
         self.antenna: tuple[float, float | None] | None = None   # mechanical read-back
+        self._antenna_t_s = -math.inf                            # when it was read
         self.untrusted = 0          # agreeing read-backs still needed after a contradiction
         self.note = ""
         self._watch = {"az": AxisWatch(), "el": AxisWatch()}
@@ -195,6 +209,8 @@ class TrackCore:
         self._hold_level_deg = self.settings.deadband_deg
         self._park_sent_s: float | None = None
         self._last_wire_az: float | None = None
+        self._wire_still_since_s = -math.inf
+        self._az_command_t_s = -math.inf        # when the azimuth was last told a new target
         self._resend_due = False
         self._inconsistent_since_s: float | None = None
 
@@ -243,8 +259,16 @@ class TrackCore:
         cands = spec.frame.mechs_of_wire(wire_az_deg)
         m_az = spec.frame.nearest_mech_of_wire(wire_az_deg, belief)
         early = False
-        still = self._last_wire_az is not None and abs(wire_az_deg - self._last_wire_az) < 0.5
+        if self._last_wire_az is None or abs(wire_az_deg - self._last_wire_az) >= 0.5:
+            self._wire_still_since_s = t_s
         self._last_wire_az = wire_az_deg
+        # Standing still while believed moving names an early arrival when the rotator was
+        # seen moving since the command and then stopped; one never seen moving may just
+        # start late (a 0 -> 360 turn still reads 0, which names 360 too), so it counts only
+        # once the reading has not changed for longer than any start delay.
+        still_s = t_s - self._wire_still_since_s
+        still = still_s > 0.0 and (self._wire_still_since_s > self._az_command_t_s
+                                   or still_s >= spec.start_delay_s + 1.5)
         if self.motor is not None and (
                 abs(m_az - expected_az) > self.settings.contradiction_deg
                 or (still and self.motor.az.moving(t_s))):
@@ -259,12 +283,15 @@ class TrackCore:
         el = None
         if spec.has_elevation:
             el = float(wire_el_deg if wire_el_deg is not None else 0.0)
-        prev = self.antenna
-        self.antenna = (m_az, el)
+        prev, prev_t_s = self.antenna, self._antenna_t_s
+        self.antenna, self._antenna_t_s = (m_az, el), t_s
         if self.untrusted:
-            # After a contradiction or a dead controller: trust only agreeing read-backs.
-            same = prev is not None and abs(prev[0] - m_az) <= spec.resolution_deg and (
-                el is None or prev[1] is None or abs(prev[1] - el) <= spec.resolution_deg)
+            # After a contradiction or a dead controller: trust only read-backs that agree
+            # with the one before: the same position, or one the rotator can have reached
+            # from it since at its rates (it may still be on a long slew, for a minute or
+            # more, and a moving rotator is not an inconsistent one).
+            same = prev is not None and _plausible_step(spec, prev, self.antenna,
+                                                         t_s - prev_t_s)
             self.untrusted = self.untrusted - 1 if same else self.settings.settle_readings
         if self.motor is None:
             self._sync_motor(t_s, moving=False)
@@ -538,6 +565,8 @@ class TrackCore:
             self.last_command = cmd
             self.commands += 1
             return
+        if abs(cmd.az_m_deg - self.motor.az.target_deg) > 1e-9:
+            self._az_command_t_s = t_s
         self.motor.command(cmd.az_m_deg, cmd.el_deg, t_s)
         az, el = self.antenna
         self._watch["az"].start(self.motor.az, t_s, az)
