@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Iterable
 from dataclasses import replace
 from datetime import datetime, timezone
 from typing import TYPE_CHECKING
@@ -252,6 +253,25 @@ def catalog_from_args(args: argparse.Namespace):
     except AttributeError:  # pragma: no cover
         pass
     return catalog
+
+
+def warn_element_age(targets: Iterable[object], now: datetime) -> None:
+    """The element-age warnings of every command that uses elements, on stderr: one line per
+    stale (or, against ``--at``, future) set, or one summary for many. ``targets`` are
+    targets (only satellites have elements) or element sets. Sets beyond the propagation
+    limit are left out: they are refused with their own line when used."""
+    from tle.catalog import age_warnings
+    from tracker.targets import MAX_PROPAGATION_DAYS
+
+    sets = []
+    for t in targets:
+        es = getattr(t, "elements", t)
+        if hasattr(es, "age_days") and abs(es.age_days(now)) <= MAX_PROPAGATION_DAYS:
+            sets.append(es)
+    for w in age_warnings(sets, now):
+        # The loud text already starts with "WARNING:".
+        label = "" if w.startswith("WARNING") else "warning: "
+        print(f"tracker: {label}{w}", file=sys.stderr)
 
 
 def target_from_args(name: str, args: argparse.Namespace) -> Target:

@@ -23,6 +23,7 @@ from tracker.commands._common import (
     clock_from_args,
     rotator_from_args,
     station_from_args,
+    warn_element_age,
 )
 
 MAX_SKY_PLOTS = 50
@@ -144,6 +145,7 @@ def find(args: argparse.Namespace, elements: list, stations: list):
     end = start + timedelta(days=args.days)
     # In place: the table's satellite indices must index the caller's list too (plans_for).
     elements[:] = usable_elements(elements, start, end)
+    warn_element_age(elements, start)
     if args.dask is not None:
         table = find_passes_dask(elements, stations, start, end, args.min_el,
                                  address=args.dask or None, step_s=args.step)

@@ -38,6 +38,7 @@ from tracker.commands._common import (
     protocol_help,
     station_from_args,
     target_from_args,
+    warn_element_age,
 )
 from tracker.errors import ConfigError, TargetError, TrackerError
 from tracker.transport import is_emulated
@@ -470,6 +471,7 @@ def run(args: argparse.Namespace) -> int:  # noqa: C901
 
     starts = [_start_time(args, t, demo) for t in targets]
     start = min(s for s, _note in starts)
+    warn_element_age(targets, start)  # the demo moved to a stale epoch says so in its note
     notes = [note for _s, note in starts if note]
     for a in ants:
         a.first = _next_pass(a.target, station, start.timestamp())

@@ -77,7 +77,7 @@ def build_program(args: argparse.Namespace, now_s: float, current=None):
     """Find the pass and compile it; returns (program, header dict)."""
     from datetime import datetime, timedelta, timezone
 
-    from tracker.commands.passes import warn_element_age
+    from tracker.commands._common import warn_element_age
     from tracker.errors import ConfigError, LimitError
     from tracker.passes import find_passes
     from tracker.steptable import compile_pass
