@@ -1,4 +1,5 @@
-"""Ground station: position, minimum elevation and an optional horizon mask."""
+"""Ground station: position, minimum elevation and an optional horizon mask; Maidenhead
+locators (the one parser, for the config file and the flags)."""
 
 from __future__ import annotations
 
@@ -102,3 +103,40 @@ class Station:
         from skyfield.api import wgs84
 
         return wgs84.latlon(self.lat_deg, self.lon_deg, elevation_m=self.alt_m)
+
+
+# Maidenhead: a field (18 x 18 letters A-R, 20 x 10 degrees), a square (digits, 2 x 1 degrees),
+# a subsquare (24 x 24 letters a-x, 5 x 2.5 minutes), an extended square (digits, 30 x 15
+# seconds). Each pair: (characters allowed, longitude size, latitude size) in degrees.
+_LOCATOR_PAIRS = (("ABCDEFGHIJKLMNOPQR", 20.0, 10.0), ("0123456789", 2.0, 1.0),
+                  ("ABCDEFGHIJKLMNOPQRSTUVWX", 2.0 / 24, 1.0 / 24),
+                  ("0123456789", 2.0 / 240, 1.0 / 240))
+
+
+def locator_lat_lon(locator: str) -> tuple[float, float]:
+    """The centre of Maidenhead locator ``locator`` (2, 4, 6 or 8 characters, any case) as
+    ``(lat_deg, lon_deg)``; :class:`ConfigError` says what is wrong with a bad one."""
+    text = locator.strip().upper()
+    if len(text) not in (2, 4, 6, 8):
+        raise ConfigError(f"Maidenhead locator {locator!r} must have 2, 4, 6 or 8 characters "
+                          "(e.g. JO22, JO22xb)")
+    lon_deg, lat_deg = -180.0, -90.0
+    for i in range(0, len(text), 2):
+        allowed, lon_size, lat_size = _LOCATOR_PAIRS[i // 2]
+        for ch, is_lat in ((text[i], False), (text[i + 1], True)):
+            if ch not in allowed:
+                kind = ("a letter A-R", "a digit", "a letter A-X", "a digit")[i // 2]
+                raise ConfigError(f"Maidenhead locator {locator!r}: character {i + 1 + is_lat} "
+                                  f"({ch!r}) must be {kind}")
+            if is_lat:
+                lat_deg += allowed.index(ch) * lat_size
+            else:
+                lon_deg += allowed.index(ch) * lon_size
+    _allowed, lon_size, lat_size = _LOCATOR_PAIRS[len(text) // 2 - 1]
+    return lat_deg + lat_size / 2.0, lon_deg + lon_size / 2.0
+
+
+def position_name(lat_deg: float, lon_deg: float) -> str:
+    """A readable name for a station known only by its position: ``52.0000N 4.4000E``."""
+    return (f"{abs(lat_deg):.4f}{'N' if lat_deg >= 0 else 'S'} "
+            f"{abs(lon_deg):.4f}{'E' if lon_deg >= 0 else 'W'}")

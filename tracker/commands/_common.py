@@ -92,6 +92,9 @@ def add_station_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--lat", type=float, metavar="DEG", help="latitude, degrees north")
     g.add_argument("--lon", type=float, metavar="DEG", help="longitude, degrees east")
     g.add_argument("--alt", type=float, metavar="M", help="altitude above the ellipsoid, m")
+    g.add_argument("--locator", metavar="LOC",
+                   help="Maidenhead locator (JO22, JO22xb, ...) instead of --lat/--lon: the "
+                        "centre of the square")
     g.add_argument("--min-el", type=float, metavar="DEG", dest="min_el",
                    help="minimum elevation, degrees (the horizon mask adds to it)")
     g.add_argument("--mask", metavar="FILE",
@@ -201,7 +204,7 @@ def config_from_args(args: argparse.Namespace) -> Config:
 
 def station_from_args(args: argparse.Namespace, quiet: bool = False) -> Station:
     """The station: config file ([station] or [station.NAME]) overridden by flags."""
-    from tracker.station import HorizonMask
+    from tracker.station import HorizonMask, position_name
 
     config = config_from_args(args)
     station = config.station_named(getattr(args, "station", None))
@@ -211,22 +214,42 @@ def station_from_args(args: argparse.Namespace, quiet: bool = False) -> Station:
         value = getattr(args, flag, None)
         if value is not None:
             changes[key] = float(value)
+    locator = getattr(args, "locator", None)
+    if locator is not None:
+        changes.update(_locator_position(locator, changes))
     if getattr(args, "mask", None):
         changes["mask"] = HorizonMask.load(args.mask)
     if config.station_is_default and not getattr(args, "station", None) and (
             "lat_deg" in changes or "lon_deg" in changes):
-        changes["name"] = "command-line"
+        changes["name"] = (locator.strip() if locator is not None else
+                           position_name(changes.get("lat_deg", station.lat_deg),
+                                         changes.get("lon_deg", station.lon_deg)))
     if changes:
         try:
             station = replace(station, **changes)
         except ConfigError as e:
             raise ConfigError(f"command line: {e}") from None
-    if (config.station_is_default and not getattr(args, "station", None)
+    if (config.station_is_placeholder and not getattr(args, "station", None)
             and "lat_deg" not in changes and not quiet):
-        print(f"tracker: note: no station configured, using {station.name} "
-              f"(lat {station.lat_deg}, lon {station.lon_deg}); run `tracker config init` "
-              f"or pass --lat/--lon", file=sys.stderr)
+        where = ("no station configured" if config.station_is_default else
+                 f"the station in {config.path} is still the placeholder")
+        print(f"tracker: note: {where}, using {station.name} (lat {station.lat_deg}, lon "
+              f"{station.lon_deg}); run `tracker config init --locator LOC --force` (or "
+              f"--lat/--lon), or pass --lat/--lon or --locator", file=sys.stderr)
     return station
+
+
+def _locator_position(locator: str, changes: dict) -> dict[str, float]:
+    """``--locator``'s position, refused together with --lat/--lon."""
+    from tracker.station import locator_lat_lon
+
+    if "lat_deg" in changes or "lon_deg" in changes:
+        raise ConfigError("give either --locator or --lat/--lon, not both")
+    try:
+        lat_deg, lon_deg = locator_lat_lon(locator)
+    except ConfigError as e:
+        raise ConfigError(f"--locator: {e}") from None
+    return {"lat_deg": lat_deg, "lon_deg": lon_deg}
 
 
 def catalog_from_args(args: argparse.Namespace):
