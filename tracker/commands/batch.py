@@ -206,12 +206,14 @@ def plans_for(args: argparse.Namespace, table, elements) -> list | None:
 def check_outputs(args: argparse.Namespace) -> None:
     """Refuse unusable output paths before the (possibly long) pass search."""
     from tracker.files import check_output
-    from tracker.plot import check_plot_path
+    from tracker.plot import check_plot_path, require_matplotlib
 
     if args.out:
         check_output(args.out, force=args.force, label="--out")
     if getattr(args, "plot", None):
         check_plot_path(args.plot, force=args.force, label="--plot")
+    if getattr(args, "sky_plots", None):
+        require_matplotlib()
 
 
 def emit(args: argparse.Namespace, text: str) -> None:
