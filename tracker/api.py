@@ -31,7 +31,7 @@ give :attr:`StepProgram.tables` to a :class:`TableRunner`.
 
 from __future__ import annotations
 
-from tle.catalog import Catalog, age_warning
+from tle.catalog import Catalog, age_warning, age_warnings
 from tle.elements import ElementSet, load_file, parse_text
 from tle.errors import (
     AmbiguousSatelliteError,
@@ -86,7 +86,7 @@ from tracker.pointing_file import ScheduleError, ScheduleTarget, parse_schedule
 from tracker.protocols import Capabilities, RotatorDriver, open_driver
 from tracker.session import ControllerSession, EffectiveLimits, Interrupted, driver_limits
 from tracker.skytrack import SkyTrack
-from tracker.station import HorizonMask, Station
+from tracker.station import HorizonMask, Station, locator_lat_lon
 from tracker.steptable import (
     MountPath,
     StepProgram,
@@ -106,8 +106,8 @@ from tracker.upload import TableRunner, UploadReport
 
 __all__ = [  # noqa: RUF022 (grouped by topic, the order the docs follow)
     # element sets and the catalogue
-    "Catalog", "ElementSet", "TleStore", "age_warning", "default_cache_dir", "load_file",
-    "parse_text",
+    "Catalog", "ElementSet", "TleStore", "age_warning", "age_warnings", "default_cache_dir",
+    "load_file", "parse_text",
     # time
     "Clock", "LockstepClock", "ManualClock", "SimClock", "SystemClock", "utc",
     # targets
@@ -115,7 +115,7 @@ __all__ = [  # noqa: RUF022 (grouped by topic, the order the docs follow)
     "SolarSystemTarget", "Target", "event_labels", "parse_radec", "parse_schedule",
     "resolve_target",
     # station and configuration
-    "Config", "HorizonMask", "Station", "load_config",
+    "Config", "HorizonMask", "Station", "load_config", "locator_lat_lon",
     # passes
     "Pass", "find_passes",
     # rotators
