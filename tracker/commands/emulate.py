@@ -36,8 +36,7 @@ def register(sub) -> None:
     p.add_argument("--readback-360", action="store_true", help="report 0-359 in 450 mode")
     p.add_argument("--gs23", action="store_true",
                    help="sak232 only: also answer the GS-23 subset (Mxxx, S, C -> +0aaa) that "
-                        "a logger set to 'Yaesu GS-23' sends, so Hamlib's model 605 can read "
-                        "the position")
+                        "a logger set to 'Yaesu GS-23' sends, as the SAK-232 guide advises")
     p.add_argument("--end", choices=("stay", "clear"), default=None,
                    help="after the last table point: stay there or clear the list")
     p.add_argument("--autobaud", action="store_true",
