@@ -453,9 +453,9 @@ def _json_seed() -> bytes:
 
 
 def _config_seed() -> bytes:
-    from tracker.config import TEMPLATE
+    from tracker.config import template_text
 
-    return TEMPLATE.encode()
+    return template_text().encode()
 
 
 TOKENS = [b"\r", b"\n", b" ", b"0", b"9", b"-", b"+", b".", b"e", b"=", b",", b";", b"#",

@@ -73,3 +73,11 @@ def virtual_rig(ctl, faults=(), seed: int = 0) -> VirtualRig:
     if not isinstance(ctl.clock, ManualClock):
         raise TypeError("a virtual rig needs its controller on a ManualClock")
     return VirtualRig(ctl, faults, seed)
+
+
+def newest_bench(url: str) -> Bench:
+    """The bench that the last ``emu://`` open of ``url`` made (a CLI run opens its own, on
+    its own clock): earlier tests on the same worker may have left benches of the same URL."""
+    from tracker.emulator import virtual
+
+    return [b for name, b in virtual._BENCHES.items() if name.startswith(url + "#")][-1]

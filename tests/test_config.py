@@ -10,10 +10,10 @@ import pytest
 
 from tracker.config import (
     DEFAULT_STATION,
-    TEMPLATE,
     Config,
     load_config,
     parse_config,
+    template_text,
     write_template,
 )
 from tracker.errors import ConfigError
@@ -33,10 +33,10 @@ def write(tmp_path, text: str):
 def test_template_is_valid_and_commented(tmp_path):
     p = write_template(tmp_path / "config.toml")
     text = p.read_text()
-    assert text == TEMPLATE and text.count("#") > 20
+    assert text == template_text() and text.count("#") > 20
     config = load_config(p)
     assert config.station.name == "home" and config.station.lat_deg == 52.0
-    assert not config.station_is_default
+    assert not config.station_is_default and config.station_is_placeholder
     assert config.rotator().name == "home"
     assert config.rotator().az_span_deg == 450  # from the G-5500 preset
 
@@ -44,7 +44,7 @@ def test_template_is_valid_and_commented(tmp_path):
 def test_init_makes_only_its_own_config_folder(tmp_path, monkeypatch):
     monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "xdg"))
     own = write_template(tmp_path / "xdg" / "tracker" / "config.toml")
-    assert own.read_text() == TEMPLATE          # the tool's folder is made on first use
+    assert own.read_text() == template_text()          # the tool's folder is made on first use
     with pytest.raises(ConfigError, match="does not exist"):
         write_template(tmp_path / "typo" / "config.toml")
     assert not (tmp_path / "typo").exists()     # a user's path grows no folders
@@ -56,7 +56,7 @@ def test_init_never_overwrites_without_force(tmp_path):
         write_template(p)
     assert p.read_text() == "[station]\nlat_deg = 1.0\nlon_deg = 2.0\n"
     write_template(p, force=True)
-    assert p.read_text() == TEMPLATE
+    assert p.read_text() == template_text()
 
 
 def test_named_stations_and_rotators(tmp_path):
@@ -196,3 +196,30 @@ def test_config_option_before_the_subcommand(tmp_path, capsys):
     assert str(p) in out and "lat_deg = 10.5" in out
     assert main(["--config", str(tmp_path / "none.toml"), "config", "show"]) == 2
     assert "does not exist" in capsys.readouterr().err
+
+
+def test_a_locator_instead_of_lat_lon(tmp_path):
+    config = load_config(write(tmp_path, '[station]\nlocator = "JO22xb"\n'))
+    assert (config.station.lat_deg, config.station.lon_deg) == pytest.approx((52.0625, 5.95833),
+                                                                             abs=1e-4)
+    assert not config.station_is_placeholder
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ('locator = "JO22"\nlat_deg = 1.0', "both locator and lat_deg/lon_deg"),
+    ('locator = "ZZ22"', r"\[station\] Maidenhead locator 'ZZ22': character 1"),
+    ("locator = 22", "allowed: a Maidenhead locator"),
+])
+def test_bad_locators_are_one_clear_line(tmp_path, text, message):
+    with pytest.raises(ConfigError, match=message):
+        load_config(write(tmp_path, f"[station]\n{text}\n"))
+
+
+def test_template_with_a_position(tmp_path):
+    p = write_template(tmp_path / "a.toml", text=template_text(40.5, -75.25, 20.0))
+    config = load_config(p)
+    assert (config.station.lat_deg, config.station.lon_deg, config.station.alt_m) == (
+        40.5, -75.25, 20.0)
+    assert not config.station_is_placeholder
+    p = write_template(tmp_path / "b.toml", text=template_text(locator="JO22"))
+    assert load_config(p).station.lat_deg == 52.5 and "PLACEHOLDER" not in p.read_text()

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from tracker.errors import ConfigError
-from tracker.station import HorizonMask, Station
+from tracker.station import HorizonMask, Station, locator_lat_lon, position_name
 
 
 def test_station_ranges_named_in_errors():
@@ -88,3 +88,45 @@ def test_parse_station_errors(values, message):
     with pytest.raises(ConfigError) as e:
         parse_station(values, "f:")
     assert message in str(e.value)
+
+
+@pytest.mark.parametrize(("locator", "lat_deg", "lon_deg"), [
+    ("JO", 55.0, 10.0),                    # a 10 x 20 degree field: its centre
+    ("JO22", 52.5, 5.0),
+    ("jo22xb", 52.0 + 1.5 / 24, 4.0 + 47 / 24),
+    ("FN31pr", 41.72917, -72.70833),       # W1AW
+    ("JO22XB45", 52.0 + 1 / 24 + 5.5 / 240, 4.0 + 46 / 24 + 9 / 240),
+    ("RR99xx99", 89.99792, 179.99583),
+    ("AA00aa00", -89.99792, -179.99583),
+])
+def test_maidenhead_locator_centres(locator, lat_deg, lon_deg):
+    assert locator_lat_lon(locator) == pytest.approx((lat_deg, lon_deg), abs=1e-4)
+
+
+@pytest.mark.parametrize(("locator", "message"), [
+    ("JO2", "must have 2, 4, 6 or 8 characters"),
+    ("", "must have 2, 4, 6 or 8 characters"),
+    ("SA22", r"character 1 \('S'\) must be a letter A-R"),
+    ("JOX2", r"character 3 \('X'\) must be a digit"),
+    ("JO22yb", r"character 5 \('Y'\) must be a letter A-X"),
+    ("JO22xb4a", r"character 8 \('A'\) must be a digit"),
+])
+def test_bad_locators_say_what_is_wrong(locator, message):
+    with pytest.raises(ConfigError, match=message):
+        locator_lat_lon(locator)
+
+
+def test_position_name_is_readable():
+    assert position_name(52.0, 4.4) == "52.0000N 4.4000E"
+    assert position_name(-33.9, -18.25) == "33.9000S 18.2500W"
+
+
+def test_parse_station_takes_a_locator_for_the_position():
+    from tracker.station import parse_station
+
+    st = parse_station({"name": "A", "locator": "JO22"}, "f:")
+    assert (st.lat_deg, st.lon_deg) == pytest.approx((52.5, 5.0))
+    with pytest.raises(ConfigError, match="f: has both locator and lat_deg/lon_deg"):
+        parse_station({"name": "A", "locator": "JO22", "lat": 1}, "f:")
+    with pytest.raises(ConfigError, match="f: Maidenhead locator 'JO2'"):
+        parse_station({"name": "A", "locator": "JO2"}, "f:")

@@ -2,7 +2,9 @@
 
 Lookup order in :meth:`Catalog.find`: NORAD id, international designator, exact name,
 case-insensitive name, a few well-known nicknames ("ISS"), a name part (the text before or
-inside the parentheses: "AO-7" finds "OSCAR 7 (AO-7)"), then a unique substring. Several
+inside the parentheses: "AO-7" finds "OSCAR 7 (AO-7)"), the name or a part with hyphens,
+spaces and underscores ignored ("NOAA-20", "noaa20" and "JPSS 1" find "NOAA 20 (JPSS-1)"),
+then a unique substring. Several
 matches at one step raise :class:`AmbiguousSatelliteError`; none raise
 :class:`UnknownSatelliteError` with difflib "did you mean" suggestions.
 """
@@ -30,6 +32,7 @@ from tle.errors import (
 AGE_WARN_DAYS = 7.0
 AGE_LOUD_DAYS = 30.0
 MAX_LISTED = 8
+MAX_AGE_LINES = 3  # more stale sets than this get one summary line
 SKIPPED_PREFIX = "skipped a broken element set: "  # what tle.elements/omm warn with
 
 # Nicknames people type that match several names otherwise ("ISS" is in both ISS (ZARYA) and
@@ -42,6 +45,14 @@ _ALPHA5 = re.compile(r"^[A-HJ-NP-Z]\d{4}$")
 _PAREN = re.compile(r"^(.*?)\s*\((.*)\)\s*$")
 
 
+_SEPARATORS = re.compile(r"[\s_-]+")
+
+
+def _squashed(text: str) -> str:
+    """``text`` case-folded without hyphens, spaces or underscores: how people vary names."""
+    return _SEPARATORS.sub("", text.casefold())
+
+
 def _name_parts(name: str) -> tuple[str, ...]:
     match = _PAREN.match(name)
     if not match:
@@ -50,9 +61,15 @@ def _name_parts(name: str) -> tuple[str, ...]:
 
 
 def age_warning(es: ElementSet, now: datetime) -> str | None:
-    """None for fresh elements, a warning past 7 days, a louder one past 30 days."""
+    """None for fresh elements, a warning past 7 days, a louder one past 30 days; the same
+    for elements whose epoch lies that far *after* ``now`` (a time asked for with --at)."""
     age_days = es.age_days(now)
     stamp = es.epoch.strftime("%Y-%m-%d %H:%M UTC")
+    if -age_days > AGE_WARN_DAYS:
+        loud = "WARNING: " if -age_days > AGE_LOUD_DAYS else ""
+        return (f"{loud}elements for {es.name} are from {-age_days:.0f} days after the time "
+                f"asked for (epoch {stamp}): predictions that far before the epoch may be "
+                "off; use elements from near that date")
     if age_days > AGE_LOUD_DAYS:
         return (f"WARNING: elements for {es.name} are {age_days:.0f} days old (epoch {stamp}): "
                 "predictions may be off by minutes and many degrees; "
@@ -61,6 +78,20 @@ def age_warning(es: ElementSet, now: datetime) -> str | None:
         return (f"elements for {es.name} are {age_days:.1f} days old (epoch {stamp}); "
                 "run `tracker tle update` for fresh ones")
     return None
+
+
+def age_warnings(sets: Iterable[ElementSet], now: datetime,
+                 max_lines: int = MAX_AGE_LINES) -> list[str]:
+    """:func:`age_warning` for each set, or one summary line when more than ``max_lines``
+    sets are stale (a group of 90 satellites gets one line, not 90)."""
+    sets = list(sets)
+    found = [(es, w) for es in sets if (w := age_warning(es, now))]
+    if len(found) <= max_lines:
+        return [w for _es, w in found]
+    oldest_d = max(abs(es.age_days(now)) for es, _w in found)
+    return [f"WARNING: {len(found)} of {len(sets)} element sets are more than "
+            f"{AGE_WARN_DAYS:.0f} days from the time asked for (furthest {oldest_d:.0f} days): "
+            "predictions may be off; run `tracker tle update`"]
 
 
 class Catalog:
@@ -72,20 +103,41 @@ class Catalog:
         self.note = note
         self._by_id: dict[int, ElementSet] = {}
         self._groups: dict[str, set[int]] = {}
+        self._origins: dict[str, set[str]] = {}  # group -> "cache" / "bundled" / ...
         for es in sets:
             self.add(es)
 
-    def add(self, es: ElementSet) -> None:
-        """Add one set; a duplicate id keeps whichever epoch is newer."""
+    def add(self, es: ElementSet, origin: str | None = None) -> None:
+        """Add one set; a duplicate id keeps whichever epoch is newer. ``origin`` labels
+        where its group came from (see :meth:`group_origins`)."""
         old = self._by_id.get(es.norad_id)
         if old is None or es.epoch > old.epoch:
             self._by_id[es.norad_id] = es
-        self._groups.setdefault(Path(es.source).stem, set()).add(es.norad_id)
+        group = Path(es.source).stem
+        self._groups.setdefault(group, set()).add(es.norad_id)
+        if origin:
+            self._origins.setdefault(group, set()).add(origin)
+
+    def merge(self, other: Catalog) -> None:
+        """Add every set and group of ``other``: the freshest set of each object wins, a
+        group present in both holds the objects of both."""
+        for norad_id, es in other._by_id.items():
+            old = self._by_id.get(norad_id)
+            if old is None or es.epoch > old.epoch:
+                self._by_id[norad_id] = es
+        for group, ids in other._groups.items():
+            self._groups.setdefault(group, set()).update(ids)
+        for group, origins in other._origins.items():
+            self._origins.setdefault(group, set()).update(origins)
+
+    def group_origins(self, name: str) -> tuple[str, ...]:
+        """Where group ``name`` came from: "cache", "bundled", or both (sorted)."""
+        return tuple(sorted(self._origins.get(name, ())))
 
     @classmethod
     def load(cls, paths: Iterable[str | Path], skip_bad: bool = True,
-             on_warning: WarningHandler | None = None, empty_is_error: bool = True
-             ) -> Catalog:
+             on_warning: WarningHandler | None = None, empty_is_error: bool = True,
+             origin: str | None = None) -> Catalog:
         """Load TLE/3LE/OMM files; broken sets are skipped with one warning each by default.
 
         If every set in the files is broken (nothing loaded), the first fault is raised as a
@@ -104,7 +156,7 @@ class Catalog:
                 raise TleFormatError(f"{path}: the file holds no element sets; expected "
                                      "TLE/3LE lines or OMM JSON/CSV/XML", source=str(path))
             for es in sets:
-                catalog.add(es)
+                catalog.add(es, origin)
         if empty_is_error and faults and not catalog._by_id:
             first = faults[0].removeprefix(SKIPPED_PREFIX)
             more = f" (and {len(faults) - 1} more broken sets)" if len(faults) > 1 else ""
@@ -128,7 +180,7 @@ class Catalog:
                 text = entry.read_text(encoding="utf-8")
                 for es in parse_text(text, source=str(entry), skip_bad=True,
                                      on_warning=on_warning):
-                    catalog.add(es)
+                    catalog.add(es, "bundled")
         if catalog._by_id:
             median = statistics.median(es.epoch.timestamp() for es in catalog)
             day = datetime.fromtimestamp(median, tz=timezone.utc).strftime("%Y-%m-%d")
@@ -138,15 +190,21 @@ class Catalog:
 
     @classmethod
     def default(cls, store=None, on_warning: WarningHandler | None = None) -> Catalog:
-        """Cached groups if the store has any, else the bundled snapshot (``bundled=True``)."""
+        """Every cached group united with the bundled snapshot, the freshest set of each
+        object winning: updating one group never hides the others. Without a cache this is
+        the bundled snapshot alone (``bundled=True``, with its note)."""
         if store is None:
             from tle.store import TleStore
 
             store = TleStore()
+        snapshot = cls.bundled_snapshot(on_warning=on_warning)
         paths = store.paths()
-        if paths:
-            return cls.load(paths, skip_bad=True, on_warning=on_warning, empty_is_error=False)
-        return cls.bundled_snapshot(on_warning=on_warning)
+        if not paths:
+            return snapshot
+        catalog = cls.load(paths, skip_bad=True, on_warning=on_warning, empty_is_error=False,
+                           origin="cache")
+        catalog.merge(snapshot)
+        return catalog
 
     def __iter__(self) -> Iterator[ElementSet]:
         return iter(self._by_id.values())
@@ -180,6 +238,8 @@ class Catalog:
         for norad_id in sorted(ids):
             sub._by_id[norad_id] = self._by_id[norad_id]
         sub._groups[name] = set(ids)
+        if name in self._origins:
+            sub._origins[name] = set(self._origins[name])
         return sub
 
     def search(self, query: str) -> list[ElementSet]:
@@ -244,8 +304,11 @@ class Catalog:
         nick = NICKNAMES.get(text.upper())
         if nick in self._by_id:
             return self._by_id[nick]
+        squashed = _squashed(text)
         for how, test in (
             ("name part", lambda es: folded in _name_parts(es.name)),
+            ("name", lambda es: squashed in {_squashed(k)
+                                             for k in (es.name, *_name_parts(es.name))}),
             ("partial name", lambda es: folded in es.name.casefold()),
         ):
             hit = self._pick(text, [es for es in self if test(es)], how)
@@ -269,4 +332,5 @@ class Catalog:
             f"no satellite {text!r} in {where} ({len(self)} sets){hint}", suggestions)
 
 
-__all__ = ["AGE_LOUD_DAYS", "AGE_WARN_DAYS", "Catalog", "TleError", "age_warning"]
+__all__ = ["AGE_LOUD_DAYS", "AGE_WARN_DAYS", "Catalog", "TleError", "age_warning",
+           "age_warnings"]

@@ -33,7 +33,7 @@ to let the controller track by itself, give :attr:`StepProgram.tables` to a
 
 from __future__ import annotations
 
-from tle.catalog import Catalog, age_warning
+from tle.catalog import Catalog, age_warning, age_warnings
 from tle.elements import ElementSet, load_file, parse_text
 from tle.errors import (
     AmbiguousSatelliteError,
@@ -98,7 +98,7 @@ from tracker.pointing_file import ScheduleError, ScheduleTarget, parse_schedule
 from tracker.protocols import Capabilities, RotatorDriver, open_driver
 from tracker.session import ControllerSession, EffectiveLimits, Interrupted, driver_limits
 from tracker.skytrack import SkyTrack
-from tracker.station import HorizonMask, Station, parse_station
+from tracker.station import HorizonMask, Station, locator_lat_lon, parse_station
 from tracker.steptable import (
     StepProgram,
     StepTable,
@@ -128,8 +128,8 @@ from tracker.upload import TableRunner, UploadReport
 
 __all__ = [  # noqa: RUF022 (grouped by topic, the order the docs follow)
     # element sets and the catalogue
-    "Catalog", "ElementSet", "TleStore", "age_warning", "default_cache_dir", "load_file",
-    "parse_text",
+    "Catalog", "ElementSet", "TleStore", "age_warning", "age_warnings", "default_cache_dir",
+    "load_file", "parse_text",
     # time
     "Clock", "LockstepClock", "ManualClock", "SimClock", "SystemClock", "utc",
     # targets
@@ -137,7 +137,7 @@ __all__ = [  # noqa: RUF022 (grouped by topic, the order the docs follow)
     "SolarSystemTarget", "Target", "event_labels", "parse_radec", "parse_schedule",
     "resolve_target",
     # station and configuration
-    "Config", "HorizonMask", "Station", "load_config", "parse_station",
+    "Config", "HorizonMask", "Station", "load_config", "locator_lat_lon", "parse_station",
     # passes
     "Pass", "find_passes",
     # rotators

@@ -6,7 +6,8 @@ file, :data:`DEFAULT_STATION` is used and commands say so.
 
 Sections::
 
-    [station]                 name, lat_deg, lon_deg, alt_m, min_el_deg, mask (file path)
+    [station]                 name, lat_deg + lon_deg or locator (Maidenhead), alt_m,
+                              min_el_deg, mask (file path)
     [station.NAME]            more stations, chosen with --station NAME / [tracking] station
     [rotator.NAME]            preset = "G-5500", mains_hz = 50, + any RotatorSpec field
     [tracking]                rotator, station, protocol, port, baudrate, park_after_pass, ...
@@ -27,7 +28,7 @@ from typing import Any
 
 from tracker.errors import ConfigError
 from tracker.mount import PRESETS, RotatorSpec, preset
-from tracker.station import STATION_RANGES, Station, mask_file, parse_station
+from tracker.station import STATION_RANGES, Station, locator_lat_lon, mask_file, parse_station
 
 ENV_VAR = "TRACKER_CONFIG"
 FILE_NAME = "config.toml"
@@ -88,6 +89,14 @@ class Config:
     path: Path | None = None
     station_is_default: bool = True
     mask_paths: dict[str, str] = field(default_factory=dict)  # station name -> mask file
+
+    @property
+    def station_is_placeholder(self) -> bool:
+        """No station configured, or the default station still at the placeholder position
+        that ``tracker config init`` writes when given no location."""
+        return self.station_is_default or (
+            (self.station.lat_deg, self.station.lon_deg)
+            == (DEFAULT_STATION.lat_deg, DEFAULT_STATION.lon_deg))
 
     def station_named(self, name: str | None = None) -> Station:
         """The named station (``[station.NAME]``), or the default one for None."""
@@ -355,9 +364,8 @@ TEMPLATE = """\
 
 [station]
 name = "home"
-lat_deg = 52.0          # degrees north (-90 to 90)
-lon_deg = 4.4           # degrees east (-180 to 180); west is negative
-alt_m = 0.0             # metres above the WGS84 ellipsoid (-500 to 9000)
+{position}
+alt_m = {alt_m}             # metres above the WGS84 ellipsoid (-500 to 9000)
 min_el_deg = 0.0        # passes count from this elevation up (-5 to 90)
 # mask = "horizon.txt"  # optional horizon mask: 'azimuth_deg elevation_deg' per line,
 #                       # linear in between; relative paths are next to this file
@@ -389,11 +397,40 @@ preset = "G-5500"
 """
 
 
-def write_template(path: Path, force: bool = False) -> Path:
-    """Write :data:`TEMPLATE` to ``path``; refuses to overwrite unless ``force``."""
+_PLACEHOLDER_POSITION = (
+    f"lat_deg = {DEFAULT_STATION.lat_deg}          # PLACEHOLDER: degrees north (-90 to 90)\n"
+    f"lon_deg = {DEFAULT_STATION.lon_deg}           # PLACEHOLDER: degrees east; west is "
+    "negative\n"
+    '# locator = "JO22xb"    # or a Maidenhead locator instead of lat_deg/lon_deg')
+
+
+def template_text(lat_deg: float | None = None, lon_deg: float | None = None,
+                  alt_m: float = 0.0, locator: str | None = None) -> str:
+    """:data:`TEMPLATE` with the station's position: a locator, lat/lon, or the placeholder
+    (which commands keep pointing out until it is replaced)."""
+    if locator is not None:
+        locator_lat_lon(locator)  # a bad locator is refused before anything is written
+        position = (f"locator = {_toml_value(locator.strip())}   # Maidenhead, centre of "
+                    "the square")
+    elif lat_deg is not None and lon_deg is not None:
+        Station(lat_deg=lat_deg, lon_deg=lon_deg)  # range checks
+        position = (f"lat_deg = {lat_deg!r}          # degrees north (-90 to 90)\n"
+                    f"lon_deg = {lon_deg!r}           # degrees east (-180 to 180); west is "
+                    "negative")
+    else:
+        position = _PLACEHOLDER_POSITION
+    Station(alt_m=alt_m)
+    return TEMPLATE.format(position=position, alt_m=float(alt_m))
+
+
+def write_template(path: Path, force: bool = False, text: str | None = None) -> Path:
+    """Write ``text`` (default: :func:`template_text`, the placeholder station) to ``path``;
+    refuses to overwrite unless ``force``."""
     from platformdirs import user_config_dir
 
     from tracker.files import write_atomic
+
+    text = template_text() if text is None else text
 
     path = Path(path).expanduser()
     label = "config file"
@@ -401,7 +438,7 @@ def write_template(path: Path, force: bool = False) -> Path:
         # Any other folder is the user's: like every output, a missing one is refused (a
         # typo in the path must not grow a folder tree); the tool's own config folder is
         # made on first use.
-        return write_atomic(path, TEMPLATE, force=force, label=label)
+        return write_atomic(path, text, force=force, label=label)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except (FileExistsError, NotADirectoryError):
@@ -410,4 +447,4 @@ def write_template(path: Path, force: bool = False) -> Path:
     except OSError as e:
         raise ConfigError(f"{label} {path}: cannot create folder {path.parent} "
                           f"({e.strerror}); choose another --config path") from None
-    return write_atomic(path, TEMPLATE, force=force, label=label)
+    return write_atomic(path, text, force=force, label=label)

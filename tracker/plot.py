@@ -26,12 +26,18 @@ if TYPE_CHECKING:  # pragma: no cover
 TIMELINE_MAX_ROWS = 80  # more satellites than this: keep the ones with the most passes
 
 
+def require_matplotlib() -> None:
+    """Refuse a plot before anything is computed when matplotlib is not installed."""
+    import importlib.util
+
+    if importlib.util.find_spec("matplotlib") is None:
+        raise ConfigError("plotting needs matplotlib: pip install 'rotator-tracker[plot]'")
+
+
 def _pyplot():
-    try:
-        import matplotlib
-    except ImportError:
-        raise ConfigError("plotting needs matplotlib: pip install 'rotator-tracker[plot]'"
-                          ) from None
+    require_matplotlib()
+    import matplotlib
+
     matplotlib.use("Agg")  # files only; never opens a window
     import matplotlib.pyplot as plt
 
@@ -47,7 +53,8 @@ def _boresight(plan: MountPlan) -> tuple[np.ndarray, np.ndarray]:
 
 
 def check_plot_path(path: str | Path, *, force: bool = False, label: str = "") -> Path:
-    """A .png/.svg name :func:`save_figure` can write (checked before drawing)."""
+    """A .png/.svg name :func:`save_figure` can write, and matplotlib to draw it (checked
+    before anything is computed)."""
     from tracker.files import check_output
 
     path = Path(path)
@@ -55,6 +62,7 @@ def check_plot_path(path: str | Path, *, force: bool = False, label: str = "") -
         where = f"{label} {path}" if label else str(path)
         raise ConfigError(f"{where}: use a .png or .svg file name")
     check_output(path, force=force, label=label)
+    require_matplotlib()
     return path
 
 

@@ -1,4 +1,5 @@
-"""Ground station: position, minimum elevation and an optional horizon mask.
+"""Ground station: position, minimum elevation and an optional horizon mask; Maidenhead
+locators (the one parser, for the config file, the stations files and the flags).
 
 Also the one station schema: :func:`parse_station` reads a station from a table of
 ``name``, ``lat_deg``, ``lon_deg``, ``alt_m``, ``min_el_deg`` and ``mask`` (a horizon mask
@@ -81,7 +82,7 @@ class HorizonMask:
 STATION_RANGES: dict[str, tuple[float, float]] = {
     "lat_deg": (-90.0, 90.0), "lon_deg": (-180.0, 180.0), "alt_m": (-500.0, 9000.0),
     "min_el_deg": (-5.0, 90.0)}
-STATION_FIELDS = ("name", *STATION_RANGES, "mask")
+STATION_FIELDS = ("name", *STATION_RANGES, "locator", "mask")
 # Short spellings that stations files written for earlier versions use; read, never written.
 STATION_ALIASES = {"lat": "lat_deg", "lon": "lon_deg", "alt": "alt_m", "min_el": "min_el_deg"}
 _EXAMPLE = {"name": '"Delft"', "lat_deg": "52.0", "lon_deg": "4.4"}
@@ -150,6 +151,21 @@ def _station_number(key: str, field_name: str, value: Any, where: str,
     return float(number)
 
 
+def _locator_fields(value: Any, values: Mapping[str, Any], where: str) -> dict[str, float]:
+    """``lat_deg``/``lon_deg`` of a ``locator = "JO22xb"`` key (the centre of the square)."""
+    keys = {STATION_ALIASES.get(str(k).strip().lower(), str(k).strip().lower()) for k in values}
+    if keys & {"lat_deg", "lon_deg"}:
+        raise ConfigError(f"{where} has both locator and lat_deg/lon_deg; keep one of them")
+    if not isinstance(value, str):
+        raise ConfigError(f"{where} locator = {_shown(value)} is invalid; allowed: a "
+                          f"Maidenhead locator such as \"JO22xb\"")
+    try:
+        lat_deg, lon_deg = locator_lat_lon(value)
+    except ConfigError as e:
+        raise ConfigError(f"{where} {e}") from None
+    return {"lat_deg": lat_deg, "lon_deg": lon_deg}
+
+
 def parse_station(values: Mapping[str, Any], where: str, *, base_dir: Path | None = None,
                   default_name: str | None = None, from_text: bool = False) -> Station:
     """A :class:`Station` from a table of :data:`STATION_FIELDS` (or
@@ -168,10 +184,51 @@ def parse_station(values: Mapping[str, Any], where: str, *, base_dir: Path | Non
             kwargs[name] = _station_number(key, name, value, where, from_text)
         elif name == "mask":
             kwargs["mask"] = HorizonMask.load(mask_file(value, where, base_dir))
+        elif name == "locator":
+            kwargs.update(_locator_fields(value, values, where))
         else:
             raise ConfigError(f"{where} unknown key {key!r}; allowed keys: "
                               f"{', '.join(STATION_FIELDS)}")
     for key in ("name", "lat_deg", "lon_deg"):
         if key not in kwargs:
-            raise ConfigError(f"{where} {key} is missing; add e.g. {key} = {_EXAMPLE[key]}")
+            raise ConfigError(f"{where} {key} is missing; add e.g. {key} = {_EXAMPLE[key]}"
+                              + ("" if key == "name" else " (or a Maidenhead locator = "
+                                                          "\"JO22xb\")"))
     return Station(**kwargs)
+
+
+# Maidenhead: a field (18 x 18 letters A-R, 20 x 10 degrees), a square (digits, 2 x 1 degrees),
+# a subsquare (24 x 24 letters a-x, 5 x 2.5 minutes), an extended square (digits, 30 x 15
+# seconds). Each pair: (characters allowed, longitude size, latitude size) in degrees.
+_LOCATOR_PAIRS = (("ABCDEFGHIJKLMNOPQR", 20.0, 10.0), ("0123456789", 2.0, 1.0),
+                  ("ABCDEFGHIJKLMNOPQRSTUVWX", 2.0 / 24, 1.0 / 24),
+                  ("0123456789", 2.0 / 240, 1.0 / 240))
+
+
+def locator_lat_lon(locator: str) -> tuple[float, float]:
+    """The centre of Maidenhead locator ``locator`` (2, 4, 6 or 8 characters, any case) as
+    ``(lat_deg, lon_deg)``; :class:`ConfigError` says what is wrong with a bad one."""
+    text = locator.strip().upper()
+    if len(text) not in (2, 4, 6, 8):
+        raise ConfigError(f"Maidenhead locator {locator!r} must have 2, 4, 6 or 8 characters "
+                          "(e.g. JO22, JO22xb)")
+    lon_deg, lat_deg = -180.0, -90.0
+    for i in range(0, len(text), 2):
+        allowed, lon_size, lat_size = _LOCATOR_PAIRS[i // 2]
+        for ch, is_lat in ((text[i], False), (text[i + 1], True)):
+            if ch not in allowed:
+                kind = ("a letter A-R", "a digit", "a letter A-X", "a digit")[i // 2]
+                raise ConfigError(f"Maidenhead locator {locator!r}: character {i + 1 + is_lat} "
+                                  f"({ch!r}) must be {kind}")
+            if is_lat:
+                lat_deg += allowed.index(ch) * lat_size
+            else:
+                lon_deg += allowed.index(ch) * lon_size
+    _allowed, lon_size, lat_size = _LOCATOR_PAIRS[len(text) // 2 - 1]
+    return lat_deg + lat_size / 2.0, lon_deg + lon_size / 2.0
+
+
+def position_name(lat_deg: float, lon_deg: float) -> str:
+    """A readable name for a station known only by its position: ``52.0000N 4.4000E``."""
+    return (f"{abs(lat_deg):.4f}{'N' if lat_deg >= 0 else 'S'} "
+            f"{abs(lon_deg):.4f}{'E' if lon_deg >= 0 else 'W'}")

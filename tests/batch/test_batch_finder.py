@@ -231,7 +231,8 @@ def test_stations_toml_errors(tmp_path):
         load_stations(path)
     path.write_text('[[station]]\nname = "B"\nlat = 1\nlon = 2\nheight = 3\n')
     with pytest.raises(ConfigError, match=r"st\.toml:1: unknown key 'height'; allowed keys: "
-                                          r"name, lat_deg, lon_deg, alt_m, min_el_deg, mask"):
+                                          r"name, lat_deg, lon_deg, alt_m, min_el_deg, "
+                                          r"locator, mask"):
         load_stations(path)
     path.write_text("[[station]\n")
     with pytest.raises(ConfigError, match=r"st\.toml"):

@@ -44,7 +44,7 @@ def test_table_for_iss(capsys):
     code, out, err = run(capsys, "passes", "ISS (ZARYA)", "--at", AT, *HERE, "--tle", SATS)
     assert code == 0
     lines = out.splitlines()
-    assert lines[0].startswith("Passes of ISS (ZARYA) over command-line")
+    assert lines[0].startswith("Passes of ISS (ZARYA) over 52.0000N 4.4000E (52.0000, 4.4000)")
     assert lines[1].split()[:3] == ["AOS", "(UTC)", "Duration"]  # local time is UTC here
     rows = [ln for ln in lines[2:] if ln.startswith("Sun 08-23")]
     assert 4 <= len(rows) <= 8
@@ -61,7 +61,7 @@ def test_csv_columns_and_values(capsys):
     assert tuple(reader.fieldnames) == CSV_FIELDS
     rows = list(reader)
     assert rows and all(r["target"] == "ISS (ZARYA)" for r in rows)
-    assert all(r["station"] == "command-line" and r["plan_mode"] == "" for r in rows)
+    assert all(r["station"] == "52.0000N 4.4000E" and r["plan_mode"] == "" for r in rows)
     for r in rows:
         assert r["aos"] < r["tca"] < r["los"] and r["aos"].endswith("Z")
         assert 0 < float(r["max_el_deg"]) <= 90 and r["sunlit"] in ("true", "false")
@@ -197,6 +197,47 @@ def test_config_init_show_path(capsys, tmp_path):
     assert out.strip() == str(cfg)
     code, out, _ = run(capsys, "config", "show")
     assert code == 0 and "no config file" in out and "lat_deg = 52.0" in out
+
+
+def test_config_init_takes_the_location_and_the_note_stays_until_then(capsys, tmp_path):
+    cfg = str(tmp_path / "config.toml")
+    passes = ["passes", "ISS", "--config", cfg, "--at", AT, "--hours", "2", "--tle", SATS]
+    code, out, _ = run(capsys, "config", "init", "--config", cfg)
+    assert code == 0 and "placeholder station 52.0 N 4.4 E" in out
+    code, _, err = run(capsys, *passes)
+    assert code == 0 and "is still the placeholder" in err       # the note stays
+    code, _, err = run(capsys, *passes, "--locator", "JO32")
+    assert code == 0 and "placeholder" not in err                 # flags replace it
+    code, out, _ = run(capsys, "config", "init", "--config", cfg, "--force", "--locator",
+                       "JO22xb")
+    assert code == 0 and 'locator = "JO22xb"' in (tmp_path / "config.toml").read_text()
+    code, out, err = run(capsys, *passes)
+    assert code == 0 and "placeholder" not in err and "no station" not in err
+    assert "over home (52.0625, 5.9583)" in out
+    code, out, _ = run(capsys, "config", "init", "--config", cfg, "--force", "--lat", "-33.9",
+                       "--lon", "18.4", "--alt", "40")
+    code, out, _ = run(capsys, "config", "show", "--config", cfg)
+    assert "lat_deg = -33.9" in out and "lon_deg = 18.4" in out and "alt_m = 40.0" in out
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["config", "init", "--locator", "JO2"], "must have 2, 4, 6 or 8 characters"),
+    (["config", "init", "--lat", "52"], "give both --lat and --lon"),
+    (["config", "init", "--lat", "52", "--lon", "4", "--locator", "JO22"], "not both"),
+    (["passes", "ISS", "--locator", "XX22"], "--locator: Maidenhead locator 'XX22'"),
+    (["passes", "ISS", "--locator", "JO22", "--lat", "52"], "not both"),
+])
+def test_bad_locations_are_one_line(capsys, tmp_path, argv, message):
+    config = ["--config", str(tmp_path / "c.toml")] if argv[0] == "config" else []
+    code, _, err = run(capsys, *argv, *config)
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "c.toml").exists()
+
+
+def test_a_locator_flag_names_the_station(capsys):
+    code, out, _ = run(capsys, "passes", "ISS", "--locator", "JO22xb", "--at", AT, "--tle",
+                       SATS, "--hours", "2")
+    assert code == 0 and out.startswith("Passes of ISS (ZARYA) over JO22xb (52.0625, 5.9583)")
 
 
 def test_local_time_column_when_not_utc(capsys, monkeypatch):

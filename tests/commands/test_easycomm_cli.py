@@ -6,6 +6,8 @@ from __future__ import annotations
 import json
 from datetime import datetime, timezone
 
+from _virtual import newest_bench
+
 from tracker.cli import main
 
 AT = "2026-08-23T02:00:00Z"
@@ -18,7 +20,6 @@ def _config(tmp_path, monkeypatch) -> None:
 
 
 def test_track_a_pass_on_emu_easycomm2(tmp_path, capsys, monkeypatch):
-    from tracker.emulator import virtual
 
     _config(tmp_path, monkeypatch)
     log = tmp_path / "track.jsonl"
@@ -29,7 +30,7 @@ def test_track_a_pass_on_emu_easycomm2(tmp_path, capsys, monkeypatch):
     assert rc == 0 and "pass 1:" in out, out
     recs = [json.loads(line) for line in log.read_text().splitlines()]
     assert any(r.get("state") == "pass_done" for r in recs)
-    bench = next(b for name, b in virtual._BENCHES.items() if name.startswith(url + "#"))
+    bench = newest_bench(url)
     try:
         wire = bench.bytes_written()
         gotos = [r for r in recs if r["kind"] == "command" and r["cmd"] == "goto"]

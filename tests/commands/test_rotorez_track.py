@@ -11,7 +11,7 @@ import re
 import numpy as np
 import pytest
 from _stream_fakes import T0, arc_pass
-from _virtual import manual_clock, virtual_rig
+from _virtual import manual_clock, newest_bench, virtual_rig
 
 from tracker.emulator.factory import make_emulator
 from tracker.mount import preset
@@ -80,7 +80,6 @@ def test_tracker_track_cli_drives_a_rotor_ez(tmp_path, capsys, monkeypatch):
     import json
 
     from tracker.cli import main
-    from tracker.emulator import virtual
 
     cfg = tmp_path / "empty.toml"
     cfg.write_text("")
@@ -90,7 +89,7 @@ def test_tracker_track_cli_drives_a_rotor_ez(tmp_path, capsys, monkeypatch):
     rc = main(["track", "ISS (ZARYA)", "--port", url, "--protocol", "rotorez",
                "--rotator", "G-400", "--at", "2026-08-23T02:06:05Z", "--plain", "--log",
                str(log)])
-    bench = next(b for name, b in virtual._BENCHES.items() if name.startswith(url + "#"))
+    bench = newest_bench(url)
     bench.close()
     ctrl = bench.controller
     assert rc == 0, capsys.readouterr()

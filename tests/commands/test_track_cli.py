@@ -13,6 +13,7 @@ from datetime import datetime, timezone
 
 import pytest
 from _rigs import default_signals
+from _virtual import newest_bench
 
 from tracker.cli import main
 from tracker.clock import SimClock
@@ -78,7 +79,6 @@ def test_demo_at_a_speed_factor_still_runs_on_a_simulated_clock(tmp_path, capsys
 def test_track_on_an_emu_port_runs_the_pass_on_virtual_time(tmp_path, capsys, monkeypatch):
     """--port emu://PROFILE with --at: an in-process controller on the loop's virtual clock
     (no pty, no socket); all-stop is the last thing written."""
-    from tracker.emulator import virtual
 
     monkeypatch.setenv("TRACKER_CONFIG", _config(tmp_path))
     log = tmp_path / "track.jsonl"
@@ -92,7 +92,7 @@ def test_track_on_an_emu_port_runs_the_pass_on_virtual_time(tmp_path, capsys, mo
     done = next(r for r in recs if r.get("state") == "pass_done")
     deadband = float(re.search(r"deadband ([\d.]+)\)", out).group(1))
     assert done["max_error_deg"] <= plan["predicted_max_error_deg"] + deadband, (done, plan)
-    bench = next(b for name, b in virtual._BENCHES.items() if name.startswith(url + "#"))
+    bench = newest_bench(url)
     try:
         assert bench.bytes_written().endswith(b"S\r")
         lines = bench.bytes_written().split(b"\r")

@@ -142,3 +142,12 @@ def test_reply_with_a_digit_lost_or_doubled_is_refused_not_read(make_peer, reply
         _timed(d.position)
     assert ei.value.raw == reply.strip()
     d.close()
+
+
+def test_a_rotctld_reply_says_to_use_the_rotctld_protocol(make_peer):
+    peer = make_peer(lambda req: b"RPRT -1\n")
+    d = _driver(peer)
+    with pytest.raises(ProtocolError, match=r"a Hamlib rotctld answered C2, not a GS-232 "
+                                            r"controller: talk to it with protocol rotctld"):
+        _timed(d.position)
+    d.close()

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 from _paths import DATA
 
-from tle.catalog import Catalog, age_warning
+from tle.catalog import Catalog, age_warning, age_warnings
 from tle.checksum import compute_checksum
 from tle.errors import AmbiguousSatelliteError, TleFormatError, TleWarning, UnknownSatelliteError
 from tle.store import TleStore
@@ -138,22 +138,66 @@ def test_load_without_handler_warns_per_skipped_set():
     assert len(catalog) == 5 and len(record) == 1
 
 
-def test_broken_cache_falls_back_to_nothing_not_an_error(tmp_path):
+def test_broken_cache_leaves_the_snapshot_not_an_error(tmp_path, bundled):
     store = TleStore(cache_dir=tmp_path, clock=ManualClock(T0))
     _only_broken(tmp_path)  # the store's cache dir now holds one all-broken file
     seen: list[str] = []
     catalog = Catalog.default(store, on_warning=seen.append)
-    assert len(catalog) == 0 and len(seen) >= 1
+    assert len(catalog) == len(bundled) and len(seen) >= 1
 
 
-def test_default_prefers_the_cache(tmp_path):
+def test_default_unites_the_cache_and_the_snapshot(tmp_path, bundled):
     store = TleStore(cache_dir=tmp_path, clock=ManualClock(T0))
     assert Catalog.default(store).bundled
     (tmp_path / "mine.txt").write_bytes((TLE_DATA / "alpha5.txt").read_bytes())
     catalog = Catalog.default(store)
-    assert not catalog.bundled and len(catalog) == 2
+    assert not catalog.bundled and len(catalog) == len(bundled) + 2
     assert catalog.find("A0000").norad_id == 100000
     assert catalog.find("339999").name == "ALPHA FIVE HIGH"
+    # one updated group hides none of the bundled ones
+    assert catalog.find("NOAA 20 (JPSS-1)").norad_id == 43013
+    assert len(catalog.group("weather")) == len(bundled.group("weather"))
+    assert catalog.group_origins("mine") == ("cache",)
+    assert catalog.group_origins("weather") == ("bundled",)
+
+
+def test_the_freshest_set_of_an_object_wins(tmp_path, bundled):
+    iss = bundled.find("ISS")
+    newer = _with_epoch_day(iss, 300.5)   # 2026-10-27, after the snapshot
+    older = _with_epoch_day(iss, 200.5)
+    store = TleStore(cache_dir=tmp_path, clock=ManualClock(T0))
+    (tmp_path / "stations.txt").write_text(newer)
+    catalog = Catalog.default(store)
+    assert catalog.find("ISS").epoch.timetuple().tm_yday == 300
+    assert catalog.group_origins("stations") == ("bundled", "cache")
+    (tmp_path / "stations.txt").write_text(older)
+    assert Catalog.default(store).find("ISS").epoch == iss.epoch
+
+
+def _with_epoch_day(es, day: float) -> str:
+    """``es`` as 3LE text with its epoch moved to ``day`` of 2026 (checksum recomputed)."""
+    line1 = es.line1[:18] + f"26{day:012.8f}" + es.line1[32:68]
+    line1 += str(compute_checksum(line1))
+    return f"{es.name}\n{line1}\n{es.line2}\n"
+
+
+@pytest.mark.parametrize("typed", ["NOAA-20", "NOAA 20", "noaa20", "JPSS-1", "jpss 1",
+                                   "NOAA 20 (JPSS-1)"])
+def test_names_people_type_resolve(bundled, typed):
+    assert bundled.find(typed).name == "NOAA 20 (JPSS-1)"
+
+
+@pytest.mark.parametrize(("typed", "name"), [
+    ("ISS", "ISS (ZARYA)"), ("SO-50", "SAUDISAT 1C (SO-50)"), ("so 50", "SAUDISAT 1C (SO-50)"),
+    ("AO-7", "OSCAR 7 (AO-7)"), ("ao7", "OSCAR 7 (AO-7)"), ("NOAA-21", "NOAA 21 (JPSS-2)"),
+])
+def test_short_names_resolve(bundled, typed, name):
+    assert bundled.find(typed).name == name
+
+
+def test_did_you_mean_only_when_nothing_matches(bundled):
+    with pytest.raises(UnknownSatelliteError, match="did you mean"):
+        bundled.find("NOAA-19")   # not in the snapshot: the close names are offered
 
 
 def test_age_warning_thresholds(bundled):
@@ -164,3 +208,20 @@ def test_age_warning_thresholds(bundled):
     loud = age_warning(iss, iss.epoch + timedelta(days=45))
     assert loud.startswith("WARNING: elements for ISS (ZARYA) are 45 days old")
     assert "tracker tle update" in mild and "tracker tle update" in loud
+
+
+def test_elements_from_the_future_of_the_time_asked_are_flagged(bundled):
+    iss = bundled.find("ISS")
+    assert age_warning(iss, iss.epoch - timedelta(days=6)) is None
+    mild = age_warning(iss, iss.epoch - timedelta(days=10))
+    assert mild.startswith("elements for ISS (ZARYA) are from 10 days after the time asked")
+    loud = age_warning(iss, iss.epoch - timedelta(days=365))
+    assert loud.startswith("WARNING: elements for ISS (ZARYA) are from 365 days after")
+
+
+def test_many_stale_sets_get_one_summary_line(bundled):
+    sets = list(bundled.group("amateur"))
+    later = max(es.epoch for es in sets) + timedelta(days=60)
+    (line,) = age_warnings(sets, later)
+    assert line.startswith(f"WARNING: {len(sets)} of {len(sets)} element sets are more than 7")
+    assert len(age_warnings(sets[:3], later)) == 3

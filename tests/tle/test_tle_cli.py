@@ -110,3 +110,18 @@ def test_show_omm_file(cache, capsys):
 def test_bad_group_name(cache, capsys):
     assert main(["tle", "update", "no such group"]) == 2
     assert "neither a CelesTrak group name" in one_line_error(capsys)
+
+
+def test_one_updated_group_hides_no_bundled_one(cache, capsys, celestrak):
+    assert main(["tle", "update", "amateur", "--base-url", celestrak.base_url,
+                 "--at", AT]) == 0
+    capsys.readouterr()
+    assert main(["tle", "show", "NOAA-20", "--at", AT]) == 0
+    assert "NOAA 20 (JPSS-1)" in capsys.readouterr().out
+    assert main(["passes", "--group", "weather", "--hours", "1", "--at", AT,
+                 "--lat", "52", "--lon", "4"]) == 0
+    capsys.readouterr()
+    assert main(["tle", "list", "--at", AT]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"^amateur\s+\d+\s+[\d.]+ d\s+bundled \+ cache$", out, re.M), out
+    assert re.search(r"^weather\s+\d+\s+[\d.]+ d\s+bundled$", out, re.M), out

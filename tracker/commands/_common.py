@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Iterable
 from dataclasses import replace
 from datetime import datetime, timezone
 from typing import TYPE_CHECKING
@@ -91,6 +92,9 @@ def add_station_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--lat", type=float, metavar="DEG", help="latitude, degrees north")
     g.add_argument("--lon", type=float, metavar="DEG", help="longitude, degrees east")
     g.add_argument("--alt", type=float, metavar="M", help="altitude above the ellipsoid, m")
+    g.add_argument("--locator", metavar="LOC",
+                   help="Maidenhead locator (JO22, JO22xb, ...) instead of --lat/--lon: the "
+                        "centre of the square")
     g.add_argument("--min-el", type=float, metavar="DEG", dest="min_el",
                    help="minimum elevation, degrees (the horizon mask adds to it)")
     g.add_argument("--mask", metavar="FILE",
@@ -198,7 +202,7 @@ def config_from_args(args: argparse.Namespace) -> Config:
 
 def station_from_args(args: argparse.Namespace, quiet: bool = False) -> Station:
     """The station: config file ([station] or [station.NAME]) overridden by flags."""
-    from tracker.station import HorizonMask
+    from tracker.station import HorizonMask, position_name
 
     config = config_from_args(args)
     station = config.station_named(getattr(args, "station", None))
@@ -208,22 +212,42 @@ def station_from_args(args: argparse.Namespace, quiet: bool = False) -> Station:
         value = getattr(args, flag, None)
         if value is not None:
             changes[key] = float(value)
+    locator = getattr(args, "locator", None)
+    if locator is not None:
+        changes.update(_locator_position(locator, changes))
     if getattr(args, "mask", None):
         changes["mask"] = HorizonMask.load(args.mask)
     if config.station_is_default and not getattr(args, "station", None) and (
             "lat_deg" in changes or "lon_deg" in changes):
-        changes["name"] = "command-line"
+        changes["name"] = (locator.strip() if locator is not None else
+                           position_name(changes.get("lat_deg", station.lat_deg),
+                                         changes.get("lon_deg", station.lon_deg)))
     if changes:
         try:
             station = replace(station, **changes)
         except ConfigError as e:
             raise ConfigError(f"command line: {e}") from None
-    if (config.station_is_default and not getattr(args, "station", None)
+    if (config.station_is_placeholder and not getattr(args, "station", None)
             and "lat_deg" not in changes and not quiet):
-        print(f"tracker: note: no station configured, using {station.name} "
-              f"(lat {station.lat_deg}, lon {station.lon_deg}); run `tracker config init` "
-              f"or pass --lat/--lon", file=sys.stderr)
+        where = ("no station configured" if config.station_is_default else
+                 f"the station in {config.path} is still the placeholder")
+        print(f"tracker: note: {where}, using {station.name} (lat {station.lat_deg}, lon "
+              f"{station.lon_deg}); run `tracker config init --locator LOC --force` (or "
+              f"--lat/--lon), or pass --lat/--lon or --locator", file=sys.stderr)
     return station
+
+
+def _locator_position(locator: str, changes: dict) -> dict[str, float]:
+    """``--locator``'s position, refused together with --lat/--lon."""
+    from tracker.station import locator_lat_lon
+
+    if "lat_deg" in changes or "lon_deg" in changes:
+        raise ConfigError("give either --locator or --lat/--lon, not both")
+    try:
+        lat_deg, lon_deg = locator_lat_lon(locator)
+    except ConfigError as e:
+        raise ConfigError(f"--locator: {e}") from None
+    return {"lat_deg": lat_deg, "lon_deg": lon_deg}
 
 
 def catalog_from_args(args: argparse.Namespace):
@@ -250,6 +274,25 @@ def catalog_from_args(args: argparse.Namespace):
     except AttributeError:  # pragma: no cover
         pass
     return catalog
+
+
+def warn_element_age(targets: Iterable[object], now: datetime) -> None:
+    """The element-age warnings of every command that uses elements, on stderr: one line per
+    stale (or, against ``--at``, future) set, or one summary for many. ``targets`` are
+    targets (only satellites have elements) or element sets. Sets beyond the propagation
+    limit are left out: they are refused with their own line when used."""
+    from tle.catalog import age_warnings
+    from tracker.targets import MAX_PROPAGATION_DAYS
+
+    sets = []
+    for t in targets:
+        es = getattr(t, "elements", t)
+        if hasattr(es, "age_days") and abs(es.age_days(now)) <= MAX_PROPAGATION_DAYS:
+            sets.append(es)
+    for w in age_warnings(sets, now):
+        # The loud text already starts with "WARNING:".
+        label = "" if w.startswith("WARNING") else "warning: "
+        print(f"tracker: {label}{w}", file=sys.stderr)
 
 
 def target_from_args(name: str, args: argparse.Namespace) -> Target:

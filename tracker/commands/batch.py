@@ -24,6 +24,7 @@ from tracker.commands._common import (
     clock_from_args,
     rotator_from_args,
     station_from_args,
+    warn_element_age,
 )
 
 MAX_SKY_PLOTS = 50
@@ -146,6 +147,7 @@ def find(args: argparse.Namespace, elements: list, stations: list):
     end = start + timedelta(days=args.days)
     # In place: the table's satellite indices must index the caller's list too (plans_for).
     elements[:] = usable_elements(elements, start, end)
+    warn_element_age(elements, start)
     if args.dask is not None:
         table = find_passes_dask(elements, stations, start, end, args.min_el,
                                  address=args.dask or None, step_s=args.step)
@@ -206,12 +208,14 @@ def plans_for(args: argparse.Namespace, table, elements) -> list | None:
 def check_outputs(args: argparse.Namespace) -> None:
     """Refuse unusable output paths before the (possibly long) pass search."""
     from tracker.files import check_output
-    from tracker.plot import check_plot_path
+    from tracker.plot import check_plot_path, require_matplotlib
 
     if args.out:
         check_output(args.out, force=args.force, label="--out")
     if getattr(args, "plot", None):
         check_plot_path(args.plot, force=args.force, label="--plot")
+    if getattr(args, "sky_plots", None):
+        require_matplotlib()
 
 
 def emit(args: argparse.Namespace, text: str) -> None:

@@ -12,9 +12,17 @@ def register(sub) -> None:
                        description="Manage the TOML config file (station, rotators, "
                                    "tracking defaults).")
     csub = p.add_subparsers(dest="config_command", metavar="ACTION")
-    init = csub.add_parser("init", help="write a commented template config file")
+    init = csub.add_parser("init", help="write a commented template config file",
+                           description="Write a commented config file with your station: "
+                                       "--lat/--lon (and --alt) or a Maidenhead --locator.")
     init.add_argument("--force", action="store_true",
                       help="overwrite an existing file (otherwise it is never touched)")
+    init.add_argument("--lat", type=float, metavar="DEG", help="station latitude, degrees north")
+    init.add_argument("--lon", type=float, metavar="DEG", help="station longitude, degrees east")
+    init.add_argument("--alt", type=float, default=0.0, metavar="M",
+                      help="station altitude above the ellipsoid, m (default 0)")
+    init.add_argument("--locator", metavar="LOC",
+                      help="Maidenhead locator (JO22, JO22xb, ...) instead of --lat/--lon")
     add_config_arg(init)
     init.set_defaults(func=run_init)
     show = csub.add_parser("show", help="print the effective config as TOML "
@@ -36,10 +44,24 @@ def _path(args: argparse.Namespace):
 
 
 def run_init(args: argparse.Namespace) -> int:
-    from tracker.config import write_template
+    from tracker.config import template_text, write_template
+    from tracker.errors import ConfigError
 
-    path = write_template(_path(args), force=args.force)
-    print(f"wrote {path}; edit [station] (lat_deg, lon_deg, alt_m) and [rotator.home]")
+    if args.locator is not None and (args.lat is not None or args.lon is not None):
+        raise ConfigError("give either --locator or --lat/--lon, not both")
+    if (args.lat is None) != (args.lon is None):
+        raise ConfigError("give both --lat and --lon (or a Maidenhead --locator)")
+    try:
+        text = template_text(args.lat, args.lon, args.alt, args.locator)
+    except ConfigError as e:
+        raise ConfigError(f"command line: {e}") from None
+    path = write_template(_path(args), force=args.force, text=text)
+    if args.locator is None and args.lat is None:
+        print(f"wrote {path} with the placeholder station 52.0 N 4.4 E; set [station] "
+              f"lat_deg/lon_deg (or locator) there, or run `tracker config init --locator LOC "
+              f"--force` (or --lat/--lon); commands say so until then")
+    else:
+        print(f"wrote {path}; edit [rotator.home] and [tracking] for your rotator")
     return 0
 
 

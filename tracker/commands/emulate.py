@@ -34,6 +34,9 @@ def register(sub) -> None:
                    help="send CR after every set command, as the manual says")
     p.add_argument("--one-space", action="store_true", help="C2 reply with one space")
     p.add_argument("--readback-360", action="store_true", help="report 0-359 in 450 mode")
+    p.add_argument("--gs23", action="store_true",
+                   help="sak232 only: also answer the GS-23 subset (Mxxx, S, C -> +0aaa) that "
+                        "a logger set to 'Yaesu GS-23' sends, as the SAK-232 guide advises")
     p.add_argument("--end", choices=("stay", "clear"), default=None,
                    help="after the last table point: stay there or clear the list")
     p.add_argument("--autobaud", action="store_true",
@@ -107,12 +110,30 @@ def _serve(ctrl, args: argparse.Namespace, needs_reopen: bool):
     return serve_pty(ctrl, link=link)
 
 
+def _controller_options(args: argparse.Namespace, entry):
+    """The emulator's switches (GS-232 ``--strict-acks`` ..., SAK-232 ``--gs23``), or None."""
+    from tracker.emulator import EmulatorOptions
+    from tracker.errors import ConfigError
+
+    if args.gs23:
+        if entry.name != "sak232":
+            raise ConfigError(f"--gs23 is a SAK-232 option; --protocol {entry.name} does not "
+                              "take it")
+        from tracker.emulator.sak232_controller import Sak232Options
+
+        return Sak232Options(gs23=True)
+    if entry.gs232_switches:
+        return EmulatorOptions(
+            strict_acks=args.strict_acks, one_space=args.one_space,
+            readback_360=args.readback_360, end_behaviour=args.end, autobaud=args.autobaud)
+    return None
+
+
 def run(args: argparse.Namespace) -> int:
     import time
 
     from tracker.clock import SimClock, SystemClock
     from tracker.controllers import controller
-    from tracker.emulator import EmulatorOptions
     from tracker.emulator.factory import check_start_position, make_emulator
     from tracker.emulator.faults import FaultPlan, install
     from tracker.errors import ConfigError
@@ -130,10 +151,9 @@ def run(args: argparse.Namespace) -> int:
     if entry.has_elevation:
         check_start_position(spec, args.az, args.el, az_name="--az", el_name="--el")
         kw["el_deg"] = args.el
-    if entry.gs232_switches:
-        kw["options"] = EmulatorOptions(
-            strict_acks=args.strict_acks, one_space=args.one_space,
-            readback_360=args.readback_360, end_behaviour=args.end, autobaud=args.autobaud)
+    options = _controller_options(args, entry)
+    if options is not None:
+        kw["options"] = options
     ctrl = make_emulator(args.protocol, clock, spec, **kw)
     injector = install(ctrl, plan) if plan.specs else None
     server = _serve(ctrl, args, plan.needs_reopen)

@@ -75,7 +75,7 @@ def next_line(target, station, now, days: float) -> tuple[str, bool]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tracker.commands.passes import warn_element_age
+    from tracker.commands._common import warn_element_age
 
     now = clock_from_args(args, manual=True).now()
     target = target_from_args(args.target, args)

@@ -22,10 +22,9 @@ from tracker.commands._common import (
     clock_from_args,
     station_from_args,
     target_from_args,
+    warn_element_age,
 )
 from tracker.targets import event_labels
-
-MAX_AGE_LINES = 3  # more stale targets than this get one summary line
 
 
 def register(sub) -> None:
@@ -62,7 +61,7 @@ def window_s(args: argparse.Namespace) -> float:
 
 
 def targets_from_args(args: argparse.Namespace, now: datetime) -> list:
-    """Named targets, or every satellite of --group (age warnings: :func:`warn_element_age`)."""
+    """Named targets, or every satellite of --group."""
     from tracker.errors import ConfigError
     from tracker.targets import SatelliteTarget
 
@@ -74,32 +73,6 @@ def targets_from_args(args: argparse.Namespace, now: datetime) -> list:
         raise ConfigError('name a target, e.g. tracker passes "ISS (ZARYA)", or a group, '
                           "e.g. tracker passes --group amateur")
     return targets
-
-
-def warn_element_age(targets, now: datetime) -> None:
-    """Element-age warnings on stderr: one line per target, or a summary for many."""
-    from tle.catalog import age_warning
-    from tracker.targets import MAX_PROPAGATION_DAYS
-
-    warnings = []
-    oldest = 0.0
-    for t in targets:
-        es = getattr(t, "elements", None)
-        if es is None or not hasattr(es, "age_days"):
-            continue
-        if abs(es.age_days(now)) > MAX_PROPAGATION_DAYS:
-            continue  # refused when propagated, with its own line: no warning on top
-        w = age_warning(es, now)
-        if w:
-            warnings.append(w)
-            oldest = max(oldest, es.age_days(now))
-    if len(warnings) <= MAX_AGE_LINES:
-        for w in warnings:
-            print(f"tracker: {w}", file=sys.stderr)
-    else:
-        print(f"tracker: WARNING: {len(warnings)} of {len(targets)} element sets are more than "
-              f"7 days old (oldest {oldest:.0f} days): predictions may be off; run "
-              f"`tracker tle update`", file=sys.stderr)
 
 
 def collect_passes(targets, station, start: datetime, end: datetime) -> list:

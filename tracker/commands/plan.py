@@ -25,6 +25,7 @@ from tracker.commands._common import (
     rotator_from_args,
     station_from_args,
     target_from_args,
+    warn_element_age,
 )
 
 
@@ -84,6 +85,7 @@ def run(args: argparse.Namespace) -> int:
     station = station_from_args(args, quiet=args.format != "table")
     spec = rotator_from_args(args)
     target = target_from_args(args.target, args)
+    warn_element_age([target], now)
     passes = find_passes(target, station, now, now + timedelta(hours=args.hours))
     if len(passes) < args.pass_no:
         raise TargetError(f"{target.name}: only {len(passes)} pass(es) in the next "

@@ -6,7 +6,7 @@ import argparse
 import statistics
 import sys
 
-from tracker.commands._common import add_time_args, clock_from_args
+from tracker.commands._common import add_time_args, clock_from_args, warn_element_age
 
 FORMAT_CHOICES = ("tle", "json", "csv", "xml")
 
@@ -89,6 +89,8 @@ def _age(seconds: float | None) -> str:
 
 
 def _list(args: argparse.Namespace) -> int:
+    from tle.catalog import Catalog
+
     store = _store(args)
     infos = store.list()
     if infos:
@@ -100,23 +102,27 @@ def _list(args: argparse.Namespace) -> int:
             print(f"{info.name:<14} {count:>6} {_age(info.checked_age_s):>9} {epoch_age:>12}  "
                   f"{info.url or info.path}")
         print(f"cache: {store.cache_dir}")
-        return 0
-    from tle.catalog import Catalog
-
-    catalog = Catalog.bundled_snapshot()
+        print()
+        catalog = Catalog.default(store)
+        print("the catalogue (every cached group and the bundled snapshot; the freshest set "
+              "of each object wins):")
+    else:
+        catalog = Catalog.bundled_snapshot()
+        print(f"no cached elements in {store.cache_dir}; using the bundled snapshot:")
     now_s = store.clock.timestamp()
-    print(f"no cached elements in {store.cache_dir}; using the bundled snapshot:")
-    print(f"{'group':<14} {'sets':>6} {'element age':>12}")
+    print(f"{'group':<14} {'sets':>6} {'element age':>12}  from")
     for name in catalog.groups:
         sets = list(catalog.group(name))
         median_age_d = statistics.median((now_s - es.epoch.timestamp()) / 86400.0 for es in sets)
-        print(f"{name:<14} {len(sets):>6} {median_age_d:>10.1f} d")
-    print(f"note: {catalog.note}")
+        origin = " + ".join(catalog.group_origins(name)) or "-"
+        print(f"{name:<14} {len(sets):>6} {median_age_d:>10.1f} d  {origin}")
+    if catalog.bundled:
+        print(f"note: {catalog.note}")
     return 0
 
 
 def _show(args: argparse.Namespace) -> int:
-    from tle.catalog import Catalog, age_warning
+    from tle.catalog import Catalog
 
     if args.tle:
         catalog = Catalog.load(args.tle, skip_bad=True,
@@ -136,11 +142,7 @@ def _show(args: argparse.Namespace) -> int:
         for key in ("MEAN_MOTION", "ECCENTRICITY", "INCLINATION", "RA_OF_ASC_NODE",
                     "ARG_OF_PERICENTER", "MEAN_ANOMALY", "BSTAR"):
             print(f"{key:<18} {es.omm[key]}")
-    warning = age_warning(es, now)
-    if warning:
-        # The loud (> 30 days) text already starts with "WARNING:".
-        label = "" if warning.startswith("WARNING") else "warning: "
-        print(f"tracker: {label}{warning}", file=sys.stderr)
+    warn_element_age([es], now)
     if catalog.bundled and catalog.note:
         print(f"tracker: note: {catalog.note}", file=sys.stderr)
     return 0

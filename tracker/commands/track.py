@@ -39,6 +39,7 @@ from tracker.commands._common import (
     protocol_help,
     station_from_args,
     target_from_args,
+    warn_element_age,
 )
 from tracker.errors import ConfigError, TargetError
 from tracker.transport import is_emulated
@@ -224,6 +225,7 @@ def _resolve(args) -> _Run:
     settings = [_settings(args, config, s) for s in specs]
     starts = [_start_time(args, t, demo) for t in targets]
     start = min(s for s, _note in starts)
+    warn_element_age(targets, start)  # the demo moved to a stale epoch says so in its note
     run = _Run(args, port, protocol, entry, station, targets, specs, settings, start,
                [note for _s, note in starts if note])
     run.firsts = [_first_pass(t, station, start) for t in targets]

@@ -81,7 +81,7 @@ def build_program(args: argparse.Namespace, now_s: float, current=None,
     in its 360 deg mode gets no overlap plan, one taking elevation up to 90 no flip."""
     from datetime import datetime, timedelta, timezone
 
-    from tracker.commands.passes import warn_element_age
+    from tracker.commands._common import warn_element_age
     from tracker.errors import ConfigError, LimitError
     from tracker.passes import find_passes
     from tracker.steptable import compile_pass

@@ -357,6 +357,11 @@ class Gs232Driver(LinkDriver):
                     raise ProtocolError(f"controller echoed {name}; echo is not GS-232 "
                                         f"behaviour (wrong protocol or a local-echo adapter?)",
                                         line)
+                if line.lstrip().startswith(b"RPRT"):
+                    # what Hamlib's rotctld answers to a command it does not know
+                    raise ProtocolError(f"a Hamlib rotctld answered {name}, not a GS-232 "
+                                        "controller: talk to it with protocol rotctld "
+                                        "(port HOST:PORT)", line)
                 return line
         assert last is not None
         raise last
