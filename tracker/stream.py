@@ -673,6 +673,17 @@ def _null_sink(kind: str, **data) -> None:
     return None
 
 
+def close_quietly(driver: object | None) -> None:
+    """Close a driver whose port may already be gone (unplugged, reset): nothing is left to
+    release then, and the error that lost it is reported elsewhere."""
+    if driver is None:
+        return
+    try:
+        driver.close()  # type: ignore[attr-defined]
+    except (TrackerError, OSError):
+        pass
+
+
 @dataclass
 class Link:
     """The driver plus how to get a new one when the port vanishes."""
@@ -690,11 +701,7 @@ class Link:
 
     def drop(self) -> None:
         drv, self.driver = self.driver, None
-        if drv is not None:
-            try:
-                drv.close()
-            except (TrackerError, OSError):
-                pass  # the port is already gone; nothing more to release
+        close_quietly(drv)
 
     def position(self) -> tuple[float, float | None]:
         reply = self.ensure().position()

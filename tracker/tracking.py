@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 
 from tracker.clock import Clock, SimClock
 from tracker.errors import ConfigError, TargetError, TrackerError
-from tracker.stream import EventSink, Link, PassResult, Status, StreamSettings
+from tracker.stream import EventSink, Link, PassResult, Status, StreamSettings, close_quietly
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
     from tracker.mount import RotatorSpec
@@ -401,11 +401,7 @@ class SharedAzAz:
 
     def _close(self) -> None:
         drv, self._drv = self._drv, None
-        if drv is not None:
-            try:
-                drv.close()
-            except (TrackerError, OSError):
-                pass   # the port is already gone; nothing more to release
+        close_quietly(drv)
 
     def all_stop(self) -> bool:
         """``S``: both antennas; True if it reached the controller."""

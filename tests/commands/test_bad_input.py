@@ -183,13 +183,7 @@ CASES = [
 ]
 
 
-@pytest.fixture(autouse=True)
-def isolated(tmp_path, monkeypatch):
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg-cache"))
-    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "xdg-config"))
-    monkeypatch.delenv("TRACKER_CONFIG", raising=False)
-    monkeypatch.delenv("TRACKER_CACHE_DIR", raising=False)
-    monkeypatch.setenv("TZ", "UTC")
+pytestmark = pytest.mark.usefixtures("isolated_home")
 
 
 def _files(tmp: Path) -> dict[str, str]:

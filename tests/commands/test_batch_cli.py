@@ -20,11 +20,7 @@ AT = "2026-08-22T13:45Z"
 STATIONS = "name,lat_deg,lon_deg,alt_m,min_el_deg\nDelft,52.0,4.37,10,0\nQuito,-0.2,-78.5,2850,5\n"
 
 
-@pytest.fixture(autouse=True)
-def isolated(tmp_path, monkeypatch):
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
-    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "config"))
-    monkeypatch.delenv("TRACKER_CONFIG", raising=False)
+pytestmark = pytest.mark.usefixtures("isolated_home")
 
 
 @pytest.fixture

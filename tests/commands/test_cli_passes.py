@@ -26,12 +26,7 @@ AT = "2026-08-23T00:00:00Z"
 HERE = ["--lat", "52.0", "--lon", "4.4", "--alt", "10"]
 
 
-@pytest.fixture(autouse=True)
-def isolated(tmp_path, monkeypatch):
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
-    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "config"))
-    monkeypatch.delenv("TRACKER_CONFIG", raising=False)
-    monkeypatch.setenv("TZ", "UTC")
+pytestmark = pytest.mark.usefixtures("isolated_home")
 
 
 def run(capsys, *argv) -> tuple[int, str, str]:

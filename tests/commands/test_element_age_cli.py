@@ -14,11 +14,8 @@ STALE = "WARNING: elements for ISS (ZARYA) are 44 days old"
 
 
 @pytest.fixture(autouse=True)
-def isolated(tmp_path, monkeypatch):
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
-    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "config"))
-    monkeypatch.delenv("TRACKER_CONFIG", raising=False)
-    monkeypatch.chdir(tmp_path)
+def isolated(isolated_home, monkeypatch):
+    monkeypatch.chdir(isolated_home)   # files the commands write land here
 
 
 @pytest.mark.parametrize("argv", [

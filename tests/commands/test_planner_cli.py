@@ -13,11 +13,7 @@ from tracker.cli import main
 AT = ["--at", "2026-08-23T00:00Z", "--lat", "48.15", "--lon", "11.57"]
 
 
-@pytest.fixture(autouse=True)
-def isolated(tmp_path, monkeypatch):
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
-    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "config"))
-    monkeypatch.delenv("TRACKER_CONFIG", raising=False)
+pytestmark = pytest.mark.usefixtures("isolated_home")
 
 
 def test_plan_report_lists_mode_reason_and_every_candidate(capsys):
