@@ -17,7 +17,6 @@ import numpy as np
 
 from tracker import celestial
 from tracker.errors import ConfigError, PropagationError
-from tracker.event_labels import event_labels as event_labels  # re-exported for commands
 from tracker.skytrack import SkyTrack
 from tracker.station import Station
 
