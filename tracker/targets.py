@@ -92,7 +92,7 @@ class SatelliteTarget:
     @classmethod
     def from_lines(cls, line1: str, line2: str, name: str = "") -> SatelliteTarget:
         """A target straight from two TLE lines (no catalogue)."""
-        from skyfield.api import EarthSatellite
+        from skyfield.sgp4lib import EarthSatellite
 
         from tracker.timescale import timescale
 
