@@ -3,7 +3,7 @@
 import pytest
 
 from tracker.cli import main
-from tracker.targets import event_labels
+from tracker.event_labels import event_labels
 
 AT = ["--at", "2026-08-23T00:00Z", "--lat", "52", "--lon", "4.4"]
 

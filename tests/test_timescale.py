@@ -39,3 +39,17 @@ def test_parse_iso_utc_refuses_junk():
 def test_utc_strftime_truncates_like_a_clock():
     assert utc_strftime(T.timestamp() + 0.9, "%H:%M:%S") == "13:45:08"
     assert utc_strftime(T, "%Y-%m-%d %H:%M") == "2026-08-22 13:45"
+
+
+def test_the_shared_timescale_is_skyfields_builtin_one_without_its_downloader():
+    import numpy as np
+    from skyfield.api import load
+
+    from tracker.timescale import timescale
+
+    ours, theirs = timescale(), load.timescale(builtin=True)
+    assert np.array_equal(ours.leap_dates, theirs.leap_dates)
+    assert np.array_equal(ours.leap_offsets, theirs.leap_offsets)
+    seconds = np.linspace(-3e9, 3e9, 2001)
+    a, b = ours.utc(2000, 1, 1, 0, 0, seconds), theirs.utc(2000, 1, 1, 0, 0, seconds)
+    assert np.array_equal(a.tt, b.tt) and np.array_equal(a.dut1, b.dut1)

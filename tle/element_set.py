@@ -61,7 +61,7 @@ class ElementSet:
 
     def earth_satellite(self, ts):
         """A skyfield ``EarthSatellite`` on timescale ``ts``, keeping this set's name."""
-        from skyfield.api import EarthSatellite
+        from skyfield.sgp4lib import EarthSatellite
 
         if self.line1 is not None and self.line2 is not None:
             return EarthSatellite(self.line1, self.line2, self.name, ts)

@@ -9,7 +9,6 @@ Last-Modified, ETag, count) lives in ``sources.json`` beside the element files.
 
 from __future__ import annotations
 
-import http.client
 import json
 import math
 import os
@@ -19,16 +18,17 @@ import statistics
 import tempfile
 import threading
 import time
-import urllib.error
 import urllib.parse
-import urllib.request
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from tle.elements import parse_text, sniff_format
 from tle.errors import TleError, TleFetchError
+
+if TYPE_CHECKING:
+    import urllib.request
 
 DEFAULT_BASE_URL = "https://celestrak.org/NORAD/elements/gp.php"
 DEFAULT_GROUPS = ("amateur", "weather", "stations", "visual")
@@ -109,6 +109,8 @@ class _Deadline:
 def _opener(deadline: _Deadline) -> urllib.request.OpenerDirector:
     """A urllib opener whose connections connect within the time left and register their
     socket with ``deadline``."""
+    import http.client
+    import urllib.request
 
     def bounded(base):
         class Connection(base):
@@ -131,6 +133,8 @@ def _opener(deadline: _Deadline) -> urllib.request.OpenerDirector:
 
 
 def _read_body(reply, url: str, max_bytes: int) -> bytes:
+    import http.client
+
     text = (reply.headers.get("Content-Length") or "").strip()
     length = int(text) if text.isdigit() else None
     if length is not None and length > max_bytes:
@@ -160,6 +164,11 @@ def urllib_fetch(url: str, headers: Mapping[str, str], timeout_s: float,
                  max_bytes: int | None = None) -> FetchResponse:
     """GET ``url`` with urllib within ``timeout_s`` for the whole request and at most
     ``max_bytes`` of body; 304 is a response, other HTTP errors raise TleFetchError."""
+    # The network modules (and ssl under them) load here, when a download happens: an
+    # offline command that only reads the cache never imports them.
+    import urllib.error
+    import urllib.request
+
     max_bytes = MAX_BODY_BYTES if max_bytes is None else max_bytes
     request = urllib.request.Request(url, headers={"User-Agent": USER_AGENT, **headers})
     with _Deadline(timeout_s) as deadline:
@@ -187,6 +196,9 @@ def urllib_fetch(url: str, headers: Mapping[str, str], timeout_s: float,
 
 
 def _fetch_error(url: str, timeout_s: float, e: Exception) -> TleFetchError:
+    import http.client
+    import urllib.error
+
     if isinstance(e, http.client.IncompleteRead):
         return TleFetchError(f"{url}: truncated download ({len(e.partial)} bytes arrived, "
                              f"{e.expected} missing); cached copy kept")

@@ -78,6 +78,7 @@ from tracker.errors import (
     TargetError,
     TrackerError,
 )
+from tracker.event_labels import event_labels
 from tracker.export import (
     CSV_FIELDS,
     PASS_FIELDS,
@@ -111,7 +112,7 @@ from tracker.steptable import (
     write_plan_file,
 )
 from tracker.stream import Link, PassResult, Status, StreamSettings, TrackCore, run_pass
-from tracker.targets import SatelliteTarget, Target, event_labels, resolve_target
+from tracker.targets import SatelliteTarget, Target, resolve_target
 from tracker.tracking import (
     DemoTime,
     PassFollower,

@@ -230,7 +230,7 @@ class FixedTarget(_SkyfieldTarget):
     dec_deg: float = 0.0
 
     def _body(self, kernel):
-        from skyfield.api import Star
+        from skyfield.starlib import Star
 
         return Star(ra_hours=self.ra_hours, dec_degrees=self.dec_deg)
 

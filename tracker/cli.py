@@ -36,7 +36,22 @@ class Parser(argparse.ArgumentParser):
         raise UsageError(f"tracker: error: {message} (see '{self.prog} --help')")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def _named_command(argv: Sequence[str]) -> str | None:
+    """The command module ``argv`` names (its first word that is not a global option), or None."""
+    names = {info.name for info in pkgutil.iter_modules(tracker.commands.__path__)
+             if not info.name.startswith("_")}
+    words = iter(argv)
+    for word in words:
+        if word == "--config":
+            next(words, None)
+        elif not word.startswith("-"):
+            return word if word in names else None
+    return None
+
+
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The whole command line; given ``argv`` that names a command, only that command's
+    parser is built (each command module imports what it needs: the others need not load)."""
     parser = Parser(
         prog="tracker",
         description="Satellite and celestial pass tracker for GS-232 class antenna rotators.")
@@ -46,8 +61,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--config", metavar="FILE", dest="global_config",
                         help="config file (default: $TRACKER_CONFIG or the user config dir)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    named = _named_command(argv) if argv is not None else None
     for info in sorted(pkgutil.iter_modules(tracker.commands.__path__), key=lambda m: m.name):
-        if info.name.startswith("_"):
+        if info.name.startswith("_") or named not in (None, info.name):
             continue
         module = importlib.import_module(f"tracker.commands.{info.name}")
         module.register(sub)
@@ -88,7 +104,8 @@ def _refuse_empty_values(parser: argparse.ArgumentParser, args: argparse.Namespa
 def main(argv: Sequence[str] | None = None) -> int:
     from tle.errors import TleError
 
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(argv)
     try:
         args = parser.parse_args(argv)
         _refuse_empty_values(parser, args)

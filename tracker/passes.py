@@ -266,6 +266,12 @@ def _spans_from_grid(t: np.ndarray, up: np.ndarray, g
     """Turn a sampled up/down mask into refined spans (edges of the grid = unknown)."""
     change = np.flatnonzero(up[1:] != up[:-1])
     cross = _bisect_crossings(g, t[change], t[change + 1], up[change])
+    return _spans_from_crossings(t, up, change, cross)
+
+
+def _spans_from_crossings(t: np.ndarray, up: np.ndarray, change: np.ndarray,
+                          cross: np.ndarray) -> list[tuple[float, float, bool, bool]]:
+    """Spans from a sampled up/down mask and the refined crossing in each changing cell."""
     rising = ~up[change]
     spans = []
     start: float | None = float(t[0]) if up[0] else None
@@ -281,19 +287,93 @@ def _spans_from_grid(t: np.ndarray, up: np.ndarray, g
     return spans
 
 
-def _refine_against_mask(spans, g, s0: float, s1: float):
-    """Split/trim the lowest-level spans where ``g`` (the real horizon) says down."""
+def _flat_horizon(station: Station) -> bool:
+    """True if the horizon is one level all round (no mask, or a mask below the minimum
+    elevation everywhere): then find_events' crossings are the real ones."""
+    if station.mask is None:
+        return True
+    return float(np.max(station.horizon_at(np.asarray(station.mask.az_deg)))) == \
+        _lowest_horizon(station)
+
+
+def _refine_satellite_spans(spans, g, s0: float, s1: float, flat: bool):
+    """find_events' spans (at the lowest horizon level, good to 0.5 s) refined against the
+    real horizon ``g`` to :data:`TIME_TOL_S`.
+
+    On a flat horizon only each crossing's bracket of +-:data:`_EDGE_S` is bisected; a span
+    whose brackets do not hold one crossing each (find_events off by more, a grazing pass),
+    and every span under a mask, is sampled over its whole length (where the mask may split
+    or trim it). Either way, all spans at once: one vectorised call per step."""
+    rest = spans
+    out: list[tuple[float, float, bool, bool]] = []
+    if flat:
+        out, rest = _refine_edges(spans, g, s0, s1)
+    return sorted(out + _refine_on_grid(rest, g, s0, s1))
+
+
+def _refine_edges(spans, g, s0: float, s1: float):
+    """Bisect each known rise/set in its +-:data:`_EDGE_S` bracket (flat horizon). Returns
+    the refined spans and those whose brackets were not sound."""
+    if not spans:
+        return [], []
+    rows = []  # (lo, hi, up at lo, span index, a crossing to bisect)
+    for k, (a, b, a_known, b_known) in enumerate(spans):
+        mid = 0.5 * (a + b)  # up, between a rise and its set at the same level
+        # an unknown edge is the search limit, where the target must be up: a point check
+        rows.append((max(a - _EDGE_S, s0), min(a + _EDGE_S, mid), False, k, True) if a_known
+                    else (a, a, True, k, False))
+        rows.append((max(b - _EDGE_S, mid), min(b + _EDGE_S, s1), True, k, True) if b_known
+                    else (b, b, True, k, False))
+    lo_a, hi_a, up_lo_a, owner_a, known_a = (np.array(col) for col in zip(*rows, strict=True))
+    lo_a, hi_a = lo_a.astype(float), hi_a.astype(float)
+    up_lo_a, known_a = up_lo_a.astype(bool), known_a.astype(bool)
+    up = _up(g(np.concatenate([lo_a, hi_a])))
+    n = lo_a.size
+    edge = known_a & (hi_a > lo_a)
+    sound = (up[:n] == up_lo_a) & np.where(edge, up[n:] != up_lo_a, up[n:]) & (
+        edge | ~known_a)
+    bad = np.zeros(len(spans), dtype=bool)
+    np.logical_or.at(bad, owner_a, ~sound)
+    use = edge & ~bad[owner_a]
+    when = lo_a.copy()
+    when[use] = _bisect_crossings(g, lo_a[use], hi_a[use], up_lo_a[use])
     out = []
+    for k, (a, b, a_known, b_known) in enumerate(spans):
+        if not bad[k]:
+            first, second = when[owner_a == k].tolist()
+            out.append((first if a_known else a, second if b_known else b, a_known, b_known))
+    return out, [span for span, no in zip(spans, bad.tolist(), strict=True) if no]
+
+
+def _refine_on_grid(spans, g, s0: float, s1: float):
+    """Split/trim the lowest-level spans where ``g`` (the real horizon) says down: each span
+    sampled every 5 s (long ones in 1500 steps), all spans in one call, every changing cell
+    bisected at once."""
+    if not spans:
+        return []
+    grids, bounds = [], []
     for a, b, a_known, b_known in spans:
         lo = a - _EDGE_S if a_known else a
         hi = b + _EDGE_S if b_known else b
         lo, hi = max(lo, s0), min(hi, s1)
         step = 5.0 if hi - lo < 7200.0 else (hi - lo) / 1500.0
-        n = max(3, math.ceil((hi - lo) / step) + 1)
-        t = np.linspace(lo, hi, n)
-        up = _up(g(t))
-        for c, d, c_known, d_known in _spans_from_grid(t, up, g):
-            out.append((c, d, c_known or (c > lo), d_known or (d < hi)))
+        grids.append(np.linspace(lo, hi, max(3, math.ceil((hi - lo) / step) + 1)))
+        bounds.append((lo, hi))
+    t = np.concatenate(grids)
+    up = _up(g(t))
+    seg = np.repeat(np.arange(len(grids)), [len(x) for x in grids])
+    change = np.flatnonzero((up[1:] != up[:-1]) & (seg[1:] == seg[:-1]))
+    cross = _bisect_crossings(g, t[change], t[change + 1], up[change])
+    out = []
+    offset = 0
+    for k, (lo, hi) in enumerate(bounds):
+        size = len(grids[k])
+        mine = (change >= offset) & (change < offset + size - 1)
+        pieces = _spans_from_crossings(t[offset:offset + size], up[offset:offset + size],
+                                       change[mine] - offset, cross[mine])
+        out += [(c, d, c_known or (c > lo), d_known or (d < hi))
+                for c, d, c_known, d_known in pieces]
+        offset += size
     return out
 
 
@@ -372,7 +452,7 @@ def find_passes(target: Target, station: Station, start: datetime | float,
     g = _margin_fn(azel, station)
     if isinstance(target, SatelliteTarget):
         spans, s0, s1 = _satellite_spans(target, station, t0, t1)
-        spans = _refine_against_mask(spans, g, s0, s1)
+        spans = _refine_satellite_spans(spans, g, s0, s1, _flat_horizon(station))
     else:
         spans, s0, s1 = _generic_spans(target, station, g, t0, t1)
     spans = [s for s in spans if s[1] > t0 and s[0] < t1]

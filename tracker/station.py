@@ -117,7 +117,7 @@ class Station:
 
     def topos(self):
         """The skyfield geographic position of the station (WGS84)."""
-        from skyfield.api import wgs84
+        from skyfield.toposlib import wgs84
 
         return wgs84.latlon(self.lat_deg, self.lon_deg, elevation_m=self.alt_m)
 

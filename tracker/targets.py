@@ -17,7 +17,6 @@ import numpy as np
 
 from tracker import celestial
 from tracker.errors import ConfigError, PropagationError
-from tracker.event_labels import event_labels as event_labels  # re-exported for commands
 from tracker.skytrack import SkyTrack
 from tracker.station import Station
 
@@ -93,7 +92,7 @@ class SatelliteTarget:
     @classmethod
     def from_lines(cls, line1: str, line2: str, name: str = "") -> SatelliteTarget:
         """A target straight from two TLE lines (no catalogue)."""
-        from skyfield.api import EarthSatellite
+        from skyfield.sgp4lib import EarthSatellite
 
         from tracker.timescale import timescale
 

@@ -20,10 +20,20 @@ _UNIX_EPOCH_JD = 2440587.5
 
 @lru_cache(maxsize=1)
 def timescale():
-    """The shared skyfield ``Timescale`` (built-in leap-second and ΔT tables, no download)."""
-    from skyfield.api import load
+    """The shared skyfield ``Timescale`` (built-in leap-second and ΔT tables, no download).
 
-    return load.timescale(builtin=True)
+    Built from the tables skyfield bundles exactly as ``skyfield.api.load.timescale(builtin=
+    True)`` builds it, but without ``skyfield.api``: that imports skyfield's downloader, and
+    with it ``ssl`` and ``urllib.request``, which an offline command has no use for.
+    """
+    from skyfield.functions import load_bundled_npy
+    from skyfield.timelib import Timescale
+
+    arrays = load_bundled_npy("iers.npz")
+    tt_minus_day = arrays["tt_jd_minus_arange"]
+    daily_tt = tt_minus_day + np.arange(len(tt_minus_day))
+    daily_delta_t = (arrays["delta_t_1e7"] / 1e7).round(7)
+    return Timescale((daily_tt, daily_delta_t), arrays["leap_dates"], arrays["leap_offsets"])
 
 
 def time_from_posix(t_s):

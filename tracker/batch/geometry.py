@@ -183,8 +183,7 @@ def orbit_bounds(satrec) -> tuple[float, float]:
 
 def dut1_s(start_utc) -> float:
     """UT1 - UTC at ``start_utc`` from skyfield's bundled IERS table (changes ~ms per week)."""
-    from skyfield.api import load
+    from tracker.timescale import timescale
 
-    ts = load.timescale(builtin=True)
-    value = float(ts.from_datetime(start_utc).dut1)
+    value = float(timescale().from_datetime(start_utc).dut1)
     return value if math.isfinite(value) else 0.0

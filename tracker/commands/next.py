@@ -19,7 +19,7 @@ from tracker.commands._common import (
     station_from_args,
     target_from_args,
 )
-from tracker.targets import event_labels
+from tracker.event_labels import event_labels
 
 
 def register(sub) -> None:

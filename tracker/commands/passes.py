@@ -24,7 +24,7 @@ from tracker.commands._common import (
     target_from_args,
     warn_element_age,
 )
-from tracker.targets import event_labels
+from tracker.event_labels import event_labels
 
 
 def register(sub) -> None:
