@@ -167,7 +167,7 @@ def test_env_var_and_explicit_path(tmp_path, monkeypatch):
     monkeypatch.setenv("TRACKER_CONFIG", str(p))
     assert load_config().station.name == "envst"
     monkeypatch.setenv("TRACKER_CONFIG", str(tmp_path / "missing.toml"))
-    with pytest.raises(ConfigError, match=r"does not exist.*tracker config init"):
+    with pytest.raises(ConfigError, match=r"does not exist; create it with write_template"):
         load_config()
     with pytest.raises(ConfigError, match="does not exist"):
         load_config(tmp_path / "other.toml")

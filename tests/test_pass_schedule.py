@@ -105,7 +105,7 @@ def test_parse_priorities(tmp_path):
     f.write_text("ISS=high\n")
     with pytest.raises(ConfigError, match=r"prio\.txt:1: expected NAME=N"):
         parse_priorities([], f)
-    with pytest.raises(ConfigError, match="--priority X=-1"):
+    with pytest.raises(ConfigError, match=r"^priority X=-1: "):
         parse_priorities(["X=-1"])
     with pytest.raises(ConfigError, match="cannot read"):
         parse_priorities([], tmp_path / "missing.txt")

@@ -2,8 +2,41 @@
 
 from __future__ import annotations
 
+from typing import TypeVar
 
-class TleError(ValueError):
+
+class AdvisedError(Exception):
+    """An error whose message may end in advice worded for a Python caller.
+
+    ``problem`` is then the message without that advice and ``advice`` the advice (naming
+    parameters and functions), so a front end can put its own after the problem (the CLI's
+    flags: :meth:`advise`). Both are empty when the whole message is the problem. The root of
+    ``tle``'s errors and of ``tracker``'s (:class:`tracker.errors.TrackerError`).
+    """
+
+    problem: str = ""
+    advice: str = ""
+
+    def advise(self, advice: str) -> AdvisedError:
+        """This error with its advice replaced by ``advice``; one without advice is kept."""
+        if self.problem:
+            self.advice = advice
+            self.args = (self.problem + advice,)
+        return self
+
+
+E = TypeVar("E", bound=AdvisedError)
+
+
+def with_advice(error_type: type[E], problem: str, advice: str) -> E:
+    """``error_type(problem + advice)`` that remembers both (see :class:`AdvisedError`)."""
+    error = error_type(problem + advice)
+    error.problem = problem
+    error.advice = advice
+    return error
+
+
+class TleError(AdvisedError, ValueError):
     """Root of every element-set problem; the CLI prints it on one line and exits 2."""
 
 

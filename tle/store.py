@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from tle.elements import parse_text, sniff_format
-from tle.errors import TleError, TleFetchError
+from tle.errors import TleError, TleFetchError, with_advice
 
 if TYPE_CHECKING:
     import urllib.request
@@ -267,7 +267,7 @@ def resolve_source(spec: str, base_url: str = DEFAULT_BASE_URL, fmt: str = "tle"
 
 
 def _check_url(url: str, what: str) -> None:
-    """Only http(s) URLs with a host are downloaded (a local file is read with --tle FILE)."""
+    """Only http(s) URLs with a host are downloaded (a local file is read with Catalog.load)."""
     try:
         parts = urllib.parse.urlsplit(url)
         parts.port   # noqa: B018  # parsed on access: a bad port or IPv6 literal raises here
@@ -275,8 +275,8 @@ def _check_url(url: str, what: str) -> None:
         raise TleError(f"{what} is not a valid URL ({e}); give a CelesTrak-style http:// "
                        "or https:// URL") from None
     if parts.scheme.lower() not in ("http", "https") or not parts.netloc:
-        raise TleError(f"{what} is not an http:// or https:// URL with a host; give a "
-                       "CelesTrak-style URL (a local file is read with --tle FILE)")
+        raise with_advice(TleError, f"{what} is not an http:// or https:// URL with a host; "
+                          "give a CelesTrak-style URL", " (a local file is read with Catalog.load)")
 
 
 def default_cache_dir() -> Path:
@@ -319,9 +319,9 @@ def _count(entry: Mapping[str, Any]) -> int:
 
 
 def _cache_write_error(path: Path, e: OSError) -> TleError:
-    return TleError(f"cannot write {path} ({e.strerror or e}); the element cache "
-                    f"{path.parent} must be a folder you can write (see --cache-dir or "
-                    "$TRACKER_CACHE_DIR); cached copy kept")
+    return with_advice(TleError, f"cannot write {path} ({e.strerror or e}); the element cache "
+                       f"{path.parent} must be a folder you can write",
+                       " (see cache_dir or $TRACKER_CACHE_DIR); cached copy kept")
 
 
 class _RealTime:
@@ -362,12 +362,12 @@ class TleStore:
         except FileNotFoundError:
             return {}
         except OSError as e:  # the folder itself is the problem, not the file's content
-            raise TleError(f"cannot read {self.meta_path} ({e.strerror}); the element cache "
-                           f"{self.cache_dir} must be a folder you can read and write (see "
-                           "--cache-dir or $TRACKER_CACHE_DIR)") from None
+            raise with_advice(TleError, f"cannot read {self.meta_path} ({e.strerror}); the "
+                              f"element cache {self.cache_dir} must be a folder you can read "
+                              "and write", " (see cache_dir or $TRACKER_CACHE_DIR)") from None
         except (ValueError, RecursionError) as e:
-            raise TleError(f"{self.meta_path}: unreadable cache metadata ({e}); delete it and "
-                           "run `tracker tle update --force`") from None
+            raise with_advice(TleError, f"{self.meta_path}: unreadable cache metadata ({e})",
+                              "; delete it and call update(force=True)") from None
         return data if isinstance(data, dict) else {}
 
     def _write_meta(self, meta: Mapping[str, Any]) -> None:
@@ -418,22 +418,27 @@ class TleStore:
         (the cached copies are kept).
         """
         results = []
+        first: TleError | None = None
         for spec in sources:
             source = spec if isinstance(spec, Source) else self.resolve(spec, fmt)
             try:
                 result = self.update_source(source, force=force)
             except TleError as e:
+                first = first or e
                 result = UpdateResult(source, "failed", 0, str(e))
             results.append(result)
             if on_result is not None:
                 on_result(result)
         failed = [r for r in results if r.status == "failed"]
-        if len(failed) == 1:
-            raise TleFetchError(failed[0].message)
         if failed:
+            assert first is not None
             names = ", ".join(r.source.name for r in failed)
-            raise TleFetchError(f"{len(failed)} of {len(results)} sources failed ({names}), "
-                                f"cached copies kept; first: {failed[0].message}")
+            summary = ("" if len(failed) == 1 else f"{len(failed)} of {len(results)} sources "
+                       f"failed ({names}), cached copies kept; first: ")
+            # the first failure's advice stays advice, for a front end to reword
+            if first.advice:
+                raise with_advice(TleFetchError, summary + first.problem, first.advice)
+            raise TleFetchError(summary + str(first))
         return results
 
     def update_source(self, source: Source, force: bool = False) -> UpdateResult:
@@ -486,10 +491,11 @@ class TleStore:
         # count against the cached copy gives it away.
         if force or old_count <= 0 or new_count >= MIN_KEPT_SHARE * old_count:
             return
-        raise TleFetchError(f"download from {source.url} holds {new_count} element sets where "
-                            f"the cached {source.name} has {old_count}; a group shrinking "
-                            f"that much is most likely a cut-short download, so it was "
-                            f"rejected and the cached copy kept (use --force to accept it)")
+        raise with_advice(TleFetchError, f"download from {source.url} holds {new_count} element "
+                          f"sets where the cached {source.name} has {old_count}; a group "
+                          f"shrinking that much is most likely a cut-short download, so it "
+                          f"was rejected and the cached copy kept",
+                          " (use force=True to accept it)")
 
     def _save_entry(self, name: str, entry: Mapping[str, Any]) -> None:
         meta = self._read_meta()

@@ -101,8 +101,15 @@ def _refuse_empty_values(parser: argparse.ArgumentParser, args: argparse.Namespa
         raise UsageError(f"tracker: error: {name} is empty; give a value (see '{prog} --help')")
 
 
+# The element store's advice (tle.store) in Python terms -> what the user types instead.
+_TLE_FLAG_TERMS = (("call update(force=True)", "run `tracker tle update --force`"),
+                   ("force=True", "--force"), ("cache_dir", "--cache-dir"),
+                   ("Catalog.load", "--tle FILE"))
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     from tle.errors import TleError
+    from tracker.commands._common import in_flag_terms
 
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(argv)
@@ -128,7 +135,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"tracker: error: {e.problem} (add --force to replace it, or choose another "
               f"name)", file=sys.stderr)
         return EXIT_USAGE
-    except (TrackerError, TleError) as e:
+    except TleError as e:
+        # the element store's advice names its parameters; on the command line they are these
+        print(f"tracker: error: {in_flag_terms(e, _TLE_FLAG_TERMS)}", file=sys.stderr)
+        return EXIT_USAGE
+    except TrackerError as e:
         print(f"tracker: error: {e}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt as e:

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from tracker.errors import ConfigError
+from tracker.errors import ConfigError, with_advice
 from tracker.mount import PRESETS, RotatorSpec, preset
 from tracker.station import STATION_RANGES, Station, locator_lat_lon, mask_file, parse_station
 
@@ -352,8 +352,8 @@ def load_config(path: str | Path | None = None) -> Config:
     p = Path(path).expanduser() if path is not None else default_config_path()
     if not p.exists():
         if explicit:
-            raise ConfigError(f"config file {p} does not exist; create it with "
-                              f"`tracker config init --config {p}`")
+            raise with_advice(ConfigError, f"config file {p} does not exist",
+                              "; create it with write_template(path)")
         return Config()
     return parse_config(_read_toml(p), p)
 
@@ -442,9 +442,9 @@ def write_template(path: Path, force: bool = False, text: str | None = None) -> 
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except (FileExistsError, NotADirectoryError):
-        raise ConfigError(f"{label} {path}: a part of the folder {path.parent} is a file, "
-                          "not a folder; choose another --config path") from None
+        raise with_advice(ConfigError, f"{label} {path}: a part of the folder {path.parent} "
+                          "is a file, not a folder", "; choose another path") from None
     except OSError as e:
-        raise ConfigError(f"{label} {path}: cannot create folder {path.parent} "
-                          f"({e.strerror}); choose another --config path") from None
+        raise with_advice(ConfigError, f"{label} {path}: cannot create folder {path.parent} "
+                          f"({e.strerror})", "; choose another path") from None
     return write_atomic(path, text, force=force, label=label)

@@ -77,7 +77,7 @@ class Controller:
     def emulator_factory(self) -> Callable[..., Any]:
         if self.emulator is None:
             raise ConfigError(f"protocol {self.name} has no emulator"
-                              + (f"; use --port {self.port_hint}" if self.port_hint else ""))
+                              + (f"; connect to {self.port_hint}" if self.port_hint else ""))
         return _resolve(self.emulator)
 
 

@@ -7,18 +7,17 @@ answering) is a ``TrackerError``; the CLI prints its message on one line and exi
 
 from __future__ import annotations
 
-from typing import TypeVar
+# The advice mechanism is shared with ``tle`` (which cannot import ``tracker``).
+from tle.errors import AdvisedError
+from tle.errors import with_advice as with_advice
 
 
-class TrackerError(Exception):
+class TrackerError(AdvisedError):
     """Root of every error the tracker raises on purpose.
 
-    ``problem`` is set when the message ends in advice worded for a Python caller (parameter
-    names): it is the message without that advice, so a front end can put its own (the CLI's
-    flags) after it. Empty when the whole message is the problem.
+    A message may end in advice worded for a Python caller (``problem`` and ``advice``, see
+    :class:`~tle.errors.AdvisedError`): the CLI replaces that advice with its flags.
     """
-
-    problem: str = ""
 
 
 class ConfigError(TrackerError, ValueError):
@@ -74,13 +73,3 @@ class ReadbackError(TrackerError):
     each other and every command) for longer than the loop may wait: the rotator was
     stopped rather than steered blind."""
 
-
-E = TypeVar("E", bound=TrackerError)
-
-
-def with_advice(error_type: type[E], problem: str, advice: str) -> E:
-    """``error_type(problem + advice)`` that remembers ``problem`` (see :class:`TrackerError`);
-    ``advice`` names parameters, and a front end may replace it with its own."""
-    error = error_type(problem + advice)
-    error.problem = problem
-    return error

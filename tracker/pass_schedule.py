@@ -49,7 +49,7 @@ def parse_priorities(items: list[str], path: str | Path | None = None) -> dict[s
             line = line.split("#", 1)[0].strip()
             if line:
                 sources.append((f"{path}:{no}", line))
-    sources += [(f"--priority {item}", item) for item in items]
+    sources += [(f"priority {item}", item) for item in items]
     for where, item in sources:
         sep = "=" if "=" in item else ","
         name, _, value = item.rpartition(sep)

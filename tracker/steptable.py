@@ -49,6 +49,9 @@ if TYPE_CHECKING:  # pragma: no cover - typing only
 
 # Host-side margin so the pre-position finishes before AOS even with a slow first reply.
 PREPOSITION_MARGIN_S = 5.0
+# How a Python caller makes a plan file, named in the advice of errors about one (the CLI
+# puts its own command there).
+MAKE_PLAN = "compile_pass() and write_plan_file()"
 BITS_PER_BYTE = 10  # 8N1: start + 8 data + stop
 
 
@@ -331,9 +334,9 @@ def check_tables_fit(tables: Sequence[StepTable], spec: RotatorSpec, station: St
         if bad.any():
             k = int(np.flatnonzero(bad)[0])
             point = f"{int(wire[k]):03d}" + ("" if el is None else f" {int(el[k]):03d}")
-            raise LimitError(f"{source}: table {n} point {k + 1} ({point}) is {why}; make a "
-                             f"new plan for this rotator and station (tracker plan ... "
-                             f"--steptable FILE)")
+            raise with_advice(LimitError,
+                              f"{source}: table {n} point {k + 1} ({point}) is {why}",
+                              f"; make a new plan for this rotator and station ({MAKE_PLAN})")
 
 
 def compile_program(path: MountPath, spec: RotatorSpec, profile: TableProfile | str, *,
@@ -650,7 +653,7 @@ class PlanFile:
 def read_plan_text(path: str | Path) -> str:
     """The text of a plan file (a regular, bounded UTF-8 file; ConfigError otherwise)."""
     return read_text_file(path, "plan file", ConfigError,
-                          hint="write a plan file with `tracker plan ... --steptable FILE`")
+                          hint="a plan file holds '# table' headers and W/M lines")
 
 
 def read_plan_file(path: str | Path) -> PlanFile:
@@ -693,8 +696,7 @@ def read_plan_file(path: str | Path) -> PlanFile:
     if cur is not None:
         raise ConfigError(f"{path}: the last table has no T line (file cut short?)")
     if not tables:
-        raise ConfigError(f"{path}: no tables found; write one with "
-                          f"`tracker plan ... --steptable FILE`")
+        raise with_advice(ConfigError, f"{path}: no tables found", f"; write one with {MAKE_PLAN}")
     _check_header_agrees(path, header, tables[0])
     return PlanFile(tuple(tables), header)
 
@@ -704,18 +706,18 @@ def _check_header_agrees(path: Path, header: dict, first: StepTable) -> None:
     with them is a file edited by hand or damaged, and which of the two to trust is a guess."""
     interval = header.get("interval_s", "").split(" ", 1)[0]
     if interval and interval != str(first.interval_s):
-        raise ConfigError(f"{path}: the header says interval_s {interval} but the tables step "
-                          f"every {first.interval_s:03d}; regenerate the file with "
-                          f"`tracker plan ... --steptable FILE`")
+        raise with_advice(ConfigError, f"{path}: the header says interval_s {interval} but the "
+                          f"tables step every {first.interval_s:03d}",
+                          f"; regenerate the file with {MAKE_PLAN}")
     t_text = header.get("t_utc", "")
     try:
         t_ok = not t_text or abs(_parse_iso(t_text) - first.start_t_s) < 1.0
     except (ValueError, OverflowError):
         t_ok = False
     if not t_ok:
-        raise ConfigError(f"{path}: the header says t_utc {t_text} but the first table's T "
-                          f"time is {_iso(first.start_t_s)}; regenerate the file with "
-                          f"`tracker plan ... --steptable FILE`")
+        raise with_advice(ConfigError, f"{path}: the header says t_utc {t_text} but the first "
+                          f"table's T time is {_iso(first.start_t_s)}",
+                          f"; regenerate the file with {MAKE_PLAN}")
 
 
 def _table_from_lines(cur: dict, profile: TableProfile, path: Path, t_no: int
@@ -740,8 +742,8 @@ def _table_from_lines(cur: dict, profile: TableProfile, path: Path, t_no: int
     table = StepTable(kind, sss, float(profile.period_s(sss)), az, el, cur["upload"],
                       cur["arrive"], cur["start"], profile)
     if table.lines() != [line for _, line in cur["lines"]]:
-        raise ConfigError(f"{where}: table lines are not in the controller's exact format "
-                          f"(regenerate the file with `tracker plan --steptable`)")
+        raise with_advice(ConfigError, f"{where}: table lines are not in the controller's "
+                          f"exact format", f" (regenerate the file with {MAKE_PLAN})")
     return table
 
 

@@ -43,7 +43,7 @@ from tracker.mount import RotatorSpec
 from tracker.protocols.gs232 import is_error_reply
 from tracker.protocols.gs232_tables import decode_table_line
 from tracker.stall import STILL_DEG, TableWatch, stall_error
-from tracker.steptable import BITS_PER_BYTE, StepTable
+from tracker.steptable import BITS_PER_BYTE, MAKE_PLAN, StepTable
 
 # Reading N at a step boundary may see either side; allow this much clock slack.
 INDEX_SLACK_S = 0.6
@@ -405,8 +405,8 @@ def resume_schedule(tables: Sequence[StepTable], now_s: float, baud: int = 9600
         if rest is not None:
             out.append(rest)
     if not out:
-        raise ConfigError("the pass in this plan is over; nothing left to send. Plan the next "
-                          "pass (`tracker plan ... --steptable FILE`)")
+        raise with_advice(ConfigError, "the pass in this plan is over; nothing left to send",
+                          f". Plan the next pass ({MAKE_PLAN})")
     return out
 
 

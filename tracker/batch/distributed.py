@@ -42,7 +42,7 @@ def _client(address: str | None, n_workers: int, processes: bool, timeout_s: flo
     try:
         from dask.distributed import Client, LocalCluster
     except ImportError:
-        raise ConfigError("--dask needs dask.distributed: pip install "
+        raise ConfigError("find_passes_dask needs dask.distributed: pip install "
                           "'rotator-tracker[dask]'") from None
     if address:
         try:
@@ -52,7 +52,7 @@ def _client(address: str | None, n_workers: int, processes: bool, timeout_s: flo
         except (ValueError, TypeError) as e:
             # distributed parses the address itself; a typo (bad port, unknown scheme)
             # surfaces as ValueError/TypeError rather than a connection error.
-            raise ConfigError(f"--dask {address}: not a scheduler address ({e}); give "
+            raise ConfigError(f"address {address}: not a scheduler address ({e}); give "
                               f"e.g. tcp://host:8786, or no address for a local "
                               f"cluster") from None
     cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=processes,

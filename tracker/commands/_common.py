@@ -18,7 +18,7 @@ import sys
 from collections.abc import Iterable
 from dataclasses import replace
 from datetime import datetime, timezone
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 from tracker.errors import ConfigError
 
@@ -28,6 +28,30 @@ if TYPE_CHECKING:  # pragma: no cover - typing only
     from tracker.mount import RotatorSpec
     from tracker.station import Station
     from tracker.targets import Target
+
+
+E = TypeVar("E", bound=Exception)
+
+
+def in_flag_terms(error: E, terms: Iterable[tuple[str, str]]) -> E:
+    """``error`` worded for the command line: each Python term of its advice (a parameter, a
+    function; see :class:`~tle.errors.AdvisedError`) replaced, in order, by the flag or
+    command that does the same. The problem part is never touched; other errors are kept."""
+    advice = getattr(error, "advice", "")
+    if advice:
+        for python_term, cli_term in terms:
+            advice = advice.replace(python_term, cli_term)
+        error.advise(advice)  # type: ignore[attr-defined]
+    return error
+
+
+def flag_first(error: E, name: str, flag: str) -> E:
+    """``error`` worded for the command line: a library message that starts with ``name`` (a
+    parameter, or the function the flag turns on) starts with ``flag`` instead."""
+    text = str(error)
+    if text.startswith(name + " "):
+        error.args = (flag + text[len(name):],)
+    return error
 
 
 def protocol_help(default: str = "gs232b") -> str:
@@ -190,9 +214,17 @@ def config_from_args(args: argparse.Namespace) -> Config:
     cached = getattr(args, "_config", None)
     if cached is not None:
         return cached
-    from tracker.config import load_config
+    from pathlib import Path
 
-    config = load_config(getattr(args, "config", None))
+    from tracker.config import default_config_path, load_config
+
+    path = getattr(args, "config", None)
+    try:
+        config = load_config(path)
+    except ConfigError as e:
+        p = Path(path).expanduser() if path is not None else default_config_path()
+        raise in_flag_terms(e, [("write_template(path)",
+                                 f"`tracker config init --config {p}`")]) from None
     try:
         args._config = config
     except AttributeError:  # pragma: no cover - exotic namespaces

@@ -136,6 +136,7 @@ def find(args: argparse.Namespace, elements: list, stations: list):
 
     Element sets too far from their epoch for the window are removed from ``elements``."""
     from tracker.batch import find_passes_batch, find_passes_dask, satrecs_of
+    from tracker.commands._common import flag_first
     from tracker.errors import ConfigError
 
     if not (0 < args.days <= 60):
@@ -149,8 +150,12 @@ def find(args: argparse.Namespace, elements: list, stations: list):
     elements[:] = usable_elements(elements, start, end)
     warn_element_age(elements, start)
     if args.dask is not None:
-        table = find_passes_dask(elements, stations, start, end, args.min_el,
-                                 address=args.dask or None, step_s=args.step)
+        try:
+            table = find_passes_dask(elements, stations, start, end, args.min_el,
+                                     address=args.dask or None, step_s=args.step)
+        except ConfigError as e:
+            raise flag_first(flag_first(e, "find_passes_dask", "--dask"), "address",
+                             "--dask") from None
     else:
         satrecs, names = satrecs_of(elements)
         table = find_passes_batch(satrecs, names, stations, start, end, args.min_el,

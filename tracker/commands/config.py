@@ -44,6 +44,7 @@ def _path(args: argparse.Namespace):
 
 
 def run_init(args: argparse.Namespace) -> int:
+    from tracker.commands._common import in_flag_terms
     from tracker.config import template_text, write_template
     from tracker.errors import ConfigError
 
@@ -55,7 +56,10 @@ def run_init(args: argparse.Namespace) -> int:
         text = template_text(args.lat, args.lon, args.alt, args.locator)
     except ConfigError as e:
         raise ConfigError(f"command line: {e}") from None
-    path = write_template(_path(args), force=args.force, text=text)
+    try:
+        path = write_template(_path(args), force=args.force, text=text)
+    except ConfigError as e:
+        raise in_flag_terms(e, [("another path", "another --config path")]) from None
     if args.locator is None and args.lat is None:
         print(f"wrote {path} with the placeholder station 52.0 N 4.4 E; set [station] "
               f"lat_deg/lon_deg (or locator) there, or run `tracker config init --locator LOC "

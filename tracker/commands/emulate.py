@@ -93,6 +93,7 @@ def _check_args(args: argparse.Namespace) -> None:
 
 def _serve(ctrl, args: argparse.Namespace, needs_reopen: bool):
     """Serve ``ctrl`` on the TCP port or the pty the arguments ask for."""
+    from tracker.commands._common import flag_first
     from tracker.emulator import serve_pty, serve_tcp
     from tracker.errors import ConfigError
 
@@ -107,7 +108,10 @@ def _serve(ctrl, args: argparse.Namespace, needs_reopen: bool):
         import os
         import tempfile
         link = os.path.join(tempfile.mkdtemp(prefix="tracker-emu-"), "ttyEMU0")
-    return serve_pty(ctrl, link=link)
+    try:
+        return serve_pty(ctrl, link=link)
+    except ConfigError as e:
+        raise flag_first(e, "link", "--link") from None
 
 
 def _controller_options(args: argparse.Namespace, entry):

@@ -79,6 +79,7 @@ def check_priority_names(args: argparse.Namespace, elements: list) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from tracker.commands._common import flag_first
     from tracker.errors import ConfigError
     from tracker.export import pass_records, render
     from tracker.pass_schedule import parse_priorities, schedule_passes
@@ -86,7 +87,10 @@ def run(args: argparse.Namespace) -> int:
     if args.default_priority < 0:
         raise ConfigError("--default-priority must be 0 or more")
     check_number_arg(args, "settle", 0.0, MAX_SETTLE_S, "seconds")
-    priorities = parse_priorities(args.priority, args.priorities)
+    try:
+        priorities = parse_priorities(args.priority, args.priorities)
+    except ConfigError as e:
+        raise flag_first(e, "priority", "--priority") from None
     check_outputs(args)
     t0 = time.perf_counter()
     stations = stations_from_args(args)

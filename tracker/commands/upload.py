@@ -71,7 +71,7 @@ def register(sub) -> None:
     add_station_args(p)
     add_target_args(p)
     add_time_args(p)
-    p.set_defaults(func=run)
+    p.set_defaults(func=run_worded_for_cli)
 
 
 def build_program(args: argparse.Namespace, now_s: float, current=None,
@@ -134,6 +134,19 @@ def _inside_the_controller(spec: RotatorSpec, station, capabilities: Capabilitie
     if narrowed != spec:
         print(f"planning inside the controller's limits: {limits.describe()}", flush=True)
     return narrowed
+
+
+def run_worded_for_cli(args: argparse.Namespace) -> int:
+    """:func:`run`, its errors about plan files advising the command that makes one."""
+    from tracker.commands._common import in_flag_terms
+    from tracker.errors import TrackerError
+    from tracker.steptable import MAKE_PLAN
+
+    try:
+        return run(args)
+    except TrackerError as e:
+        in_flag_terms(e, [(MAKE_PLAN, "`tracker plan ... --steptable FILE`")])
+        raise
 
 
 def run(args: argparse.Namespace) -> int:

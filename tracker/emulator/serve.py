@@ -386,16 +386,16 @@ def check_link_path(link: str) -> None:
         target = os.readlink(link)
         if _PTY_DEVICE.match(target):
             return
-        raise ConfigError(f"--link {link} is a symlink to {target}, not a pty link made by "
+        raise ConfigError(f"link {link} is a symlink to {target}, not a pty link made by "
                           "tracker emulate; not replacing it (choose another path)")
     if os.path.lexists(link):
         kind = "a directory" if os.path.isdir(link) else "an existing file"
-        raise ConfigError(f"--link {link} is {kind}; not replacing it (give a new path for "
+        raise ConfigError(f"link {link} is {kind}; not replacing it (give a new path for "
                           "the link)")
     folder = os.path.dirname(link) or "."
     if not os.path.isdir(folder):
         what = "is not a folder" if os.path.exists(folder) else "does not exist"
-        raise ConfigError(f"--link {link}: folder {folder} {what}; create it or choose "
+        raise ConfigError(f"link {link}: folder {folder} {what}; create it or choose "
                           "another path")
 
 
@@ -412,15 +412,15 @@ def place_link(link: str, device: str) -> None:
         except FileExistsError:
             continue
         except OSError as e:
-            raise ConfigError(f"--link {link}: cannot create a link in {folder or '.'} "
+            raise ConfigError(f"link {link}: cannot create a link in {folder or '.'} "
                               f"({e.strerror}); choose a writable folder") from None
     else:
-        raise ConfigError(f"--link {link}: no free temporary name in {folder or '.'}")
+        raise ConfigError(f"link {link}: no free temporary name in {folder or '.'}")
     try:
         os.replace(tmp, link)
     except OSError as e:
         os.unlink(tmp)
-        raise ConfigError(f"--link {link}: cannot place the link ({e.strerror})") from None
+        raise ConfigError(f"link {link}: cannot place the link ({e.strerror})") from None
 
 def feed_session(controller, session, data: bytes) -> bytes:
     """Bytes from a client into ``session`` -> the reply bytes, faults applied once."""
