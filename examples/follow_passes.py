@@ -25,6 +25,7 @@ from tracker.api import (
     Station,
     StreamSettings,
     TrackerError,
+    describe_result,
     driver_limits,
     follow_passes,
     make_controller,
@@ -75,8 +76,9 @@ def main(argv: list[str] | None = None) -> int:
                                 passes=args.passes, first=first, events=say)
         last = bench.bytes_written().splitlines()[-1]
     for i, res in enumerate(results, 1):
-        print(f"pass {i}: {res.commands} commands, max pointing error "
-              f"{res.max_error_deg:.1f} deg, {res.reconnects} reconnects")
+        print(f"pass {i}: {describe_result(res, spec)}")
+        if res.cause:
+            print(f"  {res.cause}")
     print(f"last bytes on the wire: {last.decode()!r} (all-stop)")
     return 0
 

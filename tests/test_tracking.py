@@ -274,3 +274,23 @@ def test_follow_passes_example_runs(capsys):
     assert "pass 2: ISS (ZARYA) 2026-08-23 03:44:28 UTC" in out
     assert out.count("park: az 0 el 5") == 2
     assert "pass 2: " in out and "last bytes on the wire: 'S' (all-stop)" in out
+
+
+def test_error_cause_names_the_unwind_the_rate_and_nothing_when_small():
+    import numpy as np
+
+    from tracker.mount import preset
+    from tracker.planner import error_cause
+    from tracker.skytrack import SkyTrack
+
+    t = np.arange(0.0, 600.0, 1.0)
+    az = np.where(t < 300, 90.0, 90.0 + np.minimum((t - 300) * 20.0, 180.0))  # 20 deg/s swing
+    track = SkyTrack.from_azel(t + 1.7e9, az, np.full_like(t, 80.0), "X")
+    small = np.full_like(t, 1.0)
+    big = np.where((t > 300) & (t < 310), 150.0, 1.0)
+    g400 = preset("G-400")
+    assert error_cause(track, g400, "normal", track.t_s, small) == ""
+    assert "unwinds once" in error_cause(track, g400, "unwind", track.t_s, big)
+    why = error_cause(track, g400, "normal", track.t_s, big)
+    assert why.startswith("max azimuth error 150 deg") and "no elevation axis" in why
+    assert "faster than the rotator's" in why

@@ -151,6 +151,32 @@ def test_end_to_end_on_a_pty_error_within_prediction():
     assert report.uploads[0]["bytes"] == len(prog.tables[0].encode())
 
 
+def test_the_runner_says_what_it_waits_for_and_the_step_it_is_on():
+    _path, prog = compile_mid(half_s=60.0, interval_s=2)
+    said: list[str] = []
+    with Rig(prog, transport="pty") as rig:
+        TableRunner(rig.driver(), rig.clock, poll_s=2.0, log=said.append).run(prog.tables)
+    steps = [m for m in said if m.startswith("step ")]
+    n = len(prog.tables[0])
+    assert len(steps) >= 5 and all(f"/{n}," in m and "antenna reads az" in m for m in steps)
+    numbers = [int(m.split()[1].split("/")[0]) for m in steps]
+    assert numbers == sorted(numbers) and numbers[-1] > numbers[0]
+
+
+def test_a_long_wait_says_how_long_is_left():
+    from datetime import datetime, timezone
+
+    from tracker.clock import ManualClock
+
+    clock = ManualClock(datetime(2026, 8, 23, 2, 0, tzinfo=timezone.utc))
+    said: list[str] = []
+    runner = TableRunner(None, clock, log=said.append)
+    runner._wait_until(clock.timestamp() + 47 * 60, "T")
+    assert said[0] == "waiting for T: 47:00 to go"
+    assert "waiting for T: 1:50 to go" in said          # every 10 s once two minutes are left
+    assert 50 <= len(said) <= 60                         # once a minute before that
+
+
 def test_1901_pairs_refused_before_anything_is_sent():
     _, prog = compile_mid(half_s=20.0)
     big = tables_from_points("W", 1, [(10, 10)] * 1901, PROFILES["gs232b"],

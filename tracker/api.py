@@ -94,7 +94,7 @@ from tracker.geometry import MountPath
 from tracker.mount import PRESETS, MotorModel, MountFrame, RotatorSpec, preset
 from tracker.pass_schedule import Schedule, build_schedule, parse_priorities, schedule_passes
 from tracker.passes import Pass, find_passes
-from tracker.planner import MountPlan, Move, park_position, plan_pass
+from tracker.planner import MountPlan, Move, error_cause, park_position, plan_pass
 from tracker.pointing_file import ScheduleError, ScheduleTarget, parse_schedule
 from tracker.protocols import Capabilities, RotatorDriver, open_driver
 from tracker.session import ControllerSession, EffectiveLimits, Interrupted, driver_limits
@@ -120,6 +120,7 @@ from tracker.tracking import (
     demo_speed,
     demo_start,
     describe_pass,
+    describe_result,
     follow_passes,
     follow_together,
     next_pass,
@@ -144,7 +145,7 @@ __all__ = [  # noqa: RUF022 (grouped by topic, the order the docs follow)
     # rotators
     "PRESETS", "MotorModel", "MountFrame", "RotatorSpec", "preset",
     # planning
-    "MountPlan", "Move", "park_position", "plan_pass",
+    "MountPlan", "Move", "error_cause", "park_position", "plan_pass",
     # step tables
     "MountPath", "StepProgram", "StepTable", "TableProfile", "TableRunner", "UploadReport",
     "compile_pass", "compile_program", "read_plan_file", "table_profile",
@@ -157,7 +158,7 @@ __all__ = [  # noqa: RUF022 (grouped by topic, the order the docs follow)
     "StreamSettings", "TrackCore", "driver_limits", "run_pass",
     # following passes: one antenna pass after pass, the demo's time, two antennas on AZ/AZ
     "DemoTime", "PassFollower", "SharedAzAz", "demo_speed", "demo_start", "describe_pass",
-    "follow_passes", "follow_together", "next_pass",
+    "describe_result", "follow_passes", "follow_together", "next_pass",
     # emulated controllers
     "Bench", "EmulatorOptions", "Gs232Controller", "make_controller", "parse_fault",
     "serve_pty", "serve_tcp",

@@ -33,7 +33,7 @@ import numpy as np
 from tracker.errors import LimitError
 from tracker.geometry import pointing_error_deg, raise_to_mask, slew_s
 from tracker.mount import AxisMotor, RotatorSpec, drive_axis
-from tracker.skytrack import SkyTrack, azel_to_enu
+from tracker.skytrack import SkyTrack, angle_between_deg, azel_to_enu
 from tracker.station import Station
 
 LOST_THRESHOLD_DEG = 5.0  # half the beamwidth of a typical satellite yagi
@@ -617,3 +617,49 @@ def _reason(ctx: _Ctx, chosen: _Result, results: list[_Result]) -> str:
         else:
             why = f"; {o.mode} scores the same, the simpler mode is kept"
     return f"{s.mode.capitalize()}: {base}{detail}{why}."
+
+
+def error_cause(track: SkyTrack, spec: RotatorSpec, mode: str, t_s: np.ndarray,
+                error_deg: np.ndarray, step_s: float | None = None,
+                threshold_deg: float = LOST_THRESHOLD_DEG) -> str:
+    """One line saying why a predicted or measured pointing error is large ("" when its
+    maximum stays within ``threshold_deg``): the mid-pass unwind, an azimuth rate the rotator
+    lacks (worst without an elevation axis to point over the top), or steps ``step_s`` apart
+    that the target outruns. ``error_deg`` at ``t_s`` is judged as the planner judges it
+    (azimuth only for an azimuth-only rotator)."""
+    err = np.asarray(error_deg, dtype=float)
+    ok = np.isfinite(err)
+    if not ok.any() or float(np.max(err[ok])) <= threshold_deg:
+        return ""
+    t = np.asarray(t_s, dtype=float)[ok]
+    i = int(np.argmax(err[ok]))
+    t_worst = float(t[i])
+    worst = float(err[ok][i])
+    what = "azimuth error" if not spec.has_elevation else "error"
+    when = datetime.fromtimestamp(t_worst, timezone.utc).strftime("%H:%M:%S UTC")
+    if mode == "unwind":
+        return (f"max {what} {worst:.0f} deg at {when}: no path fits the azimuth span, so "
+                f"the antenna unwinds once (a 360 deg swing) while the target moves on")
+    el_here = float(np.interp(t_worst, track.t_s, track.el_deg))
+    where = f"max {what} {worst:.0f} deg at {when} (target el {el_here:.0f})"
+    if step_s is not None:
+        a0 = track.direction_at(t_worst - step_s / 2.0)
+        a1 = track.direction_at(t_worst + step_s / 2.0)
+        moved = float(angle_between_deg(azel_to_enu(*a0), azel_to_enu(*a1)))
+        az_moved = abs((float(a1[0]) - float(a0[0]) + 180.0) % 360.0 - 180.0)
+        if max(moved, az_moved) > threshold_deg:
+            which = "target" if moved >= az_moved else "target's azimuth"
+            return (f"{where}: the interval is too long for this pass; the {which} moves "
+                    f"{max(moved, az_moved):.0f} deg between two steps {step_s:g} s apart")
+    # The target's azimuth rate around the worst moment (over 10 s: a pass's peak rate).
+    win = (track.t_s >= t_worst - 10.0) & (track.t_s <= t_worst + 10.0)
+    az_rate = 0.0
+    if win.sum() >= 2:
+        az = np.degrees(np.unwrap(np.radians(track.az_deg[win])))
+        az_rate = float(np.max(np.abs(np.gradient(az, track.t_s[win]))))
+    if az_rate > spec.az_rate_deg_s:
+        axis = ("; an azimuth-only rotator has no elevation axis to follow it over the top"
+                if not spec.has_elevation else "")
+        return (f"{where}: the target's azimuth turns {az_rate:.0f} deg/s there, faster "
+                f"than the rotator's {spec.az_rate_deg_s:g} deg/s{axis}")
+    return f"{where}: the rotator cannot keep up with the target there"

@@ -150,14 +150,20 @@ class TrackCore:
 
     ``plan`` is a :class:`tracker.planner.MountPlan` (or anything with ``t_s``,
     ``cmd_az_deg``, ``cmd_el_deg``, ``mode``, ``preposition_t_s``, ``preposition``).
+    ``sky(t_s) -> (az, el)``, if given, is where the target is at times outside ``track``
+    (for the status while waiting for the pass).
     Call :meth:`observe` with each read-back, then :meth:`decide`; after a command went out,
     :meth:`commanded`. :meth:`resync` after a reconnect.
     """
 
     def __init__(self, plan, track: SkyTrack, spec: RotatorSpec, station: Station,
-                 settings: StreamSettings | None = None):
+                 settings: StreamSettings | None = None,
+                 sky: Callable[[float], tuple[float, float]] | None = None):
         self.plan = plan
         self.track = track
+        # Where the target is outside the track's span (waiting for the pass): shown, not
+        # planned with; without it the track's first or last point stands in.
+        self.sky = sky
         self.spec = spec
         self.station = station
         self.settings = settings or StreamSettings(deadband_deg=spec.deadband_deg)
@@ -307,7 +313,8 @@ class TrackCore:
         if max(off_az, off_el) > self.settings.contradiction_deg:
             # Not where it can be if it obeyed us: someone turned it by hand, the controller
             # was recalibrated, or it folded its scale. Stop believing; wait for it to settle.
-            self.note = (f"read-back az {wire_az_deg:.0f} el {wire_el_deg} is "
+            el_said = "" if wire_el_deg is None else f" el {wire_el_deg:.0f}"
+            self.note = (f"read-back az {wire_az_deg:.0f}{el_said} is "
                          f"{max(off_az, off_el):.0f} deg from where the rotator should be; "
                          f"re-syncing before the next move")
             self.untrusted = self.settings.settle_readings
@@ -616,7 +623,11 @@ class TrackCore:
     # Reporting ---------------------------------------------------------------------------
 
     def status(self, t_s: float) -> Status:
-        taz, tel = self.track.direction_at(t_s)
+        t = self.track.t_s
+        if self.sky is not None and not (t[0] <= t_s <= t[-1]):
+            taz, tel = self.sky(t_s)
+        else:
+            taz, tel = self.track.direction_at(t_s)
         ant = self.antenna
         err = bearing = None
         if ant is not None:
@@ -624,7 +635,10 @@ class TrackCore:
             bearing = float(self.spec.bearing_of(ant[0]))
             # an azimuth-only beam's elevation is set by hand: only azimuth is ours to get
             # right, as in the planner's prediction
-            err = float(pointing_error_deg(self.spec, ant[0], el, (float(taz), float(tel))))
+            if self.phase not in (Phase.PARK, Phase.DONE):
+                # after LOS the antenna leaves the target on purpose: no pointing error
+                err = float(pointing_error_deg(self.spec, ant[0], el,
+                                               (float(taz), float(tel))))
         span = max(self.los_s - self.aos_s, 1e-9)
         cmd = self.last_command
         return Status(t_s=t_s, phase=self.phase, mode=self.mode, target_az_deg=float(taz),
@@ -648,6 +662,13 @@ def safe_target(spec: RotatorSpec, station: Station, az_m_deg: float, el_deg: fl
     az = min(max(float(az_m_deg), 0.0), spec.az_span_deg)
     if az != az_m_deg:
         why.append(f"azimuth {az_m_deg:.1f} outside 0..{spec.az_span_deg:g}")
+    if spec.frame.wire_takes_bearing and spec.az_span_deg <= 360.0 and az >= 360.0 - 1e-9:
+        # A controller taking bearings reads the stop's own bearing as the CCW end: the CW
+        # end of a 360 deg span is only reachable one step short of it.
+        az_top = az - spec.resolution_deg
+        why.append(f"azimuth {az:.1f} is the stop's bearing, which this controller takes as "
+                   f"the CCW end; {az_top:g} instead")
+        az = az_top
     if el_deg is None or not spec.has_elevation:
         return az, None, "; ".join(why)
     el = min(max(float(el_deg), spec.el_min_deg), spec.el_max_deg)
@@ -712,7 +733,9 @@ class Link:
         wire_az = self.spec.frame.wire_of(cmd.az_m_deg)
         self.ensure().goto(wire_az, cmd.el_deg)
         self.events("command", cmd="goto", az=wire_az, el=cmd.el_deg, reason=cmd.reason,
-                    az_m=cmd.az_m_deg, clamped=cmd.clamped or None, resend=cmd.resend or None)
+                    az_m=cmd.az_m_deg, bearing=round(float(self.spec.bearing_of(cmd.az_m_deg)),
+                                                     3),
+                    clamped=cmd.clamped or None, resend=cmd.resend or None)
 
     def stop(self) -> bool:
         """All-stop; True if it reached the controller."""
@@ -739,6 +762,8 @@ class PassResult:
     errors_deg: list[float] = field(default_factory=list)
     final_position: tuple[float, float | None] | None = None
     completed: bool = True
+    error_t_s: list[float] = field(default_factory=list)   # when each of errors_deg was seen
+    cause: str = ""          # why the maximum error is large, if it is ("" otherwise)
 
 
 # The streaming loop with its recovery paths (timeouts, garbled replies,
@@ -756,6 +781,7 @@ def run_pass(core: TrackCore, link: Link, clock: Clock, on_status: Callable[[Sta
     backoff_s = s.reconnect_initial_s
     lost_since: float | None = None
     errors: list[float] = []
+    error_t_s: list[float] = []
     last_state = None
     ok = False
     try:
@@ -823,6 +849,7 @@ def run_pass(core: TrackCore, link: Link, clock: Clock, on_status: Callable[[Sta
             st = core.status(t)
             if st.error_deg is not None and core.aos_s <= t <= core.los_s:
                 errors.append(st.error_deg)
+                error_t_s.append(t)
             on_status(st)
             if core.phase is Phase.DONE:
                 ok = True
@@ -848,4 +875,5 @@ def run_pass(core: TrackCore, link: Link, clock: Clock, on_status: Callable[[Sta
         events("state", state="stopped" if not ok else "finished")
     return PassResult(commands=core.commands, reconnects=reconnects,
                       max_error_deg=max(errors) if errors else float("nan"),
-                      errors_deg=errors, final_position=core.antenna, completed=ok)
+                      errors_deg=errors, final_position=core.antenna, completed=ok,
+                      error_t_s=error_t_s)

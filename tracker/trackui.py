@@ -46,6 +46,48 @@ def _deg(v: float | None, width: int = 5) -> str:
     return "-".rjust(width) if v is None or not math.isfinite(v) else f"{v:{width}.1f}"
 
 
+# What each phase and loop state is called on screen (the JSON log keeps the machine names).
+PHASE_WORDS = {"wait": "waiting for the pass", "preposition": "moving to the AOS point",
+               "track": "tracking", "park": "parking", "done": "pass over"}
+_STATE_WORDS = {"connected": "connected", "finished": "pass finished",
+                "stopped": "stopped", "contradiction": "read-back disagrees",
+                "controller_off": "controller reports no position", "no_reply": "no reply",
+                "port_lost": "port lost", "reconnecting": "reconnecting",
+                "reconnected": "reconnected", "reconnect_failed": "reconnect failed",
+                "stall": "stall", "readback_inconsistent": "read-back inconsistent",
+                "stop_failed": "all-stop failed"}
+# Said by an info line of their own, or only for the log.
+_STATES_UNSAID = {"start", "plan", "pass_done"}
+
+
+def describe_state(data: dict) -> str | None:
+    """A ``state`` event in words ("" parts dropped); None for one the log alone keeps."""
+    state = str(data.get("state"))
+    if state == "phase":
+        return PHASE_WORDS.get(str(data.get("phase")), str(data.get("phase")))
+    if state in _STATES_UNSAID:
+        return None
+    words = _STATE_WORDS.get(state, state.replace("_", " "))
+    note = data.get("note") or data.get("reason") or ""
+    if state == "reconnecting" and data.get("wait_s") is not None:
+        note = f"in {data['wait_s']:g} s"
+    return f"{words}: {note}" if note else words
+
+
+def describe_command(data: dict) -> str:
+    """A ``command`` event in words: the bearing, and the mechanical azimuth where it
+    differs (overlap, a south stop)."""
+    if data.get("cmd") == "stop":
+        return "all-stop"
+    az = data.get("bearing", data.get("az"))
+    az_m = data.get("az_m")
+    mech = f" (mech {az_m:.0f})" if az_m is not None and abs(az_m - az) > 0.05 else ""
+    el = data.get("el")
+    el_s = "" if el is None else f" el {el + 0.0:5.1f}"
+    extra = f"  ({data['clamped']})" if data.get("clamped") else ""
+    return f"{data.get('reason', ''):<11} az {az:5.1f}{el_s}{mech}{extra}"
+
+
 class JsonLinesLog:
     """Append one JSON object per event to ``path``.
 
@@ -143,22 +185,12 @@ class PlainLines:
         if kind == "reply":
             return   # one per cycle: too many for a terminal; the JSON log keeps them
         if kind == "command":
-            if data.get("cmd") == "stop":
-                self._line("command  all-stop")
-            else:
-                el = data.get("el")
-                el_s = "" if el is None else f" el {el + 0.0:5.1f}"
-                extra = f"  ({data['clamped']})" if data.get("clamped") else ""
-                self._line(f"command  {data.get('reason', ''):<11} az {data['az']:5.1f}{el_s}"
-                           f"{extra}")
+            self._line(f"command  {describe_command(data)}")
             return
         if kind == "state":
-            state = data.get("state")
-            if state == "phase":
-                self._line(f"phase    {data.get('phase')}")
-            else:
-                note = data.get("note") or data.get("reason") or ""
-                self._line(f"state    {state}{'  ' + note if note else ''}")
+            text = describe_state(data)
+            if text is not None:
+                self._line(text)
             return
         if kind == "info":
             self._line(str(data.get("text", "")))
@@ -167,9 +199,10 @@ class PlainLines:
         if st.t_s - self._last_status < self.every_s and st.phase is not Phase.DONE:
             return
         self._last_status = st.t_s
+        ant_el = "" if st.antenna_el_deg is None else f" el {_deg(st.antenna_el_deg)}"
         self._line(f"{st.phase.value:<11} target az {st.target_az_deg:5.1f} el "
-                   f"{st.target_el_deg:5.1f}  antenna az {_deg(st.antenna_bearing_deg)} el "
-                   f"{_deg(st.antenna_el_deg)}  error {_deg(st.error_deg, 4)}  "
+                   f"{st.target_el_deg:5.1f}  antenna az {_deg(st.antenna_bearing_deg)}"
+                   f"{ant_el}  error {_deg(st.error_deg, 4)}  "
                    f"{countdown(st)}  cmds {st.commands}")
 
     def close(self) -> None:
@@ -177,77 +210,142 @@ class PlainLines:
 
 
 class RichPanel:
-    """A live panel on a terminal; falls back to nothing if rich cannot draw."""
+    """A live panel on a terminal; falls back to nothing if rich cannot draw.
 
-    def __init__(self, clock: Clock, title: str, banner: str = "", next_pass: str = ""):
+    Its height stays fixed while a pass runs: a header that does not change (``banner``:
+    what runs, e.g. SIMULATION; ``header``: notes such as the replayed date and the element
+    age), the date and time, the pointing, the plan of the pass and its result (both kept
+    after the run), and the last :attr:`EVENT_ROWS` events, each cut to one line.
+    ``console``: where to draw (a recording Console in tests)."""
+
+    EVENT_ROWS = 4
+
+    def __init__(self, clock: Clock, title: str, banner: str = "", next_pass: str = "",
+                 header: tuple[str, ...] = (), console: Any = None):
         from rich.console import Console
         from rich.live import Live
 
         self.clock = clock
         self.title = title
         self.banner = banner
+        self.header = tuple(header)
         self.next_pass = next_pass
-        self.console = Console()
+        self.console = console if console is not None else Console()
         self._events: list[str] = []
         self._st: Status | None = None
-        self._live = Live(self._render(), console=self.console, refresh_per_second=8,
-                          transient=False)
+        self._connected = ""        # what the panel says before the first status
+        self._plan = ""
+        self._result: list[str] = []
+        # Rendered afresh at every refresh (the clock ticks while nothing else changes);
+        # output of other code would tear the panel, so none is redirected into it.
+        self._live = Live(console=self.console, get_renderable=self._render,
+                          refresh_per_second=8, transient=False, redirect_stdout=False,
+                          redirect_stderr=False)
         self._live.start()
 
     def _render(self):
+        """The panel with as many event rows as the terminal's height leaves room for: a
+        panel taller than the terminal cannot be redrawn in place (its top would be drawn
+        again on every redraw and at the end)."""
+        room = self.console.size.height - 1
+        for rows in range(self.EVENT_ROWS, -1, -1):
+            panel = self._panel(rows)
+            if rows == 0 or len(self.console.render_lines(panel, pad=False)) <= room:
+                return panel
+        return panel
+
+    def _panel(self, event_rows: int):
         from rich.panel import Panel
-        from rich.progress_bar import ProgressBar
         from rich.table import Table
+        from rich.text import Text
 
         grid = Table.grid(padding=(0, 2))
-        grid.add_column(justify="right", style="bold")
+        grid.add_column(justify="right", style="bold", no_wrap=True)
         grid.add_column()
-        st = self._st
         if self.banner:
             grid.add_row("", f"[yellow]{self.banner}[/]")
-        if st is None:
-            grid.add_row("status", "connecting...")
-        else:
-            grid.add_row("time", f"{utc_strftime(st.t_s, '%H:%M:%S')} UTC   {countdown(st)}")
-            grid.add_row("phase / mode", f"{st.phase.value} / {st.mode}")
-            grid.add_row("target", f"az {st.target_az_deg:6.1f}   el {st.target_el_deg:6.1f}")
-            cmd = ("-" if st.command_az_m_deg is None else
-                   f"az {st.command_az_m_deg:6.1f}   el {_deg(st.command_el_deg, 6)}"
-                   f"   (mechanical)")
-            grid.add_row("commanded", cmd)
-            grid.add_row("antenna", f"az {_deg(st.antenna_bearing_deg, 6)}   el "
-                         f"{_deg(st.antenna_el_deg, 6)}   (mech az "
-                         f"{_deg(st.antenna_az_m_deg, 5)})")
-            err = st.error_deg
-            style = "green" if err is not None and err <= 5 else "red"
-            grid.add_row("error", f"[{style}]{_deg(err, 5)} deg[/]   commands {st.commands}")
-            bar = ProgressBar(total=1.0, completed=st.progress, width=40)
-            grid.add_row("pass", bar)
-            if st.note:
-                grid.add_row("note", f"[red]{st.note}[/]")
+        for line in self.header:
+            grid.add_row("", f"[yellow]{line}[/]")
+        self._pointing_rows(grid)
+        if self._plan:
+            grid.add_row("plan", self._plan)
+        for i, line in enumerate(self._result):
+            grid.add_row("result" if i == 0 else "", line)
         if self.next_pass:
             grid.add_row("next pass", self.next_pass)
-        for line in self._events[-4:]:
-            grid.add_row("", f"[dim]{line}[/]")
+        shown = self._events[-event_rows:] if event_rows else []
+        for line in shown + [""] * (event_rows - len(shown)):
+            grid.add_row("", Text(line, style="dim", no_wrap=True, overflow="ellipsis"))
         return Panel(grid, title=self.title, border_style="cyan")
+
+    def _pointing_rows(self, grid) -> None:
+        from rich.progress_bar import ProgressBar
+
+        st = self._st
+        if st is None:
+            now = utc_strftime(self.clock.timestamp(), '%Y-%m-%d %H:%M:%S')
+            grid.add_row("time", f"{now} UTC")
+            grid.add_row("status", self._connected or "connecting...")
+            return
+        grid.add_row("time", f"{utc_strftime(st.t_s, '%Y-%m-%d %H:%M:%S')} UTC   "
+                             f"{countdown(st)}")
+        grid.add_row("phase / mode", f"{PHASE_WORDS.get(st.phase.value, st.phase.value)} / "
+                                     f"{st.mode}")
+        grid.add_row("target", f"az {st.target_az_deg:6.1f}   el {st.target_el_deg:6.1f}")
+        grid.add_row("commanded", self._commanded(st))
+        ant_el = "" if st.antenna_el_deg is None else f"   el {_deg(st.antenna_el_deg, 6)}"
+        grid.add_row("antenna", f"az {_deg(st.antenna_bearing_deg, 6)}{ant_el}"
+                                f"{self._mech(st.antenna_bearing_deg, st.antenna_az_m_deg)}")
+        err = st.error_deg
+        style = "green" if err is not None and err <= 5 else "red"
+        grid.add_row("error", f"[{style}]{_deg(err, 5)} deg[/]   commands {st.commands}")
+        grid.add_row("pass", ProgressBar(total=1.0, completed=st.progress, width=40))
+        grid.add_row("note", f"[red]{st.note}[/]" if st.note else "")
+
+    def _commanded(self, st: Status) -> str:
+        if st.command_az_m_deg is None:
+            return "-"
+        bearing = (st.command_az_m_deg + self._stop_bearing(st)) % 360.0
+        el = "" if st.command_el_deg is None else f"   el {_deg(st.command_el_deg, 6)}"
+        return f"az {bearing:6.1f}{el}{self._mech(bearing, st.command_az_m_deg)}"
+
+    @staticmethod
+    def _stop_bearing(st: Status) -> float:
+        """The rotator's stop bearing, from the antenna's two azimuths (0 when unknown)."""
+        if st.antenna_bearing_deg is None or st.antenna_az_m_deg is None:
+            return 0.0
+        return round(st.antenna_bearing_deg - st.antenna_az_m_deg) % 360.0
+
+    @staticmethod
+    def _mech(bearing: float | None, az_m: float | None) -> str:
+        """The mechanical azimuth, only where it differs from the bearing."""
+        if bearing is None or az_m is None or abs(bearing - az_m) <= 0.05:
+            return ""
+        return f"   (mechanical {az_m:.0f})"
 
     def event(self, kind: str, **data: Any) -> None:
         if kind == "reply":
             return
         if kind == "command":
-            text = ("all-stop" if data.get("cmd") == "stop" else
-                    f"{data.get('reason')}: W az {data.get('az'):.0f} el {data.get('el')}")
+            text: str | None = describe_command(data)
         elif kind == "state":
-            text = (f"phase {data.get('phase')}" if data.get("state") == "phase"
-                    else f"{data.get('state')} {data.get('note') or ''}".strip())
+            if data.get("state") == "connected":
+                self._connected = "connected, planning the pass..."
+            elif data.get("state") == "plan":
+                self._connected = "waiting for the pass"
+            text = describe_state(data)
         else:
             text = str(data.get("text", ""))
-        self._events.append(f"{utc_strftime(self.clock.timestamp(), '%H:%M:%S')} {text}")
-        self._live.update(self._render())
+            topic = data.get("topic")
+            if topic == "plan":
+                self._plan, self._result = text, []
+            elif topic in ("result", "cause"):
+                self._result.append(text)
+        if text is not None:
+            self._events.append(f"{utc_strftime(self.clock.timestamp(), '%H:%M:%S')} {text}")
 
     def status(self, st: Status) -> None:
         self._st = st
-        self._live.update(self._render())
 
     def close(self) -> None:
         self._live.stop()

@@ -53,6 +53,10 @@ MAX_RESYNCS = 5
 # one poll; only this many polls in a row without a readable N count as a lost controller.
 READ_ATTEMPTS = 3
 UNREADABLE_POLLS = 3
+# Progress lines (what the runner waits for, the step it is on): this often (clock s), and
+# once a minute while the wait is longer than two.
+PROGRESS_S = 10.0
+PROGRESS_LONG_S = 60.0
 
 @dataclass
 class UploadReport:
@@ -96,6 +100,8 @@ class TableRunner:
         self._off_deg: float | None = None
         self._unreadable = 0
         self._watch = TableWatch(spec)
+        self._last_read: tuple[float, float | None] | None = None   # last C2: az, el
+        self._said_t_s = -float("inf")                              # last progress line
 
     # Public --------------------------------------------------------------------------------
 
@@ -150,7 +156,7 @@ class TableRunner:
 
     def _run_one(self, table: StepTable, k: int, n: int, detach: bool,
                  next_upload_t_s: float | None) -> None:
-        self._wait_until(table.upload_t_s)
+        self._wait_until(table.upload_t_s, f"upload of table {k + 1}/{n}")
         self._upload(table, f"table {k + 1}/{n}")
         if detach:
             self._confirm_loaded(table)
@@ -203,7 +209,7 @@ class TableRunner:
         self.driver.upload_table(decoded.interval_s, points)
 
     def _send_t(self, table: StepTable) -> None:
-        self._wait_until(table.start_t_s)
+        self._wait_until(table.start_t_s, "T (the table starts stepping)")
         self.driver.start_table()
         self._watch.t_sent(self.clock.timestamp())
         late = self.clock.timestamp() - table.start_t_s
@@ -230,6 +236,21 @@ class TableRunner:
                 active = rest
                 continue
             self._check_follows(active)
+            self._say_progress(active)
+
+    def _say_progress(self, table: StepTable) -> None:
+        """Every :data:`PROGRESS_S`: the step the table is on and where the antenna reads."""
+        now = self.clock.timestamp()
+        if now - self._said_t_s < PROGRESS_S:
+            return
+        self._said_t_s = now
+        where = ""
+        if self._last_read is not None:
+            az, el = self._last_read
+            where = f"; antenna reads az {az:g}" + ("" if el is None else f" el {el:g}")
+        step = min(table.index_at(now), len(table))
+        self.log(f"step {step}/{len(table)}, {_mmss(table.end_t_s - now)} to the last "
+                 f"point{where}")
 
     def _check_status(self, table: StepTable, now: float) -> str | None:
         """None if N agrees with the host clock (or cannot be read this poll), else what is
@@ -325,6 +346,7 @@ class TableRunner:
         if read is None:
             return
         t_before, t_after, az, el = read
+        self._last_read = (az, el)
         stalled = self._watch.stalled(t_before, az, el, t_after)
         if stalled is not None:
             again = self._read_position()       # a garbled digit must not stop a pass
@@ -364,12 +386,20 @@ class TableRunner:
 
     # Helpers ------------------------------------------------------------------------------
 
-    def _wait_until(self, t_s: float) -> None:
+    def _wait_until(self, t_s: float, what: str = "") -> None:
+        """Wait for ``t_s``; a wait for ``what`` longer than a progress period says how long
+        is left, every :data:`PROGRESS_S` (each minute while more than two are left)."""
+        said = -float("inf")
         # Sleep in slices so a Ctrl-C lands promptly even with a long wait before AOS.
         while True:
-            left = t_s - self.clock.timestamp()
+            now = self.clock.timestamp()
+            left = t_s - now
             if left <= 0:
                 return
+            every = PROGRESS_LONG_S if left > 2 * PROGRESS_LONG_S else PROGRESS_S
+            if what and left > PROGRESS_S and now - said >= every:
+                said = now
+                self.log(f"waiting for {what}: {_mmss(left)} to go")
             self.clock.sleep(min(left, 1.0))
 
     def _all_stop(self, quiet: bool) -> None:
@@ -380,6 +410,13 @@ class TableRunner:
         except TrackerError:
             if not quiet:
                 raise
+
+
+def _mmss(seconds: float) -> str:
+    """``1:05:03`` / ``4:07``."""
+    m, sec = divmod(max(0, round(seconds)), 60)
+    h, m = divmod(m, 60)
+    return f"{h}:{m:02d}:{sec:02d}" if h else f"{m}:{sec:02d}"
 
 
 def _outside_by(value: float, points: np.ndarray, tol: float, wrap: bool) -> float:

@@ -25,6 +25,7 @@ from _rigs import default_signals
 from tracker.clock import SimClock, SystemClock
 from tracker.config import load_config
 from tracker.emulator import Gs232Controller, serve_tcp
+from tracker.trackui import PHASE_WORDS
 
 SIGNALS = [signal.SIGINT, signal.SIGTERM, signal.SIGHUP]
 PHASE_TIMEOUT_S = 90.0      # generous: the machine may be loaded
@@ -122,9 +123,9 @@ def config(tmp_path) -> Path:
 TRACK_PHASES = {
     # phase: (the line the child prints when it is in it, must the antenna be turning)
     "wait": ("mode ", False),      # planned, waiting minutes for the pre-position time
-    "preposition": ("phase    preposition", True),
-    "track": ("phase    track", False),
-    "park": ("phase    park", True),
+    "preposition": (f"  {PHASE_WORDS['preposition']}\n", True),
+    "track": (f"  {PHASE_WORDS['track']}\n", False),
+    "park": (f"  {PHASE_WORDS['park']}\n", True),
 }
 WAIT_AT = "2026-08-23T02:00:00Z"   # the pre-position starts 6 simulated minutes later
 PARK_AT = "2026-08-23T02:16:00Z"   # joins the pass a minute before LOS, then parks

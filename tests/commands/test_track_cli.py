@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 import re
@@ -160,3 +161,39 @@ def test_signal_mid_pass_sends_all_stop_last(sig, tmp_path):
         assert not ctl.moving()
     finally:
         server.close()
+
+
+def test_demo_lines_speak_plainly(tmp_path, capsys, monkeypatch):
+    """No internal state names, the mode said once, no p99; the waiting screen's target
+    moves; no pointing error once the pass is over."""
+    monkeypatch.setenv("TRACKER_CONFIG", _config(tmp_path))
+    assert main(["track", "ISS (ZARYA)", "--at", "2026-08-23T02:03:00Z", "--speed", "max",
+                 "--plain"]) == 0
+    out = capsys.readouterr().out
+    for word in ("state ", "pass_done", "p99", "mode normal: Normal"):
+        assert word not in out, word
+    assert "mode normal: the pass stays" in out
+    waiting = [line.split("target az")[1].split("antenna")[0] for line in out.splitlines()
+               if "  wait  " in line]
+    assert len(waiting) >= 3 and len(set(waiting)) == len(waiting), waiting
+    done = next(line for line in out.splitlines() if "  done  " in line)
+    assert "error    -" in done
+
+
+def test_dcu1_demo_explains_its_error_and_never_repeats_a_move(tmp_path, capsys, monkeypatch):
+    """An open-loop DCU-1 on a south-stop HAM-IV: the unwind goes to one step short of the
+    stop's bearing (the controller takes the stop's own bearing as the CCW end), so no move
+    is sent again and again; the azimuth error is said to be one, and why it is large."""
+    monkeypatch.setenv("TRACKER_CONFIG", _config(tmp_path))
+    log = tmp_path / "track.jsonl"
+    assert main(["track", "ISS (ZARYA)", "--at", AT, "--speed", "max", "--plain",
+                 "--protocol", "dcu1", "--log", str(log)]) == 0
+    out = capsys.readouterr().out
+    assert "None" not in out
+    assert "max azimuth error" in out and "unwinds once" in out
+    recs = [json.loads(line) for line in log.read_text().splitlines()]
+    assert not [r for r in recs if r.get("state") == "contradiction"]
+    gotos = [r for r in recs if r["kind"] == "command" and r["cmd"] == "goto"]
+    for a, b in itertools.pairwise(gotos):
+        assert not (a["az"] == b["az"] and b["t_s"] - a["t_s"] < 3.0), (a, b)
+    assert max(r["az_m"] for r in gotos) < 360.0

@@ -209,3 +209,14 @@ def test_upload_plans_inside_what_the_controller_takes(capsys, monkeypatch):
     el = [int(v) for line in tables for v in line[1:].split()[2::2]]
     assert tables and max(el) > 60 and max(el) <= 90, max(el)
     assert wire.endswith(b"S\r")
+
+
+def test_a_large_predicted_error_is_explained(tmp_path, capsys, monkeypatch):
+    """K3NG stepping every 5 s through an 83 deg pass: the warning says why the error is
+    large (the interval), and what helps."""
+    (tmp_path / "empty.toml").write_text("")
+    monkeypatch.setenv("TRACKER_CONFIG", str(tmp_path / "empty.toml"))
+    assert main(["upload", "ISS", "--protocol", "k3ng", "--rotator", "generic-k3ng",
+                 "--interval", "4", "--dry-run", "--at", "2026-08-24T04:20:00Z"]) == 0
+    err = capsys.readouterr().err
+    assert "the interval is too long for this pass" in err and "--interval" in err

@@ -348,13 +348,21 @@ def run(args: argparse.Namespace) -> int:
         out.close()
         if server is not None:
             server.close()
+    print_results(followers, simulated)
+    return 0
+
+
+def print_results(followers, simulated: bool) -> None:
+    """What stays on screen after the run: each pass's result and why an error is large."""
+    from tracker.tracking import describe_result
+
     for a in followers:
         for i, res in enumerate(a.results, 1):
-            print((f"{a.label}: " if a.label else "")
-                  + f"pass {i}: {res.commands} commands sent, max pointing error "
-                  f"{res.max_error_deg:.1f} deg, {res.reconnects} reconnects"
+            print((f"{a.label}: " if a.label else "") + f"pass {i}: "
+                  + describe_result(res, a.spec).replace(" commands,", " commands sent,", 1)
                   + (" (simulated)" if simulated else ""))
-    return 0
+            if res.cause:
+                print(f"  {res.cause}")
 
 
 def _one_antenna(r: _Run, url: str, clock: Clock, timer, log, banner: str, tty: bool):
@@ -363,8 +371,9 @@ def _one_antenna(r: _Run, url: str, clock: Clock, timer, log, banner: str, tty: 
     from tracker.tracking import PassFollower, describe_pass
     from tracker.trackui import Fanout, PlainLines, RichPanel
 
-    ui = RichPanel(clock, f"tracker track {r.targets[0].name}", banner) if tty \
-        else PlainLines(clock)
+    # The panel keeps the simulation's notes (replayed date, element age) in its header.
+    ui = RichPanel(clock, f"tracker track {r.targets[0].name}", banner,
+                   header=tuple(r.notes)) if tty else PlainLines(clock)
     out = Fanout(ui, log)
 
     def show_next(p) -> None:

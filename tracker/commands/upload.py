@@ -121,7 +121,22 @@ def build_program(args: argparse.Namespace, now_s: float, current=None,
         if not e.problem:
             raise
         raise LimitError(f"{e.problem}. Raise --max-error or give --interval") from None
+    _warn_large_error(program, track)
     return program, header
+
+
+def _warn_large_error(program, track) -> None:
+    """A predicted error beyond a beamwidth gets one line saying why (on stderr: a dry run's
+    stdout is the plan file)."""
+    from tracker.planner import error_cause
+
+    p = program.prediction
+    cause = error_cause(track, program.spec, str(program.meta.get("mode", "")), p.t_s,
+                        p.error_deg, step_s=program.period_s)
+    if cause:
+        advice = ("; a shorter --interval (or --max-error DEG) steps closer"
+                  if "interval" in cause else "")
+        print(f"tracker: warning: {cause}{advice}", file=sys.stderr)
 
 
 def _inside_the_controller(spec: RotatorSpec, station, capabilities: Capabilities
