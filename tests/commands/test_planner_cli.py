@@ -24,6 +24,8 @@ def test_plan_report_lists_mode_reason_and_every_candidate(capsys):
     assert "candidate" in out and out.count("\n*") == 1  # the chosen one is marked
     assert "pre-position: start" in out and "park after LOS" in out
     assert "predicted pointing error: max" in out and "motor starts" in out
+    # the count is said to be of the plan's command steps, not of what live tracking does
+    assert "motor starts count every 1 deg command step of this path" in out
 
 
 def test_plan_json_and_pass_number(capsys):

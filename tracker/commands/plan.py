@@ -175,6 +175,11 @@ def format_plan(plan, station_name: str) -> str:
                  f"{plan.mean_error_deg:.2f} deg, p99 {plan.p99_error_deg:.2f} deg; lost "
                  f"{plan.lost_track_s:.0f} s (error > {plan.threshold_deg:g} deg); travel "
                  f"{plan.travel_deg:.0f} deg; motor starts {plan.motor_starts}")
+    # The plan commands every resolution step; the live loop holds within its deadband and
+    # starts the motors far less often, so say which count this is.
+    lines.append(f"(motor starts count every {spec.resolution_deg:g} deg command step of "
+                 f"this path, as a step table would send them; live tracking holds within "
+                 f"its deadband and starts the motors less often)")
     return "\n".join(lines)
 
 
