@@ -11,6 +11,7 @@ written by :func:`tracker.files.write_atomic`.
 from __future__ import annotations
 
 import hashlib
+import itertools
 import json
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
@@ -180,12 +181,28 @@ def _csv_text(value: Any) -> str:
     return text
 
 
-def _csv_column(col: np.ndarray) -> list[str]:
-    """The cells of one column, formatted column-wise (the batch table has 10^5 rows)."""
+def _rounded_cells(col: np.ndarray, decimals: int) -> list[str] | None:
+    """``repr`` of each value of a column rounded to ``decimals`` (as :func:`_records` rounds),
+    formatting each distinct value once; None when the column is not such a column."""
+    scale = 10.0 ** decimals
+    steps = np.rint(col * scale)
+    if not (np.all(np.isfinite(steps)) and np.all(np.abs(steps) < 2.0**52)
+            and np.array_equal(steps / scale, col) and not np.any(np.signbit(col) & (col == 0))):
+        return None
+    values, index = np.unique(steps, return_inverse=True)
+    # steps / scale is bit for bit the column value, so its repr is the cell.
+    text = np.array(list(map(repr, (values / scale).tolist())), dtype=object)
+    return text[index.ravel()].tolist()
+
+
+def _csv_column(col: np.ndarray, decimals: int | None = None) -> list[str]:
+    """The cells of one column, formatted column-wise (the batch table has 10^5 rows);
+    ``decimals``: the float column is rounded to that many (formats faster)."""
     if col.dtype == bool:
         return np.where(col, "true", "false").tolist()
     if col.dtype.kind == "f":
-        return list(map(repr, col.tolist()))
+        cells = None if decimals is None else _rounded_cells(col, decimals)
+        return list(map(repr, col.tolist())) if cells is None else cells
     if col.dtype.kind == "U":  # ISO times: never need quoting
         return col.tolist()
     values = col.tolist()
@@ -195,12 +212,39 @@ def _csv_column(col: np.ndarray) -> list[str]:
     return list(map(text.__getitem__, values))
 
 
+def _csv_constant(col: np.ndarray) -> str | None:
+    """The cell of an object column holding one value throughout (kind, the unset optional
+    fields), else None."""
+    if col.dtype != object or not len(col):
+        return None
+    first = col[0]
+    same = np.equal(col, None) if first is None else col == first
+    return _csv_text(first) if isinstance(same, np.ndarray) and same.all() else None
+
+
+def _csv_rows(records: PassRecords) -> str:
+    """The CSV rows of ``records``; runs of constant columns are joined once, not per row."""
+    cols: list[Iterable[str]] = []
+    run: list[str] = []
+    for key in CSV_FIELDS:
+        cell = _csv_constant(records[key])
+        if cell is not None:
+            run.append(cell)
+            continue
+        if run:
+            cols.append(itertools.repeat(",".join(run)))
+            run = []
+        cols.append(_csv_column(records[key], _DECIMALS.get(key)))
+    if run:
+        cols.append(itertools.repeat(",".join(run)))
+    return "\n".join(map(",".join, zip(*cols))) + "\n"
+
+
 def _csv_chunks(chunks: Iterable[PassRecords]) -> Iterator[str]:
     yield ",".join(CSV_FIELDS) + "\n"
     for records in chunks:
-        cols = [_csv_column(records[key]) for key in CSV_FIELDS]
         if len(records):
-            yield "\n".join(map(",".join, zip(*cols, strict=True))) + "\n"
+            yield _csv_rows(records)
 
 
 def to_csv(records: PassRecords) -> str:
