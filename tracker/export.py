@@ -237,7 +237,7 @@ def _csv_rows(records: PassRecords) -> str:
         cols.append(_csv_column(records[key], _DECIMALS.get(key)))
     if run:
         cols.append(itertools.repeat(",".join(run)))
-    return "\n".join(map(",".join, zip(*cols))) + "\n"
+    return "\n".join(map(",".join, zip(*cols, strict=False))) + "\n"  # repeat: endless
 
 
 def _csv_chunks(chunks: Iterable[PassRecords]) -> Iterator[str]:
@@ -403,7 +403,7 @@ def require_pyarrow():
     """The ``pyarrow`` module, or a ConfigError naming the extra that installs it."""
     try:
         import pyarrow
-        import pyarrow.parquet  # noqa: F401  (the writer lives in the submodule)
+        import pyarrow.parquet  # the writer lives in the submodule
     except ImportError:
         raise ConfigError(f"Parquet output needs pyarrow, which is not installed: "
                           f"{PARQUET_EXTRA}") from None

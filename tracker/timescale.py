@@ -10,7 +10,7 @@ other layouts).
 from __future__ import annotations
 
 from datetime import datetime, timezone
-from functools import lru_cache
+from functools import cache, lru_cache
 
 import numpy as np
 
@@ -110,7 +110,7 @@ def _iso_numpy(whole_s: np.ndarray) -> np.ndarray:
     return np.char.add(np.datetime_as_string(whole_s.astype("datetime64[s]"), unit="s"), "Z")
 
 
-@lru_cache(maxsize=None)
+@cache
 def _iso_clock_bytes() -> np.ndarray:
     """``HH:MM:SSZ`` of every second of a day, as a (86400, 9) byte array."""
     text = _iso_numpy(np.arange(86400, dtype=np.int64)).astype("S20")
@@ -134,7 +134,7 @@ def iso_utc_array(t_s) -> np.ndarray:
     # A result spans few days: format each day once and each second from a table, then
     # assemble the bytes (10x faster than formatting every time).
     dates = _iso_numpy(np.arange(first, first + span, dtype=np.int64) * 86400).astype("S20")
-    out = np.empty(t.shape + (20,), dtype=np.uint8)
+    out = np.empty((*t.shape, 20), dtype=np.uint8)
     out[..., :11] = dates.view(np.uint8).reshape(span, 20)[:, :11][days - first]
     out[..., 11:] = _iso_clock_bytes()[sod]
     return out.view("S20")[..., 0].astype("U20")
