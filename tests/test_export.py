@@ -213,3 +213,20 @@ def test_write_atomic_gives_normal_file_permissions(tmp_path):
         assert stat.S_IMODE(kept.stat().st_mode) == 0o640 and kept.read_text() == "new\n"
     finally:
         os.umask(umask)
+
+
+def test_csv_numbers_are_the_values_repr_whatever_the_column_holds(records):
+    """Rounded columns are formatted once per distinct value; a value that is not what the
+    rounding gives (-0.0, NaN, an unrounded number) still comes out as repr shows it."""
+    odd = records.take(np.arange(4))
+    odd.columns["max_el_deg"] = np.array([-0.0, float("nan"), 12.345678, 1e-7])
+    odd.columns["aos_az_deg"] = np.array([359.9, 0.0, 0.1, 180.0])
+    rows = list(csv.reader(io.StringIO(to_csv(odd))))[1:]
+    col = CSV_FIELDS.index
+    assert [r[col("max_el_deg")] for r in rows] == ["-0.0", "nan", "12.345678", "1e-07"]
+    assert [r[col("aos_az_deg")] for r in rows] == ["359.9", "0.0", "0.1", "180.0"]
+    assert all(r[col("kind")] == "satellite" and r[col("priority")] == "" for r in rows)
+    expected = [[str(x).lower() if isinstance(x, bool) else "" if x is None else
+                 repr(x) if isinstance(x, float) else str(x) for x in
+                 (row[k] for k in CSV_FIELDS)] for row in odd.rows()]
+    assert rows == expected

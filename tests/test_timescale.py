@@ -23,6 +23,24 @@ def test_iso_utc_array_matches_the_scalar_form():
     assert iso_utc_array(t).tolist() == [iso_utc(float(x)) for x in t]
 
 
+@pytest.mark.parametrize("lo_s, hi_s", [
+    (1.7e9, 1.7e9 + 7 * 86400.0),             # a batch window: one table per day and second
+    (-30610224000.0, -30610224000.0 + 9e5),   # year 1000 (strftime pads no earlier year)
+    (253402300799.0 - 9e5, 253402300799.0),   # year 9999
+    (-30610224000.0, 253402300799.0),         # years apart: formatted one by one
+])
+def test_iso_utc_array_matches_the_scalar_form_over_the_calendar(lo_s, hi_s):
+    t = np.random.default_rng(7).uniform(lo_s, hi_s, 2000).reshape(40, 50)
+    got = iso_utc_array(t)
+    assert got.shape == t.shape
+    assert got.ravel().tolist() == [iso_utc(float(x)) for x in t.ravel()]
+
+
+def test_iso_utc_array_of_nothing_and_of_no_time():
+    assert iso_utc_array([]).tolist() == []
+    assert iso_utc_array([np.nan, 0.0]).tolist() == ["NaTZ", "1970-01-01T00:00:00Z"]
+
+
 @pytest.mark.parametrize("text", ["2026-08-22T13:45:07.25Z", "2026-08-22T13:45:07.25z",
                                   "2026-08-22T13:45:07.25", "2026-08-22T15:45:07.25+02:00",
                                   " 2026-08-22T13:45:07.250000+00:00 "])

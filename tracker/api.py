@@ -84,10 +84,12 @@ from tracker.export import (
     PASS_FIELDS,
     PassRecords,
     pass_records,
+    render_chunks,
     to_csv,
     to_ics,
     to_json,
     to_table,
+    write_parquet,
 )
 from tracker.files import write_atomic
 from tracker.geometry import MountPath
@@ -166,7 +168,8 @@ __all__ = [  # noqa: RUF022 (grouped by topic, the order the docs follow)
     "CSV_FIELDS", "PASS_FIELDS", "PassRecords", "PassTable", "Schedule", "build_schedule",
     "find_passes_batch", "find_passes_dask", "load_stations", "parse_priorities",
     "pass_records", "plan_summaries", "satrecs_of", "schedule_passes",
-    "to_csv", "to_ics", "to_json", "to_table", "write_atomic",
+    "render_chunks", "to_csv", "to_ics", "to_json", "to_table", "write_atomic",
+    "write_parquet",
     # errors (TrackerError and TleError are the two roots)
     "TrackerError", "ConfigError", "TargetError", "PropagationError", "LimitError",
     "RotatorIOError", "PortLostError", "RotatorTimeout", "ProtocolError", "StallError",

@@ -11,8 +11,9 @@ written by :func:`tracker.files.write_atomic`.
 from __future__ import annotations
 
 import hashlib
+import itertools
 import json
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
@@ -71,6 +72,13 @@ class PassRecords:
         column = np.empty(len(self), dtype=object)
         column[:] = list(values)
         self.columns[name] = column
+
+    @classmethod
+    def concat(cls, parts: Sequence[PassRecords]) -> PassRecords:
+        """The records of ``parts`` one after the other."""
+        if len(parts) == 1:
+            return parts[0]
+        return cls({k: np.concatenate([p.columns[k] for p in parts]) for k in PASS_FIELDS})
 
     def rows(self) -> list[dict[str, Any]]:
         """One dict per pass with plain Python values (the JSON objects)."""
@@ -173,12 +181,28 @@ def _csv_text(value: Any) -> str:
     return text
 
 
-def _csv_column(col: np.ndarray) -> list[str]:
-    """The cells of one column, formatted column-wise (the batch table has 10^5 rows)."""
+def _rounded_cells(col: np.ndarray, decimals: int) -> list[str] | None:
+    """``repr`` of each value of a column rounded to ``decimals`` (as :func:`_records` rounds),
+    formatting each distinct value once; None when the column is not such a column."""
+    scale = 10.0 ** decimals
+    steps = np.rint(col * scale)
+    if not (np.all(np.isfinite(steps)) and np.all(np.abs(steps) < 2.0**52)
+            and np.array_equal(steps / scale, col) and not np.any(np.signbit(col) & (col == 0))):
+        return None
+    values, index = np.unique(steps, return_inverse=True)
+    # steps / scale is bit for bit the column value, so its repr is the cell.
+    text = np.array(list(map(repr, (values / scale).tolist())), dtype=object)
+    return text[index.ravel()].tolist()
+
+
+def _csv_column(col: np.ndarray, decimals: int | None = None) -> list[str]:
+    """The cells of one column, formatted column-wise (the batch table has 10^5 rows);
+    ``decimals``: the float column is rounded to that many (formats faster)."""
     if col.dtype == bool:
         return np.where(col, "true", "false").tolist()
     if col.dtype.kind == "f":
-        return list(map(repr, col.tolist()))
+        cells = None if decimals is None else _rounded_cells(col, decimals)
+        return list(map(repr, col.tolist())) if cells is None else cells
     if col.dtype.kind == "U":  # ISO times: never need quoting
         return col.tolist()
     values = col.tolist()
@@ -188,33 +212,81 @@ def _csv_column(col: np.ndarray) -> list[str]:
     return list(map(text.__getitem__, values))
 
 
+def _csv_constant(col: np.ndarray) -> str | None:
+    """The cell of an object column holding one value throughout (kind, the unset optional
+    fields), else None."""
+    if col.dtype != object or not len(col):
+        return None
+    first = col[0]
+    same = np.equal(col, None) if first is None else col == first
+    return _csv_text(first) if isinstance(same, np.ndarray) and same.all() else None
+
+
+def _csv_rows(records: PassRecords) -> str:
+    """The CSV rows of ``records``; runs of constant columns are joined once, not per row."""
+    cols: list[Iterable[str]] = []
+    run: list[str] = []
+    for key in CSV_FIELDS:
+        cell = _csv_constant(records[key])
+        if cell is not None:
+            run.append(cell)
+            continue
+        if run:
+            cols.append(itertools.repeat(",".join(run)))
+            run = []
+        cols.append(_csv_column(records[key], _DECIMALS.get(key)))
+    if run:
+        cols.append(itertools.repeat(",".join(run)))
+    return "\n".join(map(",".join, zip(*cols, strict=False))) + "\n"  # repeat: endless
+
+
+def _csv_chunks(chunks: Iterable[PassRecords]) -> Iterator[str]:
+    yield ",".join(CSV_FIELDS) + "\n"
+    for records in chunks:
+        if len(records):
+            yield _csv_rows(records)
+
+
 def to_csv(records: PassRecords) -> str:
     """CSV with a header row (columns :data:`CSV_FIELDS`; times ISO-8601 UTC, flags
     ``true``/``false``, unset fields empty)."""
-    cols = [_csv_column(records[key]) for key in CSV_FIELDS]
-    lines = [",".join(CSV_FIELDS), *map(",".join, zip(*cols, strict=True))]
-    return "\n".join(lines) + "\n"
+    return "".join(_csv_chunks([records]))
+
+
+def _json_chunks(chunks: Iterable[PassRecords], meta: dict | None,
+                 errors: Sequence[dict]) -> Iterator[str]:
+    def block(value: Any) -> str:
+        return json.dumps(value, indent=1).replace("\n", "\n ")
+
+    yield (f'{{\n "schema": {json.dumps(JSON_SCHEMA_ID)},\n "meta": {block(dict(meta or {}))},'
+           f'\n "passes": ')
+    sep = "[\n  "
+    for records in chunks:
+        rows = records.rows()
+        if rows:
+            yield sep + ",\n  ".join(map(json.dumps, rows))
+            sep = ",\n  "
+    yield ("[]" if sep == "[\n  " else "\n ]") + f',\n "errors": {block(list(errors))}\n}}\n'
 
 
 def to_json(records: PassRecords, meta: dict | None = None,
             errors: Sequence[dict] = ()) -> str:
     """The documented JSON document: ``{"schema", "meta", "passes", "errors"}``, one pass
     object per line."""
-    def block(value: Any) -> str:
-        return json.dumps(value, indent=1).replace("\n", "\n ")
-
-    rows = records.rows()
-    passes = "[\n  " + ",\n  ".join(map(json.dumps, rows)) + "\n ]" if rows else "[]"
-    parts = [f'"schema": {json.dumps(JSON_SCHEMA_ID)}', f'"meta": {block(dict(meta or {}))}',
-             f'"passes": {passes}', f'"errors": {block(list(errors))}']
-    return "{\n " + ",\n ".join(parts) + "\n}\n"
+    return "".join(_json_chunks([records], meta, errors))
 
 
-def to_table(records: PassRecords) -> str:
-    """A fixed-width text table for the terminal."""
+def _table_chunks(chunks: Iterable[PassRecords]) -> Iterator[str]:
     head = (f"{'satellite':<24} {'station':<12} {'AOS (UTC)':<20} {'LOS':>8} {'max el':>6} "
             f"{'az AOS>LOS':>11} {'lit':>3} {'plan':<8} {'err':>5}")
-    lines = [head, "-" * len(head)]
+    yield head + "\n" + "-" * len(head) + "\n"
+    for records in chunks:
+        if len(records):
+            yield "\n".join(_table_lines(records)) + "\n"
+
+
+def _table_lines(records: PassRecords) -> list[str]:
+    lines = []
     for r in records.rows():
         err = r["plan_max_error_deg"]
         lines.append(
@@ -223,7 +295,12 @@ def to_table(records: PassRecords) -> str:
             f"{r['max_el_deg']:>6.1f} {r['aos_az_deg']:>5.0f}>{r['los_az_deg']:<5.0f} "
             f"{'yes' if r['sunlit'] else 'no':>3} {r['plan_mode'] or '-':<8} "
             f"{'-' if err is None else f'{err:.1f}':>5}")
-    return "\n".join(lines) + "\n"
+    return lines
+
+
+def to_table(records: PassRecords) -> str:
+    """A fixed-width text table for the terminal."""
+    return "".join(_table_chunks([records]))
 
 
 # iCalendar (RFC 5545) ---------------------------------------------------------------------
@@ -292,16 +369,75 @@ def to_ics(records: PassRecords, stamp_s: float, name: str = "Satellite passes")
 
 
 FORMATS = ("table", "csv", "json", "ics")
+PARQUET_EXTRA = "pip install 'rotator-tracker[parquet]'"
+
+
+def render_chunks(fmt: str, chunks: Iterable[PassRecords], *, meta: dict | None = None,
+                  errors: Sequence[dict] = (), stamp_s: float = 0.0,
+                  name: str = "") -> Iterator[str]:
+    """:func:`render` for records given in consecutive parts: the same text, in pieces,
+    so a large result is written without holding all of it as text (iCalendar joins the
+    parts first)."""
+    if fmt == "table":
+        return _table_chunks(chunks)
+    if fmt == "csv":
+        return _csv_chunks(chunks)
+    if fmt == "json":
+        return _json_chunks(chunks, meta, errors)
+    if fmt == "ics":
+        return iter([to_ics(PassRecords.concat(list(chunks)), stamp_s,
+                            name or "Satellite passes")])
+    raise ConfigError(f"format {fmt!r} is unknown; use one of {', '.join(FORMATS)}")
 
 
 def render(fmt: str, records: PassRecords, *, meta: dict | None = None,
            errors: Sequence[dict] = (), stamp_s: float = 0.0, name: str = "") -> str:
-    if fmt == "table":
-        return to_table(records)
-    if fmt == "csv":
-        return to_csv(records)
-    if fmt == "json":
-        return to_json(records, meta, errors)
-    if fmt == "ics":
-        return to_ics(records, stamp_s, name or "Satellite passes")
-    raise ConfigError(f"format {fmt!r} is unknown; use one of {', '.join(FORMATS)}")
+    return "".join(render_chunks(fmt, [records], meta=meta, errors=errors, stamp_s=stamp_s,
+                                 name=name))
+
+
+# Parquet (optional: pyarrow) --------------------------------------------------------------
+
+
+def require_pyarrow():
+    """The ``pyarrow`` module, or a ConfigError naming the extra that installs it."""
+    try:
+        import pyarrow
+        import pyarrow.parquet  # the writer lives in the submodule
+    except ImportError:
+        raise ConfigError(f"Parquet output needs pyarrow, which is not installed: "
+                          f"{PARQUET_EXTRA}") from None
+    return pyarrow
+
+
+def _arrow_schema(pa, meta: dict | None, errors: Sequence[dict]):
+    types = {"aos_s": pa.float64(), "tca_s": pa.float64(), "los_s": pa.float64(),
+             "plan_max_error_deg": pa.float64(), "priority": pa.int64(),
+             "chosen": pa.bool_()}
+    for key in _DECIMALS:
+        types[key] = pa.float64()
+    for key in _FLAGS:
+        types[key] = pa.bool_()
+    fields = [pa.field(k, types.get(k, pa.string()), nullable=k in _OPTIONAL)
+              for k in PASS_FIELDS]
+    doc = {"schema": JSON_SCHEMA_ID, "meta": dict(meta or {}), "errors": list(errors)}
+    return pa.schema(fields, metadata={"rotator-tracker": json.dumps(doc)})
+
+
+def write_parquet(chunks: Iterable[PassRecords], sink, *, meta: dict | None = None,
+                  errors: Sequence[dict] = ()) -> int:
+    """Write the records to ``sink`` (a path or binary file) as Parquet, one row group per
+    part; returns the number of records. Columns: :data:`PASS_FIELDS` (the JSON record's
+    fields and types; unset fields null); ``meta`` and ``errors`` go into the file's
+    key-value metadata under ``rotator-tracker`` as the JSON document has them."""
+    pa = require_pyarrow()
+    import pyarrow.parquet as pq
+
+    schema = _arrow_schema(pa, meta, errors)
+    n = 0
+    with pq.ParquetWriter(sink, schema) as writer:
+        for records in chunks:
+            arrays = [pa.array(records[f.name], type=f.type) for f in schema]
+            writer.write_table(pa.Table.from_arrays(arrays, schema=schema))
+            n += len(records)
+    return n

@@ -13,7 +13,9 @@ from __future__ import annotations
 import os
 import stat
 import tempfile
+from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import BinaryIO
 
 from tle.textfile import file_kind
 from tracker.errors import ConfigError, OutputExistsError, with_advice
@@ -92,15 +94,33 @@ def _commit(tmp: str, target: Path, force: bool) -> None:
     os.unlink(tmp)
 
 
-def write_atomic(path: str | Path, data: str | bytes, *, force: bool = False,
-                 label: str = "") -> Path:
-    """Write ``data`` (text is UTF-8, line ends kept byte for byte) to ``path`` under the
-    rules in the module docstring; returns ``path``. ``label`` (what the path is for, such as
-    the option it came from) prefixes errors."""
+def _writer(data) -> Callable[[BinaryIO], object]:
     if isinstance(data, str):
         data = data.encode("utf-8")
-    elif not isinstance(data, (bytes, bytearray, memoryview)):
-        raise TypeError(f"write_atomic needs str or bytes, not {type(data).__name__}")
+    if isinstance(data, (bytes, bytearray, memoryview)):
+        return lambda f, data=data: f.write(data)
+    if callable(data):
+        return data
+    if isinstance(data, Iterable):
+        def write_all(f: BinaryIO) -> None:
+            for part in data:
+                f.write(part.encode("utf-8") if isinstance(part, str) else part)
+        return write_all
+    raise TypeError(f"write_atomic needs str, bytes, an iterable of them or a callable, not "
+                    f"{type(data).__name__}")
+
+
+def write_atomic(path: str | Path,
+                 data: str | bytes | Iterable[str | bytes] | Callable[[BinaryIO], object],
+                 *, force: bool = False, label: str = "") -> Path:
+    """Write ``data`` (text is UTF-8, line ends kept byte for byte) to ``path`` under the
+    rules in the module docstring; returns ``path``. ``label`` (what the path is for, such as
+    the option it came from) prefixes errors.
+
+    ``data`` may also come in parts (an iterable of str/bytes, written as they are produced)
+    or be a callable that writes into the open binary file: a large output then never has to
+    be held whole, and an error raised while producing it still leaves no file behind."""
+    write = _writer(data)
     path = Path(path).expanduser()
     where = f"{label} {path}" if label else str(path)
     target = check_output(path, force=force, label=label)
@@ -115,7 +135,7 @@ def write_atomic(path: str | Path, data: str | bytes, *, force: bool = False,
         with os.fdopen(fd, "wb") as f:
             os.fchmod(f.fileno(), _new_file_mode(target))
             _keep_owner(f.fileno(), target)
-            f.write(data)
+            write(f)
             f.flush()
             os.fsync(f.fileno())
         _commit(tmp, target, force)

@@ -4,7 +4,9 @@
 Stations come from ``--stations FILE`` (the config's station fields as CSV
 ``name,lat_deg,lon_deg[,alt_m[,min_el_deg]]`` or TOML ``[[station]]`` tables) or the usual
 station options. Output: ``--format table|csv|json|ics`` to stdout or ``--out FILE`` (written
-atomically). ``--rotator NAME`` adds the planner's
+atomically), or ``--format parquet`` (with ``--out``; needs pyarrow). The result is written in
+parts of :data:`ROWS_PER_PART` passes, so the text of a whole-catalogue run is never held at
+once (iCalendar excepted). ``--rotator NAME`` adds the planner's
 summary (mode, predicted max error, pre-position time) to passes above ``--min-max-el``.
 """
 
@@ -13,6 +15,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from collections.abc import Iterable, Iterator
 from datetime import timedelta
 from pathlib import Path
 
@@ -28,9 +31,14 @@ from tracker.commands._common import (
 )
 
 MAX_SKY_PLOTS = 50
+# Passes converted to records and written at a time: bounds the export's memory (Python
+# strings per cell) whatever the catalogue size; the finder's table itself is a compact
+# numpy array (about 70 bytes per pass).
+ROWS_PER_PART = 20_000
+FORMATS = ("table", "csv", "json", "ics")
 
 
-def add_batch_args(p: argparse.ArgumentParser) -> None:
+def add_batch_args(p: argparse.ArgumentParser, formats: tuple[str, ...] = FORMATS) -> None:
     """Options shared by ``batch`` and ``schedule``."""
     p.add_argument("source", metavar="CATALOG|GROUP",
                    help="TLE/3LE/OMM file, catalogue group (amateur, weather, ...) or 'all'")
@@ -44,7 +52,7 @@ def add_batch_args(p: argparse.ArgumentParser) -> None:
     vis.add_argument("--sunlit", action="store_true", help="only passes with the satellite lit")
     vis.add_argument("--visible", action="store_true",
                      help="only passes lit while the station is dark (Sun below -6 deg)")
-    p.add_argument("--format", choices=("table", "csv", "json", "ics"), default="table")
+    p.add_argument("--format", choices=formats, default="table")
     p.add_argument("--out", metavar="FILE", help="write here (atomically) instead of stdout")
     p.add_argument("--force", action="store_true",
                    help="replace existing --out/--plot files (otherwise they are never touched)")
@@ -64,7 +72,7 @@ def register(sub) -> None:
                        description="Find every pass of a catalogue (or group) over one or "
                                    "more stations, with plan summaries and CSV/JSON/iCalendar "
                                    "export.")
-    add_batch_args(p)
+    add_batch_args(p, (*FORMATS, "parquet"))
     p.add_argument("--plot", metavar="PNG",
                    help="also draw a timeline of the passes per satellite (.png/.svg)")
     p.add_argument("--sky-plots", metavar="DIR", dest="sky_plots",
@@ -212,9 +220,17 @@ def plans_for(args: argparse.Namespace, table, elements) -> list | None:
 
 def check_outputs(args: argparse.Namespace) -> None:
     """Refuse unusable output paths before the (possibly long) pass search."""
+    from tracker.errors import ConfigError
     from tracker.files import check_output
     from tracker.plot import check_plot_path, require_matplotlib
 
+    if args.format == "parquet":
+        from tracker.export import require_pyarrow
+
+        if not args.out:
+            raise ConfigError("--format parquet needs --out FILE (Parquet is not written to "
+                              "the terminal)")
+        require_pyarrow()
     if args.out:
         check_output(args.out, force=args.force, label="--out")
     if getattr(args, "plot", None):
@@ -223,14 +239,40 @@ def check_outputs(args: argparse.Namespace) -> None:
         require_matplotlib()
 
 
-def emit(args: argparse.Namespace, text: str) -> None:
+def emit(args: argparse.Namespace, text: str | Iterable[str]) -> None:
+    """Write the output (whole, or in parts as they are produced) to ``--out`` or stdout."""
     from tracker.files import write_atomic
 
     if args.out:
         path = write_atomic(args.out, text, force=args.force, label="--out")
         print(f"tracker: wrote {path}", file=sys.stderr)
     else:
-        sys.stdout.write(text)
+        for part in [text] if isinstance(text, str) else text:
+            sys.stdout.write(part)
+
+
+def record_parts(table, plans, rows: int | None = None) -> Iterator:
+    """The table's pass records, ``rows`` (default :data:`ROWS_PER_PART`) passes at a time in
+    table order (one empty part for an empty table)."""
+    from tracker.export import pass_records
+
+    rows = rows or ROWS_PER_PART
+    for a in range(0, max(len(table), 1), rows):
+        part = slice(a, a + rows)
+        yield pass_records(table.select(part), None if plans is None else plans[part])
+
+
+def write_output(args: argparse.Namespace, table, plans, meta: dict, start) -> None:
+    """``--format``/``--out`` for a batch result, written part by part."""
+    from tracker.export import render_chunks, write_parquet
+
+    parts = record_parts(table, plans)
+    errors = error_records(table)
+    if args.format == "parquet":
+        emit(args, lambda f: write_parquet(parts, f, meta=meta, errors=errors))
+        return
+    emit(args, render_chunks(args.format, parts, meta=meta, errors=errors,
+                             stamp_s=start.timestamp(), name=f"{args.source} passes"))
 
 
 def meta_of(args, table, start, elapsed_s: float) -> dict:
@@ -262,8 +304,6 @@ def report_errors(table) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tracker.export import pass_records, render
-
     check_outputs(args)
     t0 = time.perf_counter()
     elements = load_elements(args.source)
@@ -271,19 +311,16 @@ def run(args: argparse.Namespace) -> int:
     table, start = find(args, elements, stations)
     plans = plans_for(args, table, elements)
     elapsed = time.perf_counter() - t0
-    records = pass_records(table, plans)
     report_errors(table)
-    text = render(args.format, records, meta=meta_of(args, table, start, elapsed),
-                  errors=error_records(table), stamp_s=start.timestamp(),
-                  name=f"{args.source} passes")
     if args.plot:
+        from tracker.export import pass_records
         from tracker.plot import timeline_plot
 
-        path = timeline_plot(records, args.plot, start.timestamp(), table.end.timestamp(),
-                             title=f"{args.source}: {len(records)} passes", force=args.force,
-                             label="--plot")
+        path = timeline_plot(pass_records(table, plans), args.plot, start.timestamp(),
+                             table.end.timestamp(), title=f"{args.source}: {len(table)} passes",
+                             force=args.force, label="--plot")
         print(f"tracker: wrote {path}", file=sys.stderr)
-    emit(args, text)
-    print(f"tracker: {len(records)} passes of {len(elements)} satellites over "
+    write_output(args, table, plans, meta_of(args, table, start, elapsed), start)
+    print(f"tracker: {len(table)} passes of {len(elements)} satellites over "
           f"{len(stations)} station(s) in {elapsed:.1f} s", file=sys.stderr)
     return 0
