@@ -18,6 +18,11 @@ The procedure for each table of a :class:`~tracker.steptable.StepProgram` (or a 
    all (read twice) is a jam: all-stop and :class:`~tracker.errors.StallError`, within about
    start delay + 1 deg of travel + one poll of the point change.
 
+Given the target's sky track (``sky``) and the rotator (``spec``), each read-back during the
+pass is also compared with where the target is at that moment
+(:func:`tracker.geometry.pointing_error_deg`): the measured pointing error, in the progress
+lines and, as its maximum, in the report.
+
 Every exit path (end, error, Ctrl-C) sends all-stop, except ``detach`` after a successful T
 (the controller is meant to go on by itself).
 """
@@ -27,6 +32,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -39,11 +45,15 @@ from tracker.errors import (
     TrackerError,
     with_advice,
 )
+from tracker.geometry import pointing_error_deg
 from tracker.mount import RotatorSpec
 from tracker.protocols.gs232 import is_error_reply
 from tracker.protocols.gs232_tables import decode_table_line
 from tracker.stall import STILL_DEG, TableWatch, stall_error
 from tracker.steptable import BITS_PER_BYTE, MAKE_PLAN, StepTable
+
+if TYPE_CHECKING:  # pragma: no cover - typing only
+    from tracker.skytrack import SkyTrack
 
 # Reading N at a step boundary may see either side; allow this much clock slack.
 INDEX_SLACK_S = 0.6
@@ -70,6 +80,13 @@ class UploadReport:
     detached: bool = False
     stopped: bool = False
     events: list[str] = field(default_factory=list)
+    errors_deg: list[float] = field(default_factory=list)  # measured, one per read-back
+
+    @property
+    def max_error_deg(self) -> float | None:
+        """The largest measured pointing error of the pass; None when none was measured
+        (no sky track, detached, or no readable read-back during the pass)."""
+        return max(self.errors_deg) if self.errors_deg else None
 
 
 class TableRunner:
@@ -81,12 +98,15 @@ class TableRunner:
     far outside the recently commanded points the antenna may read before it counts as not
     following (twice in a row → stall; a coarse backstop to the motor-model check). ``spec``
     gives the motor model its rates and start delay (a slow generic rotator without it).
+    ``sky`` (anything with ``direction_at(t_s) -> (bearing_deg, el_deg)``, e.g. the
+    :class:`~tracker.skytrack.SkyTrack` the tables were compiled from) with ``spec`` turns
+    each read-back during the pass into a measured pointing error.
     """
 
     def __init__(self, driver, clock: Clock, *, baud: int = 9600, poll_s: float | None = None,
                  follow_tol_deg: float = 4.0, follow_window_s: float = 40.0,
                  log: Callable[[str], None] | None = None, monitor: bool = True,
-                 spec: RotatorSpec | None = None):
+                 spec: RotatorSpec | None = None, sky: SkyTrack | None = None):
         self.driver = driver
         self.clock = clock
         self.baud = int(baud)
@@ -102,6 +122,10 @@ class TableRunner:
         self._watch = TableWatch(spec)
         self._last_read: tuple[float, float | None] | None = None   # last C2: az, el
         self._said_t_s = -float("inf")                              # last progress line
+        self._spec = spec
+        self._sky = sky
+        self._pass_s = (float("inf"), -float("inf"))  # first T .. last point's hold end
+        self._last_error_deg: float | None = None
 
     # Public --------------------------------------------------------------------------------
 
@@ -116,6 +140,7 @@ class TableRunner:
         for table in tables:
             table.lines()  # refuse anything over the limits before a single byte is sent
         self._check_controller_limits(tables)
+        self._pass_s = (tables[0].start_t_s, tables[-1].end_t_s)
         ok = False
         try:
             if tables[0].profile.lines_append:
@@ -248,6 +273,8 @@ class TableRunner:
         if self._last_read is not None:
             az, el = self._last_read
             where = f"; antenna reads az {az:g}" + ("" if el is None else f" el {el:g}")
+            if self._last_error_deg is not None:
+                where += f", {self.error_label} {self._last_error_deg:.1f} deg"
         step = min(table.index_at(now), len(table))
         self.log(f"step {step}/{len(table)}, {_mmss(table.end_t_s - now)} to the last "
                  f"point{where}")
@@ -347,6 +374,7 @@ class TableRunner:
             return
         t_before, t_after, az, el = read
         self._last_read = (az, el)
+        self._measure(0.5 * (t_before + t_after), az, el)
         stalled = self._watch.stalled(t_before, az, el, t_after)
         if stalled is not None:
             again = self._read_position()       # a garbled digit must not stop a pass
@@ -383,6 +411,27 @@ class TableRunner:
                    + f", commanded az {az_pts.min():g}..{az_pts.max():g}")
             self._all_stop(quiet=True)
             raise stall_error(msg)
+
+    @property
+    def error_label(self) -> str:
+        """``pointing error``, or ``azimuth error`` for an azimuth-only rotator (judged on
+        azimuth, as in the prediction)."""
+        return ("pointing error" if self._spec is None or self._spec.has_elevation
+                else "azimuth error")
+
+    def _measure(self, t_s: float, wire_az_deg: float, el_deg: float | None) -> None:
+        """The pointing error of a read-back (wire degrees) at ``t_s``, while the pass runs
+        (the slew before T and the park after are not the pass's error)."""
+        self._last_error_deg = None
+        if self._sky is None or self._spec is None or wire_az_deg < 0 or \
+                not self._pass_s[0] <= t_s <= self._pass_s[1]:
+            return
+        # Every mechanical candidate of a wire azimuth has the same bearing: no belief needed.
+        m_az = self._spec.frame.nearest_mech_of_wire(wire_az_deg)
+        taz, tel = self._sky.direction_at(t_s)
+        err = float(pointing_error_deg(self._spec, m_az, el_deg, (float(taz), float(tel))))
+        self._last_error_deg = err
+        self.report.errors_deg.append(err)
 
     # Helpers ------------------------------------------------------------------------------
 

@@ -220,3 +220,74 @@ def test_a_large_predicted_error_is_explained(tmp_path, capsys, monkeypatch):
                  "--interval", "4", "--dry-run", "--at", "2026-08-24T04:20:00Z"]) == 0
     err = capsys.readouterr().err
     assert "the interval is too long for this pass" in err and "--interval" in err
+
+
+def test_upload_reports_the_measured_pointing_error(tmp_path, capsys):
+    """Each progress line carries the measured error (read-back against where the ISS is at
+    that moment) and the run ends with the pass's measured maximum, close to the prediction;
+    a plan file carries no sky track, so its error is said to be unknown, not invented.
+    Virtual time: emu:// benches on ManualClocks."""
+    import re
+
+    from _virtual import manual_clock, virtual_rig
+
+    from tracker.mount import preset
+
+    rig = virtual_rig(Gs232Controller("gs232b", preset("G-5500"),
+                                      clock=manual_clock(1787461200.0)))  # 05:00 UTC
+    try:
+        rc = main(["upload", "ISS", *WHERE, "--port", rig.url])
+    finally:
+        rig.close()
+    out, err = capsys.readouterr()
+    assert rc == 0, out + err
+    steps = [line for line in out.splitlines() if "  step " in line]
+    assert steps and all(re.search(r"el \d+, pointing error \d+\.\d deg$", s) for s in steps)
+    predicted = float(re.search(r"predicted error max ([\d.]+) deg", out).group(1))
+    last = out.splitlines()[-1]
+    m = re.fullmatch(r"measured: max pointing error ([\d.]+) deg over (\d+) read-backs", last)
+    assert m and int(m.group(2)) > 100, last
+    assert float(m.group(1)) <= predicted + 0.5
+
+    f = tmp_path / "tiny.steps"
+    _tiny_plan(f)
+    rig = virtual_rig(Gs232Controller("gs232b", preset("G-5500"), az_deg=10, el_deg=5,
+                                      clock=manual_clock(1787450400.0)))  # 02:00 UTC
+    try:
+        rc = main(["upload", "--from", str(f), "--port", rig.url])
+    finally:
+        rig.close()
+    out = capsys.readouterr().out
+    assert rc == 0, out
+    assert out.splitlines()[-1] == ("measured pointing error: unknown (the plan file "
+                                    "carries no sky track of the target)")
+
+
+def test_the_simulation_replays_stale_elements_at_their_epoch(capsys, monkeypatch):
+    """Elements far older than today (the test TLE's epoch is 2026-08-22): the simulation
+    replays a pass just after their epoch, says so once, and does not also warn about their
+    age; as `tracker track`'s demo. Its clock and emulator run on virtual time here."""
+    from datetime import datetime, timezone
+
+    from tracker import clock as clocks
+    from tracker import emulator
+    from tracker.clock import ManualClock
+    from tracker.emulator.virtual import Bench
+
+    if datetime.now(timezone.utc) < datetime(2026, 9, 20, tzinfo=timezone.utc):
+        pytest.skip("the test elements are not stale yet")
+    made: list[ManualClock] = []
+
+    def virtual_clock(start, speed):
+        made.append(ManualClock(start))
+        return made[-1]
+
+    monkeypatch.setattr(clocks, "SimClock", virtual_clock)
+    monkeypatch.setattr(emulator, "serve_pty", Bench)
+    rc = main(["upload", "ISS", *WHERE, "--interval", "10"])
+    out, err = capsys.readouterr()
+    assert rc == 0, out + err
+    assert "days old (epoch 2026-08-22" in out and "replays a pass just after" in out, out
+    assert "old" not in err, err
+    assert made and made[0].now() < datetime(2026, 8, 25, tzinfo=timezone.utc), made[0].now()
+    assert "all-stop sent" in out and out.splitlines()[-1].startswith("measured: max")

@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 from tracker.commands._common import (
     add_rotator_args,
@@ -28,6 +28,8 @@ from tracker.commands._common import (
 if TYPE_CHECKING:  # pragma: no cover - typing only
     from tracker.mount import RotatorSpec
     from tracker.protocols.base import Capabilities
+    from tracker.skytrack import SkyTrack
+    from tracker.steptable import StepProgram
 
 DEMO_SPEED = 20.0
 
@@ -74,17 +76,31 @@ def register(sub) -> None:
     p.set_defaults(func=run_worded_for_cli)
 
 
+class CompiledPass(NamedTuple):
+    """What :func:`build_program` made: the program, its plan-file header, the sky track it
+    was compiled from (to measure the pointing error against) and the demo's note ("" unless
+    a simulation moved to the epoch of stale elements)."""
+
+    program: StepProgram
+    header: dict
+    sky: SkyTrack
+    note: str = ""
+
+
 def build_program(args: argparse.Namespace, now_s: float, current=None,
-                  capabilities: Capabilities | None = None):
-    """Find the pass and compile it; returns (program, header dict). With ``capabilities``
-    (what the connected controller accepts) the pass is planned inside them: a controller
-    in its 360 deg mode gets no overlap plan, one taking elevation up to 90 no flip."""
+                  capabilities: Capabilities | None = None, demo: bool = False
+                  ) -> CompiledPass:
+    """Find the pass and compile it. With ``capabilities`` (what the connected controller
+    accepts) the pass is planned inside them: a controller in its 360 deg mode gets no
+    overlap plan, one taking elevation up to 90 no flip. A ``demo`` (the simulation) without
+    ``--at`` replays a pass near the epoch of stale elements, as ``tracker track`` does."""
     from datetime import datetime, timedelta, timezone
 
     from tracker.commands._common import warn_element_age
     from tracker.errors import ConfigError, LimitError
     from tracker.passes import find_passes
     from tracker.steptable import compile_pass
+    from tracker.tracking import demo_start
 
     if not args.target:
         raise ConfigError("give a TARGET (e.g. 'ISS') or --from FILE")
@@ -97,8 +113,11 @@ def build_program(args: argparse.Namespace, now_s: float, current=None,
     if capabilities is not None:
         spec = _inside_the_controller(spec, station, capabilities)
     target = target_from_args(args.target, args)
-    now = datetime.fromtimestamp(now_s, timezone.utc)
-    warn_element_age([target], now)
+    now, note = datetime.fromtimestamp(now_s, timezone.utc), ""
+    if demo and args.at is None:
+        now, note = demo_start(target, now)
+        now_s = now.timestamp()
+    warn_element_age([target], now)  # a demo moved to a stale epoch says so in its note
     passes = find_passes(target, station, now, now + timedelta(days=args.days))
     passes = [p for p in passes if p.los.timestamp() > now_s + 10.0]
     if len(passes) < args.pass_no:
@@ -122,7 +141,7 @@ def build_program(args: argparse.Namespace, now_s: float, current=None,
             raise
         raise LimitError(f"{e.problem}. Raise --max-error or give --interval") from None
     _warn_large_error(program, track)
-    return program, header
+    return CompiledPass(program, header, track, note)
 
 
 def _warn_large_error(program, track) -> None:
@@ -216,22 +235,24 @@ def run(args: argparse.Namespace) -> int:
     now_s = clock.timestamp()
     if not args.port or args.dry_run:
         # a dry run, or a simulation on an emulator made from the rotator spec itself
-        program, header = build_program(args, now_s)
+        built = build_program(args, now_s, demo=simulate)
+        program = built.program
         if args.dry_run:
-            sys.stdout.write(format_plan_file(program, header))
+            sys.stdout.write(format_plan_file(program, built.header))
             return 0
         print(program.summary())
-        return _send(args, list(program.tables), clock, simulate, program.spec)
+        return _send(args, list(program.tables), clock, simulate, program.spec,
+                     sky=built.sky, note=built.note)
     # A real controller: connect first, so the pass is planned inside what it accepts.
     driver = _open_driver(args, args.port, rotator_from_args(args))
     try:
-        program, _header = build_program(args, now_s, capabilities=driver.capabilities)
-        print(program.summary())
-        tables = resume_schedule(list(program.tables), clock.timestamp(), args.baud)
+        built = build_program(args, now_s, capabilities=driver.capabilities)
+        print(built.program.summary())
+        tables = resume_schedule(list(built.program.tables), clock.timestamp(), args.baud)
     except BaseException:
         driver.close()
         raise
-    return _send(args, tables, clock, simulate, program.spec, driver)
+    return _send(args, tables, clock, simulate, built.program.spec, driver, sky=built.sky)
 
 
 def _plan_file_rotator(args: argparse.Namespace, header: dict) -> RotatorSpec:
@@ -263,8 +284,11 @@ def _open_driver(args: argparse.Namespace, url: str, spec: RotatorSpec, **timing
     return driver
 
 
-def _send(args, tables, clock, simulate: bool, spec: RotatorSpec, driver=None) -> int:
-    """Run ``tables`` on ``driver`` (opened here for ``--from`` and the simulation)."""
+def _send(args, tables, clock, simulate: bool, spec: RotatorSpec, driver=None, *,
+          sky: SkyTrack | None = None, note: str = "") -> int:
+    """Run ``tables`` on ``driver`` (opened here for ``--from`` and the simulation); with
+    ``sky`` (the target's track) the pointing error is measured. ``note``: the simulation's
+    note on replayed stale elements."""
     from datetime import datetime, timezone
 
     from tracker.clock import SimClock
@@ -287,6 +311,8 @@ def _send(args, tables, clock, simulate: bool, spec: RotatorSpec, driver=None) -
               f"{args.protocol} emulator on {server.url} with a simulated clock at "
               f"{args.speed:g}x, starting just before the upload time. Nothing real moves.",
               flush=True)
+        if note:
+            print(note, flush=True)
         url = server.url
         # Read deadlines and pacing run on the port's time (real, on this pty), whatever
         # the simulated clock's speed.
@@ -306,7 +332,7 @@ def _send(args, tables, clock, simulate: bool, spec: RotatorSpec, driver=None) -
         # session makes SIGTERM / SIGHUP take the Ctrl-C path and has the last word, S.
         with ControllerSession(driver.stop, stop_at_end=False,
                                on_stop_failed=lambda why: log(f"all-stop failed: {why}")):
-            runner = TableRunner(driver, clock, baud=args.baud, spec=spec, log=log)
+            runner = TableRunner(driver, clock, baud=args.baud, spec=spec, log=log, sky=sky)
             try:
                 report = runner.run(tables, detach=args.detach)
             except ConfigError as e:
@@ -325,7 +351,19 @@ def _send(args, tables, clock, simulate: bool, spec: RotatorSpec, driver=None) -
     late = ", ".join(f"{x * 1000:+.0f} ms" for x in report.t_late_s)
     print(f"T timing: {late}; resyncs: {len(report.resyncs)}"
           + ("; detached, the controller steps on by itself" if report.detached else ""))
+    if not report.detached:
+        print(_measured(report, runner.error_label, sky is not None))
     return 0
+
+
+def _measured(report, label: str, has_sky: bool) -> str:
+    """The pass's measured max error, or why it is unknown."""
+    if report.max_error_deg is not None:
+        return (f"measured: max {label} {report.max_error_deg:.1f} deg over "
+                f"{len(report.errors_deg)} read-backs")
+    why = ("the plan file carries no sky track of the target" if not has_sky
+           else "no read-back during the pass")
+    return f"measured {label}: unknown ({why})"
 
 
 def _utc(clock) -> str:
