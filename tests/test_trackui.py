@@ -120,3 +120,63 @@ def test_plain_lines_use_words_not_state_names():
     assert "state" not in text and "pass_done" not in text
     assert "moving to the AOS point" in text
     assert "az  20.0 (mech 380)" in text
+
+
+def test_ctrl_c_on_the_live_panel_is_not_echoed_and_the_echo_comes_back(tmp_path):
+    """The panel's last line fills the terminal, so an echoed ``^C`` wrapped to a new line
+    and the panel's top border was drawn twice. A real terminal (pty) and a real Ctrl-C: the
+    run stops (exit 130, "interrupted"), no ``^C`` is echoed, and the echo is on again after."""
+    import fcntl
+    import os
+    import pty
+    import select
+    import struct
+    import sys
+    import termios
+    import time
+
+    from _paths import REPO
+
+    env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path / "cache"), TERM="xterm-256color",
+               XDG_CONFIG_HOME=str(tmp_path / "config"), PYTHONPATH=str(REPO), COLUMNS="100",
+               LINES="30")
+    env.pop("TRACKER_CONFIG", None)
+    pid, master = pty.fork()
+    if pid == 0:    # the child: the pty is its controlling terminal, so ^C is a SIGINT
+        os.execve(sys.executable, [sys.executable, "-m", "tracker", "track", "ISS (ZARYA)"],
+                  env)
+    fcntl.ioctl(master, termios.TIOCSWINSZ, struct.pack("HHHH", 30, 100, 0, 0))
+
+    def read_until(marker: bytes | None, timeout_s: float) -> bytes:
+        out = b""
+        end = time.monotonic() + timeout_s
+        while time.monotonic() < end and (marker is None or marker not in out):
+            if select.select([master], [], [], 0.2)[0]:
+                try:
+                    chunk = os.read(master, 65536)
+                except OSError:          # the child is gone: the pty is closed
+                    break
+                if not chunk:
+                    break
+                out += chunk
+        return out
+
+    try:
+        before = read_until("╭".encode(), 120.0)       # the panel is up
+        assert "╭".encode() in before, before[-2000:]
+        os.write(master, b"\x03")
+        after = read_until(None, 120.0)
+        echo_back = termios.tcgetattr(master)[3] & termios.ECHO
+    finally:
+        end = time.monotonic() + 30.0
+        while (done := os.waitpid(pid, os.WNOHANG))[0] == 0 and time.monotonic() < end:
+            time.sleep(0.05)
+        if done[0] == 0:             # never hang the suite on a stuck child
+            os.kill(pid, 9)
+            done = os.waitpid(pid, 0)
+        status = done[1]
+        os.close(master)
+    assert os.waitstatus_to_exitcode(status) == 130, after[-2000:]
+    assert b"interrupted" in after, after[-2000:]
+    assert b"^C" not in after
+    assert echo_back

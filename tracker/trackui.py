@@ -241,6 +241,7 @@ class RichPanel:
         self._live = Live(console=self.console, get_renderable=self._render,
                           refresh_per_second=8, transient=False, redirect_stdout=False,
                           redirect_stderr=False)
+        self._restore_echo = _quiet_keyboard() if console is None else None
         self._live.start()
 
     def _render(self):
@@ -348,7 +349,41 @@ class RichPanel:
         self._st = st
 
     def close(self) -> None:
-        self._live.stop()
+        try:
+            self._live.stop()
+        finally:
+            if self._restore_echo is not None:
+                self._restore_echo()
+
+
+def _quiet_keyboard():
+    """Stop the terminal echoing keys (``^C`` above all) while the panel is drawn; returns
+    what puts the echo back, or None. The panel's last line fills the terminal's width, so
+    an echoed ``^C`` wraps to a new line, and the panel's next redraw, counting its lines
+    up from there, leaves its old top border on screen: drawn twice. Ctrl-C still stops the
+    run: only the echo goes, not the signal."""
+    try:
+        import termios
+    except ImportError:     # not a POSIX terminal: nothing to quiet
+        return None
+    try:
+        fd = sys.stdin.fileno()
+        if not os.isatty(fd):
+            return None
+        before = termios.tcgetattr(fd)
+        quiet = list(before)
+        quiet[3] &= ~(termios.ECHO | getattr(termios, "ECHOCTL", 0))
+        termios.tcsetattr(fd, termios.TCSANOW, quiet)
+    except (OSError, ValueError, termios.error):
+        return None
+
+    def restore() -> None:
+        try:
+            termios.tcsetattr(fd, termios.TCSANOW, before)
+        except (OSError, termios.error):
+            pass    # the terminal is gone; nothing to restore
+
+    return restore
 
 
 class Fanout:
