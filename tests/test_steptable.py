@@ -304,3 +304,18 @@ def test_tables_are_checked_against_the_rotator_and_the_mask_they_are_sent_to():
         check_tables_fit([flip], G5500, wall)               # 10 deg over the top, south
     with pytest.raises(LimitError, match="elevation range 0-90"):
         check_tables_fit([flip], G5500.with_(name="G-5400", el_max_deg=90.0), STATION)
+
+
+def test_a_450_deg_rotator_on_k3ng_tables_is_planned_inside_their_360_deg():
+    """K3NG tables take W azimuths up to 360. A north-crossing pass that a G-5500 follows in
+    its overlap (mechanical 360-450) used to be planned there and clipped to 360 point by
+    point (tens of degrees off); it is planned inside 0-360 instead (a flip here)."""
+    from tracker.planner import plan_pass
+    from tracker.testing import synthetic_pass
+
+    track = synthetic_pass(30.0, 0.0, duration_s=600.0)      # culminates due north
+    assert plan_pass(track, G5500, STATION, lead_s=0.0).mode == "overlap"
+    prog = compile_pass(track, G5500, STATION, "k3ng", interval_s=2)
+    assert prog.meta["mode"] != "overlap"
+    assert max(az for table in prog.tables for az in table.az_deg) <= 360
+    assert prog.prediction.max_error_deg < 3.0, prog.prediction.max_error_deg

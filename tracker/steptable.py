@@ -512,6 +512,17 @@ def _choose_points(path: MountPath, spec: RotatorSpec, profile: TableProfile, ki
     return az_pick.astype(float), None if el_pick is None else el_pick.astype(float)
 
 
+def _table_rotator(spec: RotatorSpec, profile: TableProfile) -> RotatorSpec:
+    """``spec`` narrowed to the azimuth its tables can hold: a K3NG takes W azimuths up to 360
+    only, so a 450 deg rotator's pass is planned without the overlap (a flip or an unwind)
+    instead of planned in it and clipped to 360 point by point."""
+    kind = "W" if spec.has_elevation else "M"
+    top = _mech_limit(spec, profile, kind)
+    if top >= spec.az_span_deg:
+        return spec
+    return spec.with_(az_span_deg=top, park_az_deg=min(spec.park_az_deg, top))
+
+
 def _mech_limit(spec: RotatorSpec, profile: TableProfile, kind: str) -> float:
     if spec.controller_maps_south:
         return spec.az_span_deg
@@ -776,6 +787,9 @@ def compile_pass(track: SkyTrack, spec: RotatorSpec, station: Station,
     """
     from tracker.planner import plan_pass
 
+    if isinstance(profile, str):
+        profile = table_profile(profile)
+    spec = _table_rotator(spec, profile)
     plan = plan_pass(track, spec, station, current, lead_s=0.0)
     vis = np.flatnonzero(np.asarray(plan.visible))
     if len(vis) < 2:
