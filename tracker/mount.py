@@ -539,7 +539,8 @@ def drive_axis(axis: AxisMotor, cmd_t_s: ArrayLike, cmd_deg: ArrayLike, t_eval_s
     out[:] = move_from_rest(prev[i], cmd[i], t_eval - cmd_t[i], axis.rate_deg_s,
                             axis.start_delay_s)
     out[before] = p0
-    starts = int(np.count_nonzero(moving & ~overlap))
+    stepped = np.zeros(n, dtype=bool)     # commands stepped below, counted there
+    starts = 0
 
     # Stretches where moves overlap: step the real AxisMotor command by command.
     overlap_idx = np.flatnonzero(overlap)
@@ -559,12 +560,15 @@ def drive_axis(axis: AxisMotor, cmd_t_s: ArrayLike, cmd_deg: ArrayLike, t_eval_s
             if hi > lo:
                 out[lo:hi] = axis.position(t_eval[lo:hi])
             caught = axis.arrival_s() <= next_t[last] + 1e-9 and not axis.jammed
+            stepped[last] = True
             last += 1
             if caught:
                 break
         # Commands after the stretch start from rest on cmd[last - 1]: closed form holds.
         while k < len(overlap_idx) and overlap_idx[k] < last:
             k += 1
+    # Every other command starts from rest where the one before it ended: a start if it moves.
+    starts += int(np.count_nonzero(moving & ~stepped))
     if not overlap[n - 1]:
         # Leave the axis where the last command put it, as stepping would.
         _rest_at(axis, float(prev[-1]), float(cmd_t[-1]))
