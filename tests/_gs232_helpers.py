@@ -52,6 +52,58 @@ def load_transcript(path: Path) -> Transcript:
     return Transcript(profile, rotator, steps)
 
 
+def replay_over_real_io(tr: Transcript, ctrl, clock, server, name: str, want_seen) -> None:
+    """Play transcript ``tr`` against emulator ``ctrl`` served on ``server`` (a real TCP
+    socket or pty), byte for byte: every reply exactly as recorded, nothing trailing.
+    ``want_seen(seen, request)`` is how many commands the controller has taken once it has
+    ``request`` (a silent command must be processed before the clock moves on)."""
+    if server.url.startswith("socket://"):
+        host, port = server.url.removeprefix("socket://").split(":")
+        sock = socket.create_connection((host, int(port)), timeout=2)
+        fileno, write, close = sock.fileno(), sock.sendall, sock.close
+
+        def recv(n):
+            return sock.recv(n)
+    else:
+        fd = os.open(server.url, os.O_RDWR | os.O_NOCTTY)
+        fileno, close = fd, (lambda: os.close(fd))
+
+        def write(b):
+            os.write(fd, b)
+
+        def recv(n):
+            return os.read(fd, n)
+
+    def read(n):
+        r, _, _ = select.select([fileno], [], [], 0.1)
+        return recv(n) if r else b""
+
+    def read_exact(n: int, timeout_s: float = 2.0) -> bytes:
+        out = b""
+        end = time.monotonic() + timeout_s
+        while len(out) < n and time.monotonic() < end:
+            out += read(n - len(out))
+        return out
+
+    try:
+        stray = getattr(ctrl, "power_on_byte", b"")
+        if stray:
+            assert read_exact(len(stray)) == stray
+        for i, step in enumerate(tr.steps):
+            if step[0] == "advance":
+                clock.advance(step[1])
+                continue
+            _, req, expected = step
+            want = want_seen(ctrl.commands_seen, req)
+            write(req)
+            assert wait_until(lambda w=want: ctrl.commands_seen >= w)
+            got = read_exact(len(expected)) if expected else b""
+            assert got == expected, f"{name} step {i}: {req!r}"
+        assert read(4096) == b""      # nothing unexpected trails the last reply
+    finally:
+        close()
+
+
 class RawPeer:
     """A tiny misbehaving 'controller' on a real TCP socket or pty: it reads requests and
     answers with whatever ``respond(request_bytes) -> bytes`` says."""

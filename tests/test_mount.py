@@ -266,3 +266,13 @@ def test_drive_axis_counts_one_start_per_step_from_rest():
     t = np.arange(10.0)
     _, starts = drive_axis(ax, t, 100 + t, t)  # 1 deg/s in 1 deg steps: 9 moves from rest
     assert starts == 9
+
+
+def test_top_command_is_one_step_short_of_a_bearing_taking_controllers_stop():
+    from tracker.mount import MountFrame
+
+    south = MountFrame(360.0, 180.0, wire_takes_bearing=True)
+    assert south.top_command_deg(1.0) == 359.0          # 360 would be bearing 180: the CCW end
+    assert south.wire_of(south.top_command_deg(1.0)) == 179.0
+    assert MountFrame(360.0, 180.0).top_command_deg(1.0) == 360.0      # takes mechanical
+    assert MountFrame(450.0, 0.0).top_command_deg(1.0) == 450.0

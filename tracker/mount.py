@@ -69,6 +69,14 @@ class MountFrame:
             return float(self.az_span_deg)
         return min(float(self.az_span_deg), float(wire_max_deg))
 
+    def top_command_deg(self, step_deg: float) -> float:
+        """The highest mechanical azimuth a command can name. On a 360 deg rotator whose
+        controller takes bearings, the CW end is the stop's own bearing, which the controller
+        reads as the CCW end: one ``step_deg`` short of it is the top. Else the span."""
+        if self.wire_takes_bearing and self.az_span_deg <= 360.0:
+            return float(self.az_span_deg) - float(step_deg)
+        return float(self.az_span_deg)
+
     @overload
     def wire_of(self, m_deg: float) -> float: ...
 

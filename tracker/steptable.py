@@ -518,14 +518,14 @@ def _table_rotator(spec: RotatorSpec, profile: TableProfile) -> RotatorSpec:
     instead of planned in it and clipped to 360 point by point."""
     kind = "W" if spec.has_elevation else "M"
     top = _mech_limit(spec, profile, kind)
-    if top >= spec.az_span_deg:
-        return spec
+    if top >= spec.az_span_deg or top < 360.0:
+        return spec     # nothing to narrow, or only the last step (the compiler's clamp)
     return spec.with_(az_span_deg=top, park_az_deg=min(spec.park_az_deg, top))
 
 
 def _mech_limit(spec: RotatorSpec, profile: TableProfile, kind: str) -> float:
     if spec.controller_maps_south:
-        return spec.az_span_deg
+        return spec.frame.top_command_deg(spec.resolution_deg)
     return float(profile.az_max_deg(kind))
 
 

@@ -662,10 +662,8 @@ def safe_target(spec: RotatorSpec, station: Station, az_m_deg: float, el_deg: fl
     az = min(max(float(az_m_deg), 0.0), spec.az_span_deg)
     if az != az_m_deg:
         why.append(f"azimuth {az_m_deg:.1f} outside 0..{spec.az_span_deg:g}")
-    if spec.frame.wire_takes_bearing and spec.az_span_deg <= 360.0 and az >= 360.0 - 1e-9:
-        # A controller taking bearings reads the stop's own bearing as the CCW end: the CW
-        # end of a 360 deg span is only reachable one step short of it.
-        az_top = az - spec.resolution_deg
+    az_top = spec.frame.top_command_deg(spec.resolution_deg)
+    if az > az_top + 1e-9:
         why.append(f"azimuth {az:.1f} is the stop's bearing, which this controller takes as "
                    f"the CCW end; {az_top:g} instead")
         az = az_top

@@ -6,6 +6,7 @@ import time
 from pathlib import Path
 
 import pytest
+from _gs232_helpers import wait_until
 from test_steptable_fixtures import DATA
 
 from tracker.cli import main
@@ -84,9 +85,7 @@ def test_from_file_sent_to_a_real_socket(tmp_path, capsys):
         rc = main(["upload", "--from", str(f), "--port", server.url,
                    "--at", "2026-08-23T02:00:00Z"])
         elapsed = time.monotonic() - t0
-        deadline = time.monotonic() + 3
-        while (not ctrl.log or ctrl.log[-1][1] != b"S") and time.monotonic() < deadline:
-            time.sleep(0.01)
+        wait_until(lambda: bool(ctrl.log) and ctrl.log[-1][1] == b"S", 3)
     out = capsys.readouterr().out
     assert rc == 0, out
     lines = [line for _, line, _ in ctrl.log]
@@ -129,9 +128,7 @@ def test_from_file_with_now_resumes_at_the_point_due(tmp_path, capsys):
     with serve_tcp(ctrl) as server:
         rc = main(["upload", "--from", str(f), "--port", server.url, "--now",
                    "--at", "2026-08-23T02:00:04.500Z"])
-        deadline = time.monotonic() + 3
-        while (not ctrl.log or ctrl.log[-1][1] != b"S") and time.monotonic() < deadline:
-            time.sleep(0.01)
+        wait_until(lambda: bool(ctrl.log) and ctrl.log[-1][1] == b"S", 3)
     out = capsys.readouterr().out
     assert rc == 0, out
     lines = [line for _, line, _ in ctrl.log]
