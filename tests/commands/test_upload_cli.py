@@ -288,3 +288,27 @@ def test_the_simulation_replays_stale_elements_at_their_epoch(capsys, monkeypatc
     assert "old" not in err, err
     assert made and made[0].now() < datetime(2026, 8, 25, tzinfo=timezone.utc), made[0].now()
     assert "all-stop sent" in out and out.splitlines()[-1].startswith("measured: max")
+
+
+def test_a_stop_while_planning_after_connecting_sends_all_stop(capsys, monkeypatch):
+    """Upload connects before it plans; a Ctrl-C (or SIGTERM/SIGHUP, which take its path)
+    during the planning still leaves all-stop as the last thing on the wire."""
+    from _virtual import manual_clock, virtual_rig
+
+    from tracker.commands import upload
+    from tracker.mount import preset
+
+    rig = virtual_rig(Gs232Controller("gs232b", preset("G-5500"),
+                                      clock=manual_clock(1787461200.0)))
+
+    def interrupted(*_a, **_kw):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(upload, "build_program", interrupted)
+    try:
+        rc = main(["upload", "ISS", *WHERE, "--port", rig.url])
+        wire = rig.written()
+    finally:
+        rig.close()
+    assert rc == 130
+    assert wire.endswith(b"S\r"), wire          # nothing was sent before: S alone

@@ -244,11 +244,16 @@ def run(args: argparse.Namespace) -> int:
         return _send(args, list(program.tables), clock, simulate, program.spec,
                      sky=built.sky, note=built.note)
     # A real controller: connect first, so the pass is planned inside what it accepts.
+    from tracker.session import ControllerSession
+
     driver = _open_driver(args, args.port, rotator_from_args(args))
     try:
-        built = build_program(args, now_s, capabilities=driver.capabilities)
-        print(built.program.summary())
-        tables = resume_schedule(list(built.program.tables), clock.timestamp(), args.baud)
+        # The port is open: a signal or an error while planning ends with all-stop too.
+        with ControllerSession(driver.stop, stop_at_end=False):
+            built = build_program(args, now_s, capabilities=driver.capabilities)
+            print(built.program.summary())
+            tables = resume_schedule(list(built.program.tables), clock.timestamp(),
+                                     args.baud)
     except BaseException:
         driver.close()
         raise
