@@ -5,11 +5,13 @@ Library code takes a :class:`Clock` and never calls ``time.time()`` or
 ``datetime.now()``. :class:`SystemClock` is real time; :class:`SimClock` runs a simulated
 UTC timeline ``speed`` times faster than the wall clock (demos, emulators, end-to-end tests,
 shared by threads); :class:`ManualClock` only moves when told or when someone sleeps on it
-(single-threaded unit tests).
+(single-threaded unit tests); :class:`LockstepClock` is that shared by threads (virtual time)
+and :class:`PacedClock` virtual time held to a watchable pace.
 """
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from datetime import datetime, timedelta, timezone
@@ -196,6 +198,28 @@ class LockstepClock(ManualClock):
         with self._cv:
             self._parties -= 1
             self._cv.notify_all()
+
+
+class PacedClock(LockstepClock):
+    """Virtual time that a person can watch: a :class:`LockstepClock` (every wait a jump of
+    the clock, the same way every run) whose jumps are held back until ``1/speed`` real
+    seconds per simulated second have passed since the start. Falling behind (the loop's
+    own work) is caught up, never made up for by a faster pace later."""
+
+    def __init__(self, start: datetime, speed: float, parties: int = 1):
+        if not (math.isfinite(speed) and speed > 0):
+            raise ValueError(f"speed {speed} must be a finite number above 0")
+        super().__init__(start, parties)
+        self.speed = float(speed)
+        self._sim0_s = self.timestamp()
+        self._real0_s = time.monotonic()
+
+    def _step(self) -> None:
+        due_real_s = self._real0_s + (min(self._wakes.values()) - self._sim0_s) / self.speed
+        wait_s = due_real_s - time.monotonic()
+        if wait_s > 0:
+            time.sleep(wait_s)
+        super()._step()
 
 
 def utc(year: int, month: int, day: int, hour: int = 0, minute: int = 0, second: float = 0.0

@@ -216,13 +216,16 @@ class ControllerSession:
     parked and stopped, or a rotctl-like ``goto`` that must go on, says False). ``limits``
     (optional) is what :meth:`check_move` enforces; ``ignore_limits`` turns that check off for
     maintenance (the caller warns). ``on_stop_failed`` hears about an all-stop that failed
-    while another error was already ending the session.
+    while another error was already ending the session. ``signals``: the signals that end
+    it (a service that reloads its configuration on SIGHUP leaves SIGHUP out).
     """
 
     def __init__(self, all_stop: Callable[[], object], *, stop_at_end: bool = True,
                  limits: EffectiveLimits | None = None, ignore_limits: bool = False,
-                 on_stop_failed: Callable[[str], None] | None = None):
+                 on_stop_failed: Callable[[str], None] | None = None,
+                 signals: tuple[int, ...] = STOP_SIGNALS):
         self.all_stop = all_stop
+        self.signals = signals
         self.stop_at_end = stop_at_end
         self.limits = limits
         self.ignore_limits = ignore_limits
@@ -250,7 +253,7 @@ class ControllerSession:
         raise Interrupted(signum)
 
     def __enter__(self) -> ControllerSession:
-        self._restore_signals = route_stop_signals(self._on_signal)
+        self._restore_signals = route_stop_signals(self._on_signal, self.signals)
         return self
 
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,

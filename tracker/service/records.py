@@ -1,0 +1,111 @@
+"""What a station keeps on disk: the JSON-lines pass log and the small state file.
+
+* :class:`PassLog` appends one JSON object per pass (planned vs measured max error, commands,
+  motor starts, faults) and rotates by size with the standard library's
+  :class:`~logging.handlers.RotatingFileHandler`, so a station left running for months keeps
+  a bounded log. A write that fails (full disk, permissions) raises, so the service can say
+  so instead of the log silently stopping.
+* :class:`StationState` remembers the outcome of every recent pass, so a restarted service
+  does not track a pass twice nor forget one it skipped. It is written atomically (a
+  temporary file renamed over the old), so a crash or a full disk leaves the previous state
+  whole; an unreadable state file is set aside (``.bad``) with a warning, never fatal.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import logging.handlers
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from tracker.errors import ConfigError
+
+STATE_VERSION = 1
+# Outcomes older than this are dropped from the state file (the schedule never reaches back
+# that far, so they can no longer be asked about).
+STATE_KEEP_S = 3 * 86400.0
+
+
+class _RaisingRotatingHandler(logging.handlers.RotatingFileHandler):
+    """A rotating handler whose write errors reach the caller (logging's own default prints
+    a traceback to stderr and carries on)."""
+
+    def handleError(self, record: logging.LogRecord) -> None:
+        raise  # logging calls this inside its except clause
+
+
+class PassLog:
+    """JSON lines, one per pass, rotated at ``max_bytes`` keeping ``backups`` old files
+    (``passes.jsonl.1`` ...)."""
+
+    def __init__(self, path: str | Path, *, max_bytes: int = 5_000_000, backups: int = 5):
+        self.path = Path(path).expanduser()
+        if self.path.exists() and not self.path.is_file():
+            raise ConfigError(f"pass log {self.path} is not a regular file; give a file path")
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            handler = _RaisingRotatingHandler(self.path, maxBytes=max_bytes,
+                                              backupCount=backups, encoding="utf-8")
+        except OSError as e:
+            raise ConfigError(f"pass log {self.path}: cannot open it ({e.strerror}); choose a "
+                              f"writable folder") from None
+        handler.setFormatter(logging.Formatter("%(message)s"))
+        self._handler = handler
+
+    def write(self, record: Mapping[str, Any]) -> None:
+        line = json.dumps(dict(record), sort_keys=True, allow_nan=False, default=str)
+        self._handler.emit(logging.LogRecord("station", logging.INFO, "", 0, line, None, None))
+
+    def close(self) -> None:
+        self._handler.close()
+
+
+@dataclass
+class StationState:
+    """The outcome of each recent pass by its schedule key: ``{"state", "reason",
+    "los_s"}``."""
+
+    passes: dict[str, dict[str, Any]] = field(default_factory=dict)
+
+    @classmethod
+    def load(cls, path: str | Path) -> tuple[StationState, str]:
+        """The state at ``path`` (empty if none) and a warning ("" if none)."""
+        path = Path(path).expanduser()
+        if not path.exists():
+            return cls(), ""
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+            if data.get("version") != STATE_VERSION or not isinstance(data.get("passes"), dict):
+                raise ValueError("not a station state file of this version")
+            passes = {str(k): dict(v) for k, v in data["passes"].items()
+                      if isinstance(v, dict) and isinstance(v.get("state"), str)}
+        except (OSError, ValueError, AttributeError) as e:
+            bad = path.with_name(path.name + ".bad")
+            try:
+                os.replace(path, bad)
+                where = f"; set aside as {bad}"
+            except OSError:
+                where = ""
+            return cls(), f"state file {path} is unreadable ({e}){where}; starting afresh"
+        return cls(passes), ""
+
+    def note(self, key: str, state: str, reason: str, los_s: float) -> None:
+        self.passes[key] = {"state": state, "reason": reason, "los_s": round(los_s, 1)}
+
+    def prune(self, now_s: float) -> None:
+        self.passes = {k: v for k, v in self.passes.items()
+                       if float(v.get("los_s", now_s)) > now_s - STATE_KEEP_S}
+
+    def save(self, path: str | Path) -> None:
+        """Write atomically (the old file stays whole if this fails); raises ConfigError
+        saying why when it cannot."""
+        from tracker.files import write_atomic
+
+        text = json.dumps({"version": STATE_VERSION, "passes": self.passes}, sort_keys=True,
+                          indent=1)
+        Path(path).expanduser().parent.mkdir(parents=True, exist_ok=True)
+        write_atomic(path, text + "\n", force=True, label="state file")
