@@ -100,13 +100,20 @@ class TableRunner:
     gives the motor model its rates and start delay (a slow generic rotator without it).
     ``sky`` (anything with ``direction_at(t_s) -> (bearing_deg, el_deg)``, e.g. the
     :class:`~tracker.skytrack.SkyTrack` the tables were compiled from) with ``spec`` turns
-    each read-back during the pass into a measured pointing error.
+    each read-back during the pass into a measured pointing error. ``progress`` gets the
+    periodic lines (the step the table is on, the wait left; default: ``log``), so a
+    service can show them on a status page instead of its log; ``on_reading(t_s,
+    wire_az_deg, el_deg, error_deg)`` hears each read-back and its measured error (None
+    outside the pass).
     """
 
     def __init__(self, driver, clock: Clock, *, baud: int = 9600, poll_s: float | None = None,
                  follow_tol_deg: float = 4.0, follow_window_s: float = 40.0,
                  log: Callable[[str], None] | None = None, monitor: bool = True,
-                 spec: RotatorSpec | None = None, sky: SkyTrack | None = None):
+                 spec: RotatorSpec | None = None, sky: SkyTrack | None = None,
+                 progress: Callable[[str], None] | None = None,
+                 on_reading: Callable[[float, float, float | None, float | None], None]
+                 | None = None):
         self.driver = driver
         self.clock = clock
         self.baud = int(baud)
@@ -114,6 +121,8 @@ class TableRunner:
         self.follow_tol_deg = float(follow_tol_deg)
         self.follow_window_s = float(follow_window_s)
         self.log = log or (lambda _msg: None)
+        self.progress = progress or self.log
+        self.on_reading = on_reading
         self.monitor = monitor
         self.report = UploadReport()
         self._misses = 0
@@ -276,7 +285,7 @@ class TableRunner:
             if self._last_error_deg is not None:
                 where += f", {self.error_label} {self._last_error_deg:.1f} deg"
         step = min(table.index_at(now), len(table))
-        self.log(f"step {step}/{len(table)}, {_mmss(table.end_t_s - now)} to the last "
+        self.progress(f"step {step}/{len(table)}, {_mmss(table.end_t_s - now)} to the last "
                  f"point{where}")
 
     def _check_status(self, table: StepTable, now: float) -> str | None:
@@ -425,6 +434,8 @@ class TableRunner:
         self._last_error_deg = None
         if self._sky is None or self._spec is None or wire_az_deg < 0 or \
                 not self._pass_s[0] <= t_s <= self._pass_s[1]:
+            if self.on_reading is not None and wire_az_deg >= 0:
+                self.on_reading(t_s, wire_az_deg, el_deg, None)
             return
         # Every mechanical candidate of a wire azimuth has the same bearing: no belief needed.
         m_az = self._spec.frame.nearest_mech_of_wire(wire_az_deg)
@@ -432,6 +443,8 @@ class TableRunner:
         err = float(pointing_error_deg(self._spec, m_az, el_deg, (float(taz), float(tel))))
         self._last_error_deg = err
         self.report.errors_deg.append(err)
+        if self.on_reading is not None:
+            self.on_reading(t_s, wire_az_deg, el_deg, err)
 
     # Helpers ------------------------------------------------------------------------------
 
@@ -448,7 +461,7 @@ class TableRunner:
             every = PROGRESS_LONG_S if left > 2 * PROGRESS_LONG_S else PROGRESS_S
             if what and left > PROGRESS_S and now - said >= every:
                 said = now
-                self.log(f"waiting for {what}: {_mmss(left)} to go")
+                self.progress(f"waiting for {what}: {_mmss(left)} to go")
             self.clock.sleep(min(left, 1.0))
 
     def _all_stop(self, quiet: bool) -> None:

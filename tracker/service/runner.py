@@ -29,11 +29,14 @@ a :class:`~tracker.session.ControllerSession` (all-stop on every way out).
 from __future__ import annotations
 
 import math
+import re
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from tracker.errors import ConfigError, TrackerError
 from tracker.service.board import StatusBoard
@@ -59,6 +62,8 @@ CLOCK_JUMP_S = 120.0
 # How long before AOS the pass is handed to the loop, beyond the slew: the loop pre-positions
 # itself, and a step table needs its upload time.
 LEAD_S = 120.0
+# A park must end this long before the next pass is handed to the loop.
+PARK_MARGIN_S = 60.0
 # Interval of the sky path the status page draws for the current pass.
 PATH_STEP_S = 10.0
 
@@ -78,6 +83,7 @@ class PassOutcome:
     mode: str
     outcome: str                       # done | skipped | failed
     reason: str = ""
+    chosen: bool = True                # False: the schedule did not choose it (reason says why)
     max_el_deg: float = math.nan
     predicted_max_error_deg: float | None = None
     measured_max_error_deg: float | None = None
@@ -105,18 +111,20 @@ class StationReport:
     outcomes: list[PassOutcome] = field(default_factory=list)
     faults: list[str] = field(default_factory=list)
 
-    def count(self, outcome: str) -> int:
-        return sum(1 for o in self.outcomes if o.outcome == outcome)
+    def count(self, outcome: str, chosen: bool = True) -> int:
+        return sum(1 for o in self.outcomes if o.outcome == outcome and o.chosen == chosen)
 
     def text(self) -> str:
         """The report printed at the end of a run (and of a simulated day)."""
         done = [o for o in self.outcomes if o.outcome == "done"]
+        chosen = [o for o in self.outcomes if o.chosen]
         lines = [f"station report {self.started_utc} .. {self.ended_utc}",
-                 f"passes: {len(self.outcomes)} scheduled, {len(done)} tracked, "
-                 f"{self.count('skipped')} skipped, {self.count('failed')} failed"]
-        why = Counter(o.reason.split(":")[0] for o in self.outcomes
-                      if o.outcome != "done" and o.reason)
-        for reason, n in why.most_common():
+                 f"passes: {len(chosen)} scheduled, {len(done)} tracked, "
+                 f"{self.count('skipped')} skipped, {self.count('failed')} failed; "
+                 f"{len(self.outcomes) - len(chosen)} other passes of the targets not "
+                 f"scheduled"]
+        why = Counter(_reason_kind(o) for o in self.outcomes if o.outcome != "done")
+        for reason, n in sorted(why.items(), key=lambda kv: (-kv[1], kv[0])):
             lines.append(f"  {n} x {reason}")
         if done:
             lines.append(f"{'target':<22} {'AOS (UTC)':<17} {'mode':<6} {'max el':>6} "
@@ -143,36 +151,41 @@ class StationReport:
         return "\n".join(lines)
 
 
+def _reason_kind(o: PassOutcome) -> str:
+    """A reason with its pass's own numbers taken out, so the report can count alike ones."""
+    low = re.match(r"max el [\d.]+ < ([\d.]+)", o.reason)
+    if low:
+        return f"not scheduled: max el below {low[1]} deg"
+    head = o.reason.split(":")[0] if o.outcome != "skipped" or o.chosen else o.reason
+    return f"{'not scheduled' if not o.chosen else o.outcome}: {head}"
+
+
 def _deg(v: float | None, nd: int = 1) -> str:
     return "-" if v is None or not math.isfinite(v) else f"{v:.{nd}f}"
 
 
 class _PassWatch:
-    """What one pass's loop reports, turned into board updates and pass figures: motor
-    starts and travel from the read-back, faults from the loop's state records."""
+    """What one pass's loop or table runner reports, turned into board updates and pass
+    figures: motor starts and travel from the read-back, faults from the loop's state
+    records."""
 
-    def __init__(self, board: StatusBoard, spec: RotatorSpec, target: str,
+    def __init__(self, board: StatusBoard, spec: RotatorSpec, target: str, sky: Any,
                  say: Callable[[str], None]):
         self.board = board
-        self.target = target
         self.spec = spec
+        self.target = target
+        self.sky = sky
         self.say = say
         self.faults: list[str] = []
         self.starts = 0
         self.travel_deg = 0.0
         self._last: tuple[float, float] | None = None
         self._moving = False
+        self._state = "idle"
 
-    def status(self, st: Status) -> None:
-        phase = getattr(st.phase, "value", str(st.phase))
-        state = {"wait": "idle", "preposition": "prepositioning", "track": "tracking",
-                 "park": "parking", "done": "idle"}.get(phase, "tracking")
-        self.board.set_state(state, st.note or phase)
-        self.board.set_antenna(st.antenna_bearing_deg, st.antenna_el_deg)
-        self.board.set_target(self.target, st.target_az_deg, st.target_el_deg, st.error_deg)
-        if st.antenna_az_m_deg is None:
-            return
-        now = (float(st.antenna_az_m_deg), float(st.antenna_el_deg or 0.0))
+    def _seen(self, az_m_deg: float, el_deg: float | None) -> None:
+        """A read-back (mechanical azimuth): a motor start when it moves after standing."""
+        now = (float(az_m_deg), float(el_deg or 0.0))
         if self._last is not None:
             step = abs(now[0] - self._last[0]) + abs(now[1] - self._last[1])
             moving = step > 1.5 * self.spec.resolution_deg
@@ -182,6 +195,31 @@ class _PassWatch:
                     self.starts += 1
             self._moving = moving
         self._last = now
+
+    def status(self, st: Status) -> None:
+        """The live loop's cycle."""
+        phase = getattr(st.phase, "value", str(st.phase))
+        state = PHASE_STATES.get(phase, "tracking")
+        if state != self._state:
+            self._state = state
+            self.board.set_state(state, f"{self.target}: {phase}")
+        self.board.set_antenna(st.antenna_bearing_deg, st.antenna_el_deg)
+        self.board.set_target(self.target, st.target_az_deg, st.target_el_deg, st.error_deg)
+        if st.antenna_az_m_deg is not None:
+            self._seen(st.antenna_az_m_deg, st.antenna_el_deg)
+
+    def reading(self, t_s: float, wire_az_deg: float, el_deg: float | None,
+                error_deg: float | None) -> None:
+        """A step table's read-back."""
+        frame = self.spec.frame
+        az_m = float(frame.nearest_mech_of_wire(wire_az_deg))
+        self.board.set_antenna(float(frame.bearing_of(az_m)), el_deg)
+        taz, tel = self.sky.direction_at(t_s)
+        self.board.set_target(self.target, float(taz), float(tel), error_deg)
+        self._seen(az_m, el_deg)
+
+    def progress(self, text: str) -> None:
+        self.board.set_state(self._state, f"{self.target}: {text}")
 
     def event(self, kind: str, **data: Any) -> None:
         if kind == "info" and data.get("text"):
@@ -193,6 +231,9 @@ class _PassWatch:
             self.say(f"fault: {text}")
 
 
+# The live loop's phases as station states.
+PHASE_STATES = {"wait": "idle", "preposition": "prepositioning", "track": "tracking",
+                "park": "parking", "done": "idle"}
 # Loop states that are faults worth a line on the board.
 FAULT_STATES = frozenset({"stall", "port_lost", "reconnect_failed", "stop_failed",
                           "readback_inconsistent", "no_reply", "controller_off",
@@ -300,7 +341,7 @@ class StationService:
         self.say(f"schedule ({why}): {n} pass(es) in the next {self.settings.horizon_h:g} h"
                  + (f", next {nxt.target.name} at {iso_utc(nxt.pass_.aos)}" if nxt else ""))
         for p in sched.skipped:
-            self._finish(p, "skipped", p.reason, quiet=True)
+            self._finish(p, "skipped", p.reason, chosen=False)
 
     def refresh_elements(self) -> None:
         if self.keeper is None:
@@ -378,6 +419,22 @@ class StationService:
                        180.0 if self.spec.has_elevation else None)
         return p.pass_.aos.timestamp() - float(worst) - LEAD_S - self.settings.settle_s
 
+    def _park_after(self, p: PlannedPass) -> bool:
+        """Park after ``p`` if the schedule says so and the park can end before the next
+        pass is handed to the loop (back-to-back passes go straight from one to the next:
+        a park still under way would spoil the next pass's pre-position)."""
+        if not self.settings.park:
+            return False
+        nxt = next((q for q in (self.schedule.chosen if self.schedule else ())
+                    if q.state == "planned" and q.pass_.aos > p.pass_.aos), None)
+        if nxt is None:
+            return True
+        from tracker.geometry import slew_s
+
+        worst = slew_s(self.spec, 0.0, 0.0, self.spec.az_span_deg,
+                       180.0 if self.spec.has_elevation else None)
+        return self._start_s(nxt) > p.pass_.los.timestamp() + float(worst) + PARK_MARGIN_S
+
     def _skip_missed(self, now_s: float) -> None:
         """Passes still planned whose LOS is past: nothing can be done for them now."""
         if self.schedule is None:
@@ -395,21 +452,23 @@ class StationService:
             self.control.take_back(f"pass of {p.target.name} due at {iso_utc(p.pass_.aos)}")
         p.state = "tracking"
         self.board.update_pass(p.key, state="tracking")
-        track = p.pass_.track(step_s=PATH_STEP_S, pad_s=0.0)
-        az, el = track.direction_at(track.t_s)
+        track = p.pass_.track(step_s=1.0, pad_s=60.0)
+        t_s = np.arange(p.pass_.aos.timestamp(), p.pass_.los.timestamp() + PATH_STEP_S,
+                        PATH_STEP_S)
+        az, el = track.direction_at(np.minimum(t_s, p.pass_.los.timestamp()))
         self.board.set_current_pass({
             **p.entry(), "path": [[round(float(a), 1), round(float(e), 1)]
                                   for a, e in zip(az, el, strict=True)]})
         self.say(f"pass of {p.target.name}: AOS {iso_utc(p.pass_.aos)}, LOS "
                  f"{iso_utc(p.pass_.los)}, max el {p.pass_.max_el_deg:.0f} deg, {p.mode} "
                  f"({p.mode_reason})")
-        watch = _PassWatch(self.board, self.spec, p.target.name, self.say)
+        watch = _PassWatch(self.board, self.spec, p.target.name, track, self.say)
         outcome = PassOutcome(p.key, p.target.name, iso_utc(p.pass_.aos), iso_utc(p.pass_.los),
                               p.mode, "done", max_el_deg=float(p.pass_.max_el_deg),
                               predicted_max_error_deg=p.predicted_max_error_deg)
         try:
             if p.mode == "table":
-                self._run_table(p, watch, outcome)
+                self._run_table(p, track, watch, outcome)
             else:
                 self._run_stream(p, watch, outcome)
         except StallError as e:
@@ -429,7 +488,7 @@ class StationService:
 
         from tracker.tracking import PassFollower
 
-        settings = replace(self.stream, park_after_pass=self.settings.park)
+        settings = replace(self.stream, park_after_pass=self._park_after(p))
         follower = PassFollower(p.target, self.connect, self.spec, self.station, self.clock,
                                 settings, events=watch.event, on_status=watch.status,
                                 first=p.pass_)
@@ -447,7 +506,9 @@ class StationService:
         if res.errors_deg:
             outcome.measured_max_error_deg = float(res.max_error_deg)
 
-    def _run_table(self, p: PlannedPass, watch: _PassWatch, outcome: PassOutcome) -> None:
+    def _run_table(self, p: PlannedPass, track: Any, watch: _PassWatch,
+                   outcome: PassOutcome) -> None:
+        from tracker.planner import park_position
         from tracker.session import EffectiveLimits
         from tracker.steptable import compile_pass
         from tracker.upload import TableRunner
@@ -459,27 +520,28 @@ class StationService:
             az, el = driver.position()
             current = (float(spec.frame.nearest_mech_of_wire(az, spec.park_az_deg)),
                        float(el or 0.0))
-            track = p.pass_.track(step_s=1.0, pad_s=60.0)
             assert self.controller.step_tables is not None
             program = compile_pass(track, spec, self.station, self.controller.step_tables,
                                    current=current, interval_s=self.table_interval_s)
             self.board.set_state("uploading", f"step table for {p.target.name}")
             runner = TableRunner(driver, self.clock, spec=spec, sky=track,
-                                 log=lambda m: watch.event("info", text=m))
+                                 log=lambda m: watch.event("info", text=m),
+                                 progress=watch.progress, on_reading=watch.reading)
             report = runner.run(program.tables)
-            outcome.commands = sum(len(t.points) for t in program.tables) + len(program.tables)
+            outcome.commands = sum(len(t) for t in program.tables) + len(program.tables)
             outcome.measured_max_error_deg = report.max_error_deg
-            if self.settings.park:
-                self.board.set_state("parking", "after the step table")
-                park = (spec.frame.wire_of(spec.park_az_deg),
-                        spec.park_el_deg if spec.has_elevation else None)
+            if self._park_after(p):
+                park_m, park_el = park_position(spec, self.station)
+                park = (float(spec.frame.wire_of(park_m)),
+                        float(park_el) if spec.has_elevation else None)
                 limits.check_wire(*park)
+                self.board.set_state("parking", f"{p.target.name}: after the step table")
                 driver.goto(*park)
         finally:
             self._active = None
             driver.close()
 
-    def _finish(self, p: PlannedPass, state: str, reason: str, *, quiet: bool = False,
+    def _finish(self, p: PlannedPass, state: str, reason: str, *, chosen: bool = True,
                 outcome: PassOutcome | None = None) -> None:
         p.state, p.reason = state, reason
         self.board.update_pass(p.key, state=state, reason=reason)
@@ -489,12 +551,12 @@ class StationService:
         if outcome is None:
             outcome = PassOutcome(p.key, p.target.name, iso_utc(p.pass_.aos),
                                   iso_utc(p.pass_.los), p.mode, state, reason,
-                                  max_el_deg=float(p.pass_.max_el_deg),
+                                  chosen=chosen, max_el_deg=float(p.pass_.max_el_deg),
                                   predicted_max_error_deg=p.predicted_max_error_deg)
         self.report.outcomes.append(outcome)
         record = outcome.record()
         self.board.add_pass(record)
-        if not quiet or state != "skipped":
+        if chosen:
             self.say(f"pass of {p.target.name} {state}"
                      + (f": {reason}" if reason else "")
                      + (f"; measured max error {outcome.measured_max_error_deg:.1f} deg"
