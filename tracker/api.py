@@ -59,7 +59,7 @@ from tracker.celestial import (
     parse_radec,
 )
 from tracker.clock import Clock, LockstepClock, ManualClock, SimClock, SystemClock, utc
-from tracker.config import Config, load_config
+from tracker.config import Config, ScheduleSettings, load_config
 from tracker.controllers import CONTROLLERS, Controller, controller, register_controller
 from tracker.emulator import EmulatorOptions, Gs232Controller, serve_pty, serve_tcp
 from tracker.emulator.faults import parse_fault
@@ -99,6 +99,13 @@ from tracker.passes import Pass, find_passes
 from tracker.planner import MountPlan, Move, error_cause, park_position, plan_pass
 from tracker.pointing_file import ScheduleError, ScheduleTarget, parse_schedule
 from tracker.protocols import Capabilities, RotatorDriver, open_driver
+from tracker.service.elements import ElementKeeper
+from tracker.service.plan import (
+    PlannedPass,
+    RollingSchedule,
+    build_rolling_schedule,
+    wanted_targets,
+)
 from tracker.session import ControllerSession, EffectiveLimits, Interrupted, driver_limits
 from tracker.skytrack import SkyTrack
 from tracker.station import HorizonMask, Station, locator_lat_lon, parse_station
@@ -170,6 +177,9 @@ __all__ = [  # noqa: RUF022 (grouped by topic, the order the docs follow)
     "pass_records", "plan_summaries", "satrecs_of", "schedule_passes",
     "render_chunks", "to_csv", "to_ics", "to_json", "to_table", "write_atomic",
     "write_parquet",
+    # station mode: the [schedule] settings, the rolling schedule, fresh elements
+    "ScheduleSettings", "PlannedPass", "RollingSchedule", "build_rolling_schedule",
+    "wanted_targets", "ElementKeeper",
     # errors (TrackerError and TleError are the two roots)
     "TrackerError", "ConfigError", "TargetError", "PropagationError", "LimitError",
     "RotatorIOError", "PortLostError", "RotatorTimeout", "ProtocolError", "StallError",

@@ -11,6 +11,8 @@ Sections::
     [station.NAME]            more stations, chosen with --station NAME / [tracking] station
     [rotator.NAME]            preset = "G-5500", mains_hz = 50, + any RotatorSpec field
     [tracking]                rotator, station, protocol, port, baudrate, park_after_pass, ...
+    [schedule]                station mode: targets, groups (priorities), min_max_el_deg,
+                              mode, park, refresh_h, horizon_h, settle_s, sources
 
 Every invalid value raises :class:`~tracker.errors.ConfigError` naming
 ``file: [section] key = value`` and what is allowed; unknown keys are rejected by name.
@@ -22,6 +24,7 @@ import dataclasses
 import math
 import os
 import sys
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -63,6 +66,65 @@ _ROTATOR_FIELDS = {f.name: f for f in dataclasses.fields(RotatorSpec)
                    if f.name not in ("name", "extra")}
 
 
+# [schedule]: what station mode tracks and how (tracker.service.plan reads it).
+SCHEDULE_MODES = ("stream", "table", "auto")
+MAX_PRIORITY = 1000
+# number keys -> (lowest, highest) allowed
+_SCHEDULE_RANGES = {"min_max_el_deg": (0.0, 90.0), "refresh_h": (2.0, 168.0),
+                    "horizon_h": (1.0, 168.0), "settle_s": (0.0, 3600.0)}
+SCHEDULE_KEYS = ("targets", "groups", "min_max_el_deg", "mode", "park", "refresh_h",
+                 "horizon_h", "settle_s", "sources")
+
+
+@dataclass(frozen=True)
+class ScheduleSettings:
+    """The ``[schedule]`` section: what a station run tracks, unattended.
+
+    ``targets``: satellite name (as :meth:`tle.catalog.Catalog.find` takes it), NORAD id or
+    another target name ("Sun") -> priority (> 0 tracks, higher wins an overlap; 0 never,
+    also for an object of a group below). ``groups``: element group ("weather", "amateur")
+    -> the priority of each object in it. Passes whose max elevation is below
+    ``min_max_el_deg`` are not scheduled. ``mode``: "stream" (the live loop), "table" (step
+    tables on the controller) or "auto" (tables where they are predicted to point well
+    enough). ``park``: park between passes (else stay). ``refresh_h``: element refresh
+    interval (at least 2 h, the download rule the element store enforces). ``horizon_h``: how
+    far ahead the rolling schedule reaches. ``settle_s``: time kept free between passes.
+    ``sources``: element sources to refresh (default: :attr:`element_sources`).
+    """
+
+    targets: Mapping[str, int] = field(default_factory=dict)
+    groups: Mapping[str, int] = field(default_factory=dict)
+    min_max_el_deg: float = 10.0
+    mode: str = "auto"
+    park: bool = True
+    refresh_h: float = 12.0
+    horizon_h: float = 24.0
+    settle_s: float = 60.0
+    sources: tuple[str, ...] = ()
+
+    @property
+    def element_sources(self) -> tuple[str, ...]:
+        """What to download: ``sources``, else the groups named, else the store's default
+        groups (they hold the usual single targets such as the ISS)."""
+        if self.sources:
+            return self.sources
+        if self.groups:
+            return tuple(self.groups)
+        from tle.store import DEFAULT_GROUPS
+
+        return tuple(DEFAULT_GROUPS)
+
+    def toml_lines(self) -> list[str]:
+        """The section as TOML lines (``tracker config show``)."""
+        def table(m: Mapping[str, int]) -> str:
+            return "{ " + ", ".join(f"{_key(k)} = {v}" for k, v in m.items()) + " }"
+
+        lines = [f"targets = {table(self.targets)}", f"groups = {table(self.groups)}"]
+        lines += [f"{k} = {_toml_value(getattr(self, k))}" for k in SCHEDULE_KEYS[2:]
+                  if k != "sources" or self.sources]
+        return lines
+
+
 def default_config_path() -> Path:
     """``$TRACKER_CONFIG`` or the platformdirs user config file."""
     env = os.environ.get(ENV_VAR)
@@ -89,6 +151,7 @@ class Config:
     path: Path | None = None
     station_is_default: bool = True
     mask_paths: dict[str, str] = field(default_factory=dict)  # station name -> mask file
+    schedule: ScheduleSettings | None = None  # [schedule]: station mode; None if absent
 
     @property
     def station_is_placeholder(self) -> bool:
@@ -135,6 +198,8 @@ class Config:
         if self.tracking:
             lines += ["", "[tracking]"]
             lines += [f"{k} = {_toml_value(v)}" for k, v in self.tracking.items()]
+        if self.schedule is not None:
+            lines += ["", "[schedule]", *self.schedule.toml_lines()]
         for name, spec in self.rotators.items():
             lines += ["", f"[rotator.{_key(name)}]"]
             for fname in _ROTATOR_FIELDS:
@@ -292,14 +357,86 @@ def _parse_tracking(path: Path, table: dict) -> dict[str, Any]:
     return out
 
 
+def _priority(path: Path, key: str, value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or not (
+            0 <= value <= MAX_PRIORITY):
+        raise ConfigError(f"{path}: [schedule] {key} = {_toml_value(value)} is invalid; "
+                          f"allowed: a whole number from 0 (never) to {MAX_PRIORITY}")
+    return value
+
+
+def _priorities(path: Path, key: str, value: Any) -> dict[str, int]:
+    """``{ "NAME" = N, ... }`` or ``["NAME=N", "NAME", ...]`` (no ``=N``: priority 1)."""
+    out: dict[str, int] = {}
+    if isinstance(value, dict):
+        for name, level in value.items():
+            if not name.strip():
+                raise ConfigError(f"{path}: [schedule] {key} has an empty name")
+            out[name.strip()] = _priority(path, f"{key}.{_key(name)}", level)
+        return out
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise ConfigError(f"{path}: [schedule] {key} = {_toml_value(value)} is invalid; "
+                          f'allowed: a table {{ "NAME" = N }} or a list ["NAME=N", "NAME"]')
+    for item in value:
+        name, sep, level = item.rpartition("=")
+        if not sep or not level.strip().lstrip("-").isdigit():
+            name, level = item, "1"  # no "=N": a name (which may itself hold "=")
+        name = name.strip()
+        if not name:
+            raise ConfigError(f"{path}: [schedule] {key} item {_toml_value(item)} is invalid; "
+                              f'allowed: "NAME=N" or "NAME"')
+        out[name] = _priority(path, f"{key} item {_toml_value(item)}", int(level))
+    return out
+
+
+def _schedule_value(path: Path, key: str, value: Any) -> Any:
+    if key in ("targets", "groups"):
+        return _priorities(path, key, value)
+    if key in _SCHEDULE_RANGES:
+        return _number(path, "schedule", key, value, *_SCHEDULE_RANGES[key])
+    if key == "mode":
+        if value not in SCHEDULE_MODES:
+            raise ConfigError(f"{path}: [schedule] mode = {_toml_value(value)} is invalid; "
+                              f"allowed: {', '.join(SCHEDULE_MODES)}")
+        return value
+    if key == "park":
+        if not isinstance(value, bool):
+            raise ConfigError(f"{path}: [schedule] park = {_toml_value(value)} is invalid; "
+                              f"allowed: true or false")
+        return value
+    if not isinstance(value, list) or not value or not all(
+            isinstance(v, str) and v.strip() for v in value):
+        raise ConfigError(f"{path}: [schedule] sources = {_toml_value(value)} is invalid; "
+                          f'allowed: a list of group names or URLs, e.g. ["weather", "amateur"]')
+    return tuple(v.strip() for v in value)
+
+
+def _parse_schedule(path: Path, table: Any) -> ScheduleSettings:
+    if not isinstance(table, dict):
+        raise ConfigError(f"{path}: schedule must be a [schedule] table")
+    values: dict[str, Any] = {}
+    for key, value in table.items():
+        if key not in SCHEDULE_KEYS:
+            raise ConfigError(f"{path}: [schedule] unknown key {key!r}; allowed keys: "
+                              f"{', '.join(SCHEDULE_KEYS)}")
+        values[key] = _schedule_value(path, key, value)
+    settings = ScheduleSettings(**values)
+    if not any(settings.targets.values()) and not any(settings.groups.values()):
+        raise ConfigError(f"{path}: [schedule] names nothing to track; give targets = "
+                          f'{{ "ISS (ZARYA)" = 1 }} and/or groups = {{ weather = 1 }} with a '
+                          f"priority above 0")
+    return settings
+
+
 # One guard per section of the file, each with its own message.
 def parse_config(data: dict, path: Path) -> Config:  # noqa: C901
     """Validate a parsed TOML document into a :class:`Config`."""
-    known = {"station", "rotator", "tracking"}
+    known = {"station", "rotator", "tracking", "schedule"}
     for key in data:
         if key not in known:
             raise ConfigError(f"{path}: unknown section or key {key!r}; allowed sections: "
-                              f"[station], [station.NAME], [rotator.NAME], [tracking]")
+                              f"[station], [station.NAME], [rotator.NAME], [tracking], "
+                              f"[schedule]")
     tracking = _parse_tracking(path, data.get("tracking", {}))
     mains_hz = int(tracking.get("mains_hz", 60))
 
@@ -341,9 +478,10 @@ def parse_config(data: dict, path: Path) -> Config:  # noqa: C901
             k.lower() for k in rotators}:
         raise ConfigError(f"{path}: [tracking] rotator = {_toml_value(rot_name)} is invalid; "
                           f"allowed: {', '.join(rotators)}")
+    schedule = _parse_schedule(path, data["schedule"]) if "schedule" in data else None
     return Config(station=default or DEFAULT_STATION, stations=stations, rotators=rotators,
                   tracking=tracking, path=path, station_is_default=default is None,
-                  mask_paths=mask_paths)
+                  mask_paths=mask_paths, schedule=schedule)
 
 
 def load_config(path: str | Path | None = None) -> Config:
@@ -384,6 +522,19 @@ rotator = "home"        # a [rotator.NAME] below, or a preset: G-5500, generic-k
 # park_after_pass = true
 # deadband_deg = 4.0
 # mains_hz = 60         # 50 Hz mains turns Yaesu AC motors 5/6 as fast
+
+# Station mode (`tracker station run`): what to track unattended, by priority (higher wins
+# an overlap; 0 = never). Names as `tracker passes` takes them, NORAD ids, or "Sun"/"Moon".
+# [schedule]
+# targets = {{ "ISS (ZARYA)" = 3, "NOAA 20" = 2 }}   # or a list: ["ISS (ZARYA)=3", "SO-50"]
+# groups = {{ weather = 1 }}    # every object of an element group, at this priority
+# min_max_el_deg = 10.0       # passes lower than this are not scheduled
+# mode = "auto"               # "stream", "table" (step tables) or "auto"
+# park = true                 # park between passes (false: stay)
+# refresh_h = 12.0            # fresh elements every ... hours (at least 2)
+# horizon_h = 24.0            # how far ahead the schedule reaches
+# settle_s = 60.0             # time kept free between passes (pre-position, table upload)
+# sources = ["weather", "stations"]   # element groups to download (default: the groups)
 
 # A rotator: start from a preset and override any field.
 [rotator.home]

@@ -7,7 +7,7 @@ import pytest
 
 @pytest.fixture
 def celestrak():
-    from test_tle_store import FakeCelestrak
+    from _celestrak import FakeCelestrak
 
     fake = FakeCelestrak()
     yield fake
