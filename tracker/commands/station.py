@@ -303,11 +303,10 @@ def _stream_settings(config: Any, spec: Any) -> Any:
 
 
 def _element_keeper(settings: Any, clock: Any) -> Any:
-    from tle.store import DEFAULT_GROUPS, TleStore
+    from tle.store import TleStore
     from tracker.service.elements import ElementKeeper
 
-    sources = list(settings.sources or settings.groups or DEFAULT_GROUPS)
-    return ElementKeeper(TleStore(clock=clock), sources, clock,
+    return ElementKeeper(TleStore(clock=clock), list(settings.element_sources), clock,
                          refresh_s=settings.refresh_h * 3600.0)
 
 

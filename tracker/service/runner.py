@@ -62,6 +62,8 @@ CLOCK_JUMP_S = 120.0
 # How long before AOS the pass is handed to the loop, beyond the slew: the loop pre-positions
 # itself, and a step table needs its upload time.
 LEAD_S = 120.0
+# Passes this long over are no longer kept from one schedule to the next.
+KEEP_S = 6 * 3600.0
 # A park must end this long before the next pass is handed to the loop.
 PARK_MARGIN_S = 60.0
 # Interval of the sky path the status page draws for the current pass.
@@ -322,8 +324,11 @@ class StationService:
         from tracker.service.plan import build_rolling_schedule
 
         now_s = self.clock.timestamp()
+        self._skip_missed(now_s)      # before they drop out of the new schedule unsaid
+        # Passes of the last schedule: the done and failed stay as they were, the planned
+        # lend their stream/table decision (no table compiled again); long over, dropped.
         keep = [p for p in (self.schedule.chosen if self.schedule else ())
-                if p.state != "planned"]
+                if p.pass_.los.timestamp() > now_s - KEEP_S]
         try:
             sched = build_rolling_schedule(self.catalog(), self.station, self.spec,
                                            self.settings, self.controller, now_s, keep=keep)
