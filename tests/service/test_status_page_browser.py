@@ -1,19 +1,18 @@
 """The status page in a real headless Chromium (Debian's chromium + chromium-driver, driven
 by selenium): it loads, and while a simulated pass runs (the follower on the emu:// GS-232B
 with a fast SimClock, in a thread, writing through BoardFeed) it updates in place; and the
-screenshot example writes its picture. Every wait is a poll with a generous deadline."""
+docs' screenshot (``_station_demo.py``) is made. Every wait is a poll with a generous
+deadline."""
 
 from __future__ import annotations
 
 import os
-import runpy
 import threading
 from datetime import timedelta
 
+import _station_demo as demo
 import pytest
-from _paths import REPO
-
-from tracker.testing.browser import chromium_missing
+from _browser import chromium_missing, headless_chromium
 
 MISSING = chromium_missing()
 if MISSING is not None:
@@ -26,34 +25,27 @@ WAIT_S = 90.0          # a loaded machine is slow, never wrong
 PNG = b"\x89PNG\r\n\x1a\n"
 
 
-@pytest.fixture(scope="module")
-def example():
-    return runpy.run_path(str(REPO / "examples" / "station_status_screenshot.py"),
-                          run_name="example")
-
-
 def _js(browser, script: str):
     return browser.execute_script(script)
 
 
-def test_the_page_follows_a_simulated_pass(example, tmp_path):
+def test_the_page_follows_a_simulated_pass():
     from selenium.webdriver.support.ui import WebDriverWait
 
     from tracker.api import Bench, SimClock, make_controller
     from tracker.service.web import StatusServer
-    from tracker.testing.browser import headless_chromium
 
-    passes, k = example["two_passes"](example["_parse_at"]("2026-08-22T13:00Z"))
+    passes, k = demo.two_passes(demo.parse_at("2026-08-22T13:00Z"))
     pas = passes[k]
     # 20x: the pre-position and the pass's first minutes take a few real seconds
     clock = SimClock(pas.aos - timedelta(seconds=90), speed=20.0)
-    board = example["station_board"](clock, passes)
-    station = example["ExampleStation"](board, passes)
+    board = demo.station_board(clock, passes)
+    station = demo.DemoStation(board, passes)
     stop = threading.Event()
     failure: list[BaseException] = []
 
     with Bench(make_controller("gs232b", clock, rotator="G-5500")) as bench:
-        follower = example["follower"](station, clock, bench, pas)
+        follower = demo.follower(station, clock, bench, pas)
 
         def run() -> None:
             try:
@@ -99,9 +91,9 @@ def test_the_page_follows_a_simulated_pass(example, tmp_path):
     assert int.from_bytes(shot[16:20], "big") == 1100      # IHDR width: the viewport
 
 
-def test_the_screenshot_example_writes_the_picture(example, tmp_path):
+def test_the_docs_screenshot_is_made(tmp_path):
     out = tmp_path / "page.png"
-    assert example["main"](["--out", str(out)]) == 0
+    assert demo.main(["--out", str(out)]) == 0
     data = out.read_bytes()
     assert data.startswith(PNG) and len(data) > 30_000
     assert (int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")) == \

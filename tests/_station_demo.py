@@ -1,16 +1,17 @@
-"""Screenshot the station's status page in the middle of a simulated ISS pass.
+"""A station on a simulated ISS pass, for the status page's browser test, and the page's
+screenshot in the docs:
 
-    python examples/station_status_screenshot.py                 # docs/img/station-status.png
-    python examples/station_status_screenshot.py --out page.png --at 2026-08-22T12:00Z
+    PYTHONPATH=. python tests/_station_demo.py                 # docs/img/station-status.png
+    PYTHONPATH=. python tests/_station_demo.py --out page.png --at 2026-08-22T12:00Z
 
 A G-5500 on the in-process GS-232B emulator follows two ISS passes on a ManualClock (virtual
 time, a few seconds of CPU): the first to the end, the second up to its culmination. A
-:class:`BoardFeed` and the small :class:`ExampleStation` glue (what the station loop does:
+:class:`BoardFeed` and the small :class:`DemoStation` glue (what the station loop does:
 the current pass, the schedule's states, the pass records) write onto a
 :class:`StatusBoard`; the status page serves it and a headless Chromium
-(:mod:`tracker.testing.browser`: Debian's ``chromium`` and ``chromium-driver``, and
-``selenium``) takes the picture. The clock stands still while it does, so the picture is
-the same on every run. Needs the ``station`` extra (Flask, waitress).
+(``_browser.py``: Debian's ``chromium`` and ``chromium-driver``, and ``selenium``) takes
+the picture. The clock stands still while it does, so the picture is the same on every
+run. Needs the ``station`` extra (Flask, waitress).
 """
 
 from __future__ import annotations
@@ -39,7 +40,7 @@ from tracker.service.board import BoardFeed, StatusBoard
 from tracker.station import HorizonMask
 from tracker.timescale import iso_utc
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[1]   # the checkout
 # a row of houses to the south-west, for the mask on the plot
 STATION = Station("Delft", 52.0, 4.37, 10.0, min_el_deg=5.0,
                   mask=HorizonMask((0.0, 190.0, 200.0, 250.0, 260.0),
@@ -83,7 +84,7 @@ def station_board(clock: Any, passes: list[Any], simulated: bool = True) -> Stat
     return board
 
 
-class ExampleStation:
+class DemoStation:
     """What the station loop adds around a :class:`BoardFeed`: on each pass's plan, the
     current pass and its schedule state; at its end, the pass record."""
 
@@ -127,15 +128,15 @@ class ExampleStation:
         self.feed.status(st)
 
 
-def follower(board_station: ExampleStation, clock: Any, bench: Bench, first: Any
+def follower(demo_station: DemoStation, clock: Any, bench: Bench, first: Any
              ) -> PassFollower:
-    """A PassFollower of ISS on ``bench`` writing onto the example's board."""
+    """A PassFollower of ISS on ``bench`` writing onto the demo's board."""
     def connect():
         return open_driver(bench.url, "gs232b", clock=clock, **driver_limits(SPEC))
 
     iss = resolve_target("ISS (ZARYA)", Catalog.bundled_snapshot())
     return PassFollower(iss, connect, SPEC, STATION, clock, SETTINGS,
-                        events=board_station.event, on_status=board_station.status,
+                        events=demo_station.event, on_status=demo_station.status,
                         first=first)
 
 
@@ -148,16 +149,16 @@ def two_passes(at: datetime) -> tuple[list[Any], int]:
     return passes, k
 
 
-def _parse_at(text: str) -> datetime:
+def parse_at(text: str) -> datetime:
     t = datetime.fromisoformat(text.replace("Z", "+00:00"))
     return t if t.tzinfo else t.replace(tzinfo=timezone.utc)
 
 
 def main(argv: list[str] | None = None) -> int:
+    from _browser import chromium_missing, headless_chromium
     from selenium.webdriver.support.ui import WebDriverWait
 
     from tracker.service.web import StatusServer
-    from tracker.testing.browser import chromium_missing, headless_chromium
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default=str(REPO / "docs" / "img" / "station-status.png"))
@@ -170,7 +171,7 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     width, height = (int(v) for v in args.size.split("x"))
 
-    passes, k = two_passes(_parse_at(args.at))
+    passes, k = two_passes(parse_at(args.at))
     clock = ManualClock(passes[k - 1].aos - timedelta(minutes=2))
     board = station_board(clock, passes)
     epoch = resolve_target("ISS (ZARYA)", Catalog.bundled_snapshot()).elements.epoch
@@ -179,7 +180,7 @@ def main(argv: list[str] | None = None) -> int:
                          "checked_utc": iso_utc(clock.timestamp()), "note": "ISS only"}])
     stop_s = passes[k].tca.timestamp()
     with Bench(make_controller("gs232b", clock, rotator="G-5500")) as bench:
-        f = follower(ExampleStation(board, passes), clock, bench, passes[k - 1])
+        f = follower(DemoStation(board, passes), clock, bench, passes[k - 1])
         try:
             f.run(passes=0, should_stop=lambda: clock.timestamp() >= stop_s)
         finally:

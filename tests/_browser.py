@@ -1,4 +1,5 @@
-"""A headless Chromium driven by Selenium, for tests and screenshots of the status page.
+"""A headless Chromium driven by Selenium, for the status page's browser test and its
+screenshot (``_station_demo.py``).
 
 Debian's ``chromium`` and ``chromium-driver`` packages (``/usr/bin/chromium``,
 ``/usr/bin/chromedriver``); ``selenium`` is in the ``test`` extra. Both paths are given to
