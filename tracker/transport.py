@@ -12,6 +12,7 @@ on it, never on a simulation clock that may run 100x faster than the wire.
 
 from __future__ import annotations
 
+import ipaddress
 import socket
 import urllib.parse
 from typing import Any, TypeAlias
@@ -147,3 +148,15 @@ def io_clock(port: Port) -> Clock:
     clock = getattr(port, "clock", None)
     return clock if isinstance(clock, Clock) else _REAL_TIME
 
+
+def is_loopback(host: str) -> bool:
+    """True if ``host`` is reachable from this machine only (127.0.0.0/8, ::1,
+    ``localhost``); False for any other address, the wildcard ("", 0.0.0.0, ::) and names
+    that would need a lookup."""
+    name = host.strip().strip("[]").lower()
+    if name == "localhost" or name.endswith(".localhost"):
+        return True
+    try:
+        return ipaddress.ip_address(name).is_loopback
+    except ValueError:
+        return False

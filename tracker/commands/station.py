@@ -314,12 +314,14 @@ def _status_server(args: argparse.Namespace, board: Any, say: Any) -> Any:
     if args.no_status or (args.simulate and args.status_port is None):
         return None
     try:
-        from tracker.service.web import StatusServer, is_loopback
+        from tracker.service.web import StatusServer
     except ImportError as e:
         say(f"status page off: {e}")
         return None
-    server = StatusServer(board, host=args.listen,
-                          port=args.status_port or DEFAULT_STATUS_PORT)
+    from tracker.transport import is_loopback
+
+    port = DEFAULT_STATUS_PORT if args.status_port is None else args.status_port
+    server = StatusServer(board, host=args.listen, port=port)
     server.start()
     if not is_loopback(args.listen):
         print(f"tracker: warning: the status page listens on {args.listen}: anyone on that "
@@ -333,11 +335,13 @@ def _control_server(args: argparse.Namespace, connect: Any, spec: Any, station: 
     if args.no_control or args.simulate:
         return None
     from tracker.service.rotctld_server import RotctldServer
+    from tracker.transport import is_loopback
 
+    port = DEFAULT_CONTROL_PORT if args.control_port is None else args.control_port
     server = RotctldServer(connect, spec, station=station, clock=clock, host=args.listen,
-                           port=args.control_port or DEFAULT_CONTROL_PORT, board=board)
+                           port=port, board=board)
     server.start()
-    if args.listen not in ("127.0.0.1", "localhost", "::1"):
+    if not is_loopback(args.listen):
         print(f"tracker: warning: the control port listens on {args.listen}: anyone on that "
               f"network can MOVE THE ANTENNA between passes", file=sys.stderr)
     say(f"control port (rotctld protocol): {args.listen}:{server.address[1]}; handed to "

@@ -32,6 +32,9 @@ The shapes are the JSON API's (``docs/station.md``):
 writes them (``key``, ``target``, ``aos_utc``, ``los_utc``, ``mode``, ``outcome``,
 ``reason``, ``predicted_max_error_deg``, ``measured_max_error_deg``, ``commands``,
 ``starts``, ``faults``).
+
+:class:`BoardFeed` writes the live loop's output (:class:`tracker.stream.Status` records and
+its events) onto a board, as one more sink of a :class:`tracker.trackui.Fanout`.
 """
 
 from __future__ import annotations
@@ -40,10 +43,15 @@ import copy
 import threading
 from collections import deque
 from collections.abc import Iterable, Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from tracker.clock import Clock
 from tracker.timescale import iso_utc
+from tracker.trackui import PHASE_WORDS, describe_state
+
+if TYPE_CHECKING:
+    from tracker.mount import RotatorSpec
+    from tracker.stream import Status
 
 FAULTS_KEPT = 50
 PASSES_KEPT = 50
@@ -150,6 +158,12 @@ class StatusBoard:
             "skipped": states.count("skipped"), "failed": states.count("failed")}
 
     # -- readers ---------------------------------------------------------------------------
+    def current_target(self) -> str | None:
+        """The current pass's target name, if a pass is current (no copy of the board)."""
+        with self._lock:
+            cur = self._status["current_pass"]
+            return None if not cur or cur.get("target") is None else str(cur["target"])
+
     def status(self) -> dict[str, Any]:
         with self._lock:
             out = copy.deepcopy(self._status)
@@ -166,6 +180,85 @@ class StatusBoard:
     def passes(self) -> list[dict[str, Any]]:
         with self._lock:
             return copy.deepcopy(list(self._passes))
+
+
+# The loop's phases as station states (``done``: the pass is over, the station waits again).
+PHASE_STATES = {"wait": "idle", "preposition": "prepositioning", "track": "tracking",
+                "park": "parking", "done": "idle"}
+# Loop states that are faults: logged on the board. Those in FAULT_STATES also put the
+# station in "fault" until the next phase change or a reconnect: the loop gave up on the
+# pass, cannot reach the port, or could not stop the antenna. A read-back that disagrees or
+# a controller without a position is only logged: the loop sends no event when it clears.
+# ``no_reply`` is left out: one missed reply is routine, a silent port becomes ``port_lost``.
+FAULT_EVENTS = ("stall", "port_lost", "reconnect_failed", "stop_failed",
+                "readback_inconsistent", "contradiction", "controller_off")
+FAULT_STATES = ("stall", "port_lost", "readback_inconsistent", "stop_failed")
+
+
+class BoardFeed:
+    """The live loop's output onto a :class:`StatusBoard`: a sink with the ``status`` /
+    ``event`` / ``close`` of the loop's other outputs, to sit in a
+    :class:`tracker.trackui.Fanout` beside them.
+
+    :meth:`status` sets the antenna (as a bearing, 0-360) and the target (its name:
+    ``target``, else the board's current pass). :meth:`event` turns phase changes into the
+    station's state and the loop's fault states into board faults (:data:`FAULT_EVENTS`).
+    ``spec``: the rotator, for antennas without an elevation axis and a read-back that has a
+    mechanical azimuth but no bearing.
+    """
+
+    def __init__(self, board: StatusBoard, spec: RotatorSpec | None = None, *,
+                 target: str | None = None):
+        self.board = board
+        self.spec = spec
+        self.target = target
+        self._phase_state = "idle"
+        self._phase_detail = ""
+
+    def _target_name(self) -> str:
+        return self.target or self.board.current_target() or "target"
+
+    def status(self, st: Status) -> None:
+        bearing = st.antenna_bearing_deg
+        if bearing is None and st.antenna_az_m_deg is not None and self.spec is not None:
+            bearing = float(self.spec.bearing_of(st.antenna_az_m_deg))
+        self.position(bearing, st.antenna_el_deg, st.target_az_deg, st.target_el_deg,
+                      st.error_deg)
+
+    def position(self, bearing_deg: float | None, el_deg: float | None,
+                 target_az_deg: float, target_el_deg: float,
+                 error_deg: float | None) -> None:
+        """The antenna as read back (a bearing) and the target, from a live loop's cycle or
+        a step table's read-back."""
+        if self.spec is not None and not self.spec.has_elevation:
+            el_deg = None
+        self.board.set_antenna(None if bearing_deg is None else bearing_deg % 360.0, el_deg)
+        self.board.set_target(self._target_name(), target_az_deg % 360.0, target_el_deg,
+                              error_deg)
+
+    def event(self, kind: str, **data: Any) -> None:
+        if kind == "state":
+            self._state(data)
+
+    def _state(self, data: dict[str, Any]) -> None:
+        state = str(data.get("state"))
+        if state == "phase":
+            phase = str(data.get("phase"))
+            self._phase_state = PHASE_STATES.get(phase, "idle")
+            words = PHASE_WORDS.get(phase, phase)
+            self._phase_detail = words if phase in ("wait", "done") else \
+                f"{words}: {self._target_name()}"
+            self.board.set_state(self._phase_state, self._phase_detail)
+        elif state == "reconnected":
+            self.board.set_state(self._phase_state, describe_state(data) or state)
+        elif state in FAULT_EVENTS:
+            text = describe_state(data) or state
+            self.board.add_fault(text)
+            if state in FAULT_STATES:
+                self.board.set_state("fault", text)
+
+    def close(self) -> None:
+        return None
 
 
 def _r(v: float | None, nd: int = 2) -> float | None:

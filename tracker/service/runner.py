@@ -167,12 +167,15 @@ def _deg(v: float | None, nd: int = 1) -> str:
 
 
 class _PassWatch:
-    """What one pass's loop or table runner reports, turned into board updates and pass
-    figures: motor starts and travel from the read-back, faults from the loop's state
-    records."""
+    """What one pass's loop or table runner reports: onto the board through a
+    :class:`~tracker.service.board.BoardFeed`, into the pass's figures (motor starts and
+    travel from the read-back, the faults) and, for info lines and faults, to the log."""
 
     def __init__(self, board: StatusBoard, spec: RotatorSpec, target: str, sky: Any,
                  say: Callable[[str], None]):
+        from tracker.service.board import BoardFeed
+
+        self.feed = BoardFeed(board, spec, target=target)
         self.board = board
         self.spec = spec
         self.target = target
@@ -183,7 +186,7 @@ class _PassWatch:
         self.travel_deg = 0.0
         self._last: tuple[float, float] | None = None
         self._moving = False
-        self._state = "idle"
+        self._detail_state = "uploading"
 
     def _seen(self, az_m_deg: float, el_deg: float | None) -> None:
         """A read-back (mechanical azimuth): a motor start when it moves after standing."""
@@ -200,13 +203,7 @@ class _PassWatch:
 
     def status(self, st: Status) -> None:
         """The live loop's cycle."""
-        phase = getattr(st.phase, "value", str(st.phase))
-        state = PHASE_STATES.get(phase, "tracking")
-        if state != self._state:
-            self._state = state
-            self.board.set_state(state, f"{self.target}: {phase}")
-        self.board.set_antenna(st.antenna_bearing_deg, st.antenna_el_deg)
-        self.board.set_target(self.target, st.target_az_deg, st.target_el_deg, st.error_deg)
+        self.feed.status(st)
         if st.antenna_az_m_deg is not None:
             self._seen(st.antenna_az_m_deg, st.antenna_el_deg)
 
@@ -215,31 +212,26 @@ class _PassWatch:
         """A step table's read-back."""
         frame = self.spec.frame
         az_m = float(frame.nearest_mech_of_wire(wire_az_deg))
-        self.board.set_antenna(float(frame.bearing_of(az_m)), el_deg)
         taz, tel = self.sky.direction_at(t_s)
-        self.board.set_target(self.target, float(taz), float(tel), error_deg)
+        self.feed.position(float(frame.bearing_of(az_m)), el_deg, float(taz), float(tel),
+                           error_deg)
+        self._detail_state = "tracking"
         self._seen(az_m, el_deg)
 
     def progress(self, text: str) -> None:
-        self.board.set_state(self._state, f"{self.target}: {text}")
+        self.board.set_state(self._detail_state, f"{self.target}: {text}")
 
     def event(self, kind: str, **data: Any) -> None:
+        from tracker.service.board import FAULT_EVENTS
+        from tracker.trackui import describe_state
+
+        self.feed.event(kind, **data)
         if kind == "info" and data.get("text"):
             self.say(str(data["text"]))
-        elif kind == "state" and data.get("state") in FAULT_STATES:
-            text = str(data.get("text") or data.get("error") or data.get("state"))
+        elif kind == "state" and data.get("state") in FAULT_EVENTS:
+            text = describe_state(data) or str(data.get("state"))
             self.faults.append(text)
-            self.board.add_fault(text)
             self.say(f"fault: {text}")
-
-
-# The live loop's phases as station states.
-PHASE_STATES = {"wait": "idle", "preposition": "prepositioning", "track": "tracking",
-                "park": "parking", "done": "idle"}
-# Loop states that are faults worth a line on the board.
-FAULT_STATES = frozenset({"stall", "port_lost", "reconnect_failed", "stop_failed",
-                          "readback_inconsistent", "no_reply", "controller_off",
-                          "contradiction"})
 
 
 class StationService:
