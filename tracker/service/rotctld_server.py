@@ -37,7 +37,7 @@ from tracker.errors import (
     RotatorTimeout,
     TrackerError,
 )
-from tracker.geometry import move_clears_mask
+from tracker.geometry import boresight_horizon_ok, move_clears_mask
 from tracker.mount import MotorModel, RotatorSpec
 from tracker.planner import park_position
 from tracker.protocols.base import RotatorDriver
@@ -210,9 +210,8 @@ class RotctldServer:
         self._publish()
         return self
 
-    def close(self) -> None:
-        """Stop serving; all-stop if the server holds the rotator with a move pending; close
-        the sockets and the driver."""
+    def _stop_serving(self) -> None:
+        """No new clients, no more commands: the listener and every client socket close."""
         if self._closed.is_set():
             return
         self._closed.set()
@@ -225,14 +224,36 @@ class RotctldServer:
                     sock.shutdown(socket.SHUT_RDWR)
                 except OSError:
                     pass
+
+    def all_stop(self) -> bool:
+        """Stop serving, then send all-stop (opening the port if needed) while the outside
+        holds the rotator: the last bytes on the wire. The session's ``all_stop``."""
+        self._stop_serving()
+        with self._lock:
+            if self._owner != "outside":
+                return True           # the station drives: its own session stops it
+            drv = self._driver if self._driver is not None else self._open()
+            drv.stop()
+            self._pending, self._watched = False, None
+        self.events("info", text="control port: all-stop sent")
+        return True
+
+    def close(self) -> None:
+        """Stop serving; all-stop if the server holds the rotator with a move pending; close
+        the sockets and the driver."""
+        self._stop_serving()
+        with self._lock:
             try:
                 if self._driver is not None and self._pending:
                     self._driver.stop()
+                    self._pending = False
                     self.events("info", text="control port closed: all-stop sent")
             finally:
                 self._drop_driver()
         for t in self._threads:
-            t.join(timeout=5.0)
+            if t is not threading.current_thread():
+                t.join(timeout=5.0)
+        self._threads = []
 
     def __enter__(self) -> RotctldServer:
         return self.start()
@@ -332,13 +353,15 @@ class RotctldServer:
         """The driver, opened if needed; refuses while the station holds the rotator."""
         if self._owner != "outside" or self._closed.is_set():
             raise Refused(RIG_ERJCTED)
-        if self._driver is None:
-            drv = self.connect()
-            # A client's move goes on after it disconnects; close() decides about stopping.
-            drv.stop_on_exit = False  # type: ignore[attr-defined]
-            self._driver = drv
-            self._limits = EffectiveLimits.of(self.spec, self.station, drv.capabilities)
-        return self._driver
+        return self._driver if self._driver is not None else self._open()
+
+    def _open(self) -> RotatorDriver:
+        drv = self.connect()
+        # A client's move goes on after it disconnects; close() decides about stopping.
+        drv.stop_on_exit = False  # type: ignore[attr-defined]
+        self._driver = drv
+        self._limits = EffectiveLimits.of(self.spec, self.station, drv.capabilities)
+        return drv
 
     def _drop_driver(self) -> None:
         drv, self._driver, self._limits = self._driver, None, None
@@ -419,17 +442,27 @@ class RotctldServer:
         except LimitError as e:
             raise Refused(RIG_EINVAL, f"{what} refused, nothing sent: {e}") from None
         start = self._read() if drv.capabilities.has_position_query else None
-        if start is not None and self.station is not None and el_arg is not None \
-                and start[1] is not None:
-            m0 = self._mech_of_wire(start[0])
-            m1 = self._mech_of_wire(az, m0)
-            if not move_clears_mask(self.spec, self.station, (m0, start[1]), (m1, el_arg)):
-                raise Refused(RIG_EINVAL, f"{what} az {az:g} el {el:g} refused, nothing "
-                                          f"sent: on its way the antenna would point below "
-                                          f"the horizon mask; move in smaller steps")
+        if start is not None and not self._path_clears_mask(start, az, el_arg):
+            raise Refused(RIG_EINVAL, f"{what} az {az:g} el {el:g} refused, nothing sent: on "
+                                      f"its way the antenna would point below the horizon "
+                                      f"mask; move in smaller steps (raise the elevation "
+                                      f"first)")
         drv.goto(az, el_arg)
         self._pending = True
         self._watched = None if start is None else self._watch(start, az, el_arg)
+
+    def _path_clears_mask(self, start: tuple[float, float | None], az: float,
+                          el: float | None) -> bool:
+        """Both axes turning together from the read-back ``start`` keep the boresight on or
+        above the mask (geometry's guard). From a start already below it (a low park) only
+        the end counts, which the limits checked: the antenna must be able to leave."""
+        if self.station is None or el is None or start[1] is None:
+            return True
+        m0 = self._mech_of_wire(start[0])
+        if not bool(boresight_horizon_ok(self.spec, self.station, m0, start[1])):
+            return True
+        return move_clears_mask(self.spec, self.station, (m0, start[1]),
+                                (self._mech_of_wire(az, m0), el))
 
     def _stop(self, _args: list[str]) -> Reply:
         with self._lock:
@@ -496,8 +529,11 @@ class RotctldServer:
             self.clock.sleep(self.poll_s)
             try:
                 with self._lock:
-                    if self._watched is not None and self._driver is not None:
+                    if self._watched is not None and self._driver is not None \
+                            and not self._closed.is_set():
                         self._check_watched(self._watched)
+            except Refused:
+                pass                    # the station took the rotator meanwhile
             except RotatorIOError as e:
                 self._io_failed(e)
 
