@@ -100,9 +100,6 @@ def run(args: argparse.Namespace) -> int:
     server = RotctldServer(connect, spec, station=station, clock=clock, host=host, port=port,
                            events=event)
     server.start()
-    where = "%s:%d" % server.address
-    print(f"rotctld control port on {where}: {args.protocol} on {url}, rotator {spec.name}; "
-          f"Ctrl-C stops (all-stop)", flush=True)
     session = ControllerSession(server.all_stop, stop_at_end=False,
                                 on_stop_failed=lambda why: print(
                                     f"tracker: warning: {why}; stop the rotator by hand",
@@ -110,6 +107,9 @@ def run(args: argparse.Namespace) -> int:
     try:
         with session:
             server.hand_over()
+            # Said once the signals end in all-stop: a client may drive from now on.
+            print(f"rotctld control port on {'%s:%d' % server.address}: {args.protocol} on "
+                  f"{url}, rotator {spec.name}; Ctrl-C stops (all-stop)", flush=True)
             while True:
                 clock.sleep(3600.0)
     except KeyboardInterrupt as e:
