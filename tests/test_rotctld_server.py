@@ -52,7 +52,7 @@ class Served:
         self.server.start()
         if hand_over:
             self.server.hand_over()
-        self.url = "127.0.0.1:%d" % self.server.address[1]
+        self.url = self.server.listen
 
     def written(self) -> bytes:
         return self.bench.bytes_written()

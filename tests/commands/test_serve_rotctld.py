@@ -41,7 +41,7 @@ def test_serve_rotctld_without_port_serves_the_emulator_and_says_so():
         rotctl("2", where, "P", "45", "0")
         assert len(rotctl("2", where, "p").stdout.split()) == 2
     finally:
-        code, out, err = proc.stop()
+        code, _out, err = proc.stop()
     assert code == 0, err
     assert proc.head[0].startswith("SIMULATION: built-in sak232 emulator with a Zelpro-RAU "
                                    "on the real clock")

@@ -46,14 +46,11 @@ def register(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from functools import partial
-
     from tracker.clock import SystemClock
     from tracker.controllers import controller
     from tracker.errors import ConfigError
-    from tracker.protocols import open_driver
     from tracker.service.rotctld_server import RotctldServer, is_loopback, listen_address
-    from tracker.session import ControllerSession, driver_limits
+    from tracker.session import ControllerSession
 
     check_baud_arg(args)
     host, port = listen_address(args.listen)
@@ -73,20 +70,7 @@ def run(args: argparse.Namespace) -> int:
     if args.log:
         from tracker.trackui import JsonLinesLog
         log = JsonLinesLog(args.log, clock)
-    url = args.port
-    if not url:
-        from tracker.emulator.factory import make_emulator
-        from tracker.emulator.virtual import Bench
-
-        url = Bench(make_emulator(entry.name, clock, spec)).url
-        print(f"SIMULATION: built-in {entry.name} emulator with a {spec.name} on the real "
-              f"clock; no real rotator moves. Use --port to drive one.", flush=True)
-    kw = {**driver_limits(spec), "clock": clock}
-    if args.baud:
-        kw["baudrate"] = args.baud
-    if entry.open_loop:
-        kw["spec"] = spec
-    connect = partial(open_driver, url, args.protocol, **kw)
+    connect, url = _connector(args, entry, spec, clock)
     connect().close()           # a wrong --port ends the run here, before anyone listens
 
     def event(kind: str, **data: object) -> None:
@@ -108,8 +92,8 @@ def run(args: argparse.Namespace) -> int:
         with session:
             server.hand_over()
             # Said once the signals end in all-stop: a client may drive from now on.
-            print(f"rotctld control port on {'%s:%d' % server.address}: {args.protocol} on "
-                  f"{url}, rotator {spec.name}; Ctrl-C stops (all-stop)", flush=True)
+            print(f"rotctld control port on {server.listen}: {args.protocol} on {url}, "
+                  f"rotator {spec.name}; Ctrl-C stops (all-stop)", flush=True)
             while True:
                 clock.sleep(3600.0)
     except KeyboardInterrupt as e:
@@ -122,3 +106,27 @@ def run(args: argparse.Namespace) -> int:
         if log is not None:
             log.close()
     return 0
+
+
+def _connector(args: argparse.Namespace, entry, spec, clock):
+    """(the driver's connect callable, the controller's URL): ``--port``, else the built-in
+    emulator of the protocol in-process on ``clock`` (said in one line)."""
+    from functools import partial
+
+    from tracker.protocols import open_driver
+    from tracker.session import driver_limits
+
+    url = args.port
+    if not url:
+        from tracker.emulator.factory import make_emulator
+        from tracker.emulator.virtual import Bench
+
+        url = Bench(make_emulator(entry.name, clock, spec)).url
+        print(f"SIMULATION: built-in {entry.name} emulator with a {spec.name} on the real "
+              f"clock; no real rotator moves. Use --port to drive one.", flush=True)
+    kw = {**driver_limits(spec), "clock": clock}
+    if args.baud:
+        kw["baudrate"] = args.baud
+    if entry.open_loop:
+        kw["spec"] = spec       # its position is the motor model's estimate
+    return partial(open_driver, url, args.protocol, **kw), url

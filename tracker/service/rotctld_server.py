@@ -171,6 +171,12 @@ class RotctldServer:
         return str(host), int(port)
 
     @property
+    def listen(self) -> str:
+        """``host:port`` the server listens on."""
+        host, port = self.address
+        return f"{host}:{port}"
+
+    @property
     def owner(self) -> str:
         return self._owner
 
@@ -586,8 +592,7 @@ class RotctldServer:
     def _publish(self) -> None:
         if self.board is None:
             return
-        host, port = self.address
-        info: Mapping[str, Any] = {"listen": f"{host}:{port}", "owner": self._owner,
+        info: Mapping[str, Any] = {"listen": self.listen, "owner": self._owner,
                                    "clients": self._clients}
         self.board.set_control_port(info)
 
