@@ -5,6 +5,7 @@ and ``tracker emulate`` as a real subprocess. The fixtures that build them are i
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import signal
 import socket
@@ -123,6 +124,42 @@ class EmulateProcess:
         self.proc.stdout.close()
         self.proc.stderr.close()
         self.returncode = self.proc.returncode
+        return self.proc.returncode, out, err
+
+
+class ServeRotctldProcess:
+    """``tracker serve-rotctld ARGS`` as a real subprocess listening on a free 127.0.0.1 port
+    (any ``--listen`` in ARGS is replaced): :attr:`where` is its ``HOST:PORT``."""
+
+    def __init__(self, *args: str):
+        if "--listen" in args:
+            i = args.index("--listen")
+            args = args[:i] + args[i + 2:]
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "tracker", "serve-rotctld", "--listen", "127.0.0.1:0",
+             *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+            preexec_fn=default_signals())
+        self.where = ""
+        self.head: list[str] = []      # the lines up to the address line
+        for _ in range(5):     # a banner may come first; the address line names the port
+            line = self.proc.stdout.readline()
+            self.head.append(line)
+            m = re.search(r"control port on (127\.0\.0\.1:\d+)", line)
+            if m:
+                self.where = m[1]
+                return
+        self.proc.kill()
+        raise AssertionError(f"serve-rotctld printed no address: {self.proc.communicate()}")
+
+    def stop(self) -> tuple[int, str, str]:
+        """SIGTERM, then (exit code, the rest of stdout, stderr)."""
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+        try:
+            out, err = self.proc.communicate(timeout=WAIT_S)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            out, err = self.proc.communicate()
         return self.proc.returncode, out, err
 
 

@@ -17,6 +17,9 @@ tested without anyone adding it:
   ``HOST:PORT`` of a rotctld, ``...``): that line is skipped, with the port named in the skip
   reason (``pytest -rs`` lists them). ``rotctld`` lines start Hamlib on a serial port:
   hardware too.
+* ``tracker serve-rotctld`` (a server: it runs until a signal) runs as a real process on a free
+  port and must end with exit 0 on SIGTERM; a ``rotctl -r HOST:PORT`` line of the same block
+  naming its ``--listen`` address talks to a real one of that line.
 * ``tracker tle update`` downloads from a local fake of CelesTrak serving the bundled groups;
   a URL in the README is pointed at it as well.
 * Files a line reads are made first: ``my.tle`` / ``active.txt`` (the bundled amateur group),
@@ -45,7 +48,7 @@ from pathlib import Path
 
 import pytest
 from _paths import DATA
-from _rigs import ROTCTL
+from _rigs import ROTCTL, ServeRotctldProcess
 
 from tracker.cli import main
 
@@ -124,8 +127,20 @@ EMULATOR_TCP_PORTS = {
     for line in LINES if line.argv[:2] == ("tracker", "emulate") and "--tcp" in line.argv}
 
 
+def _serve_rotctld_lines() -> dict[tuple[int, str], tuple[str, ...]]:
+    """(block, listen address) -> the words of a ``tracker serve-rotctld`` line that runs
+    here: on its built-in emulator (no ``--port``)."""
+    return {(line.block, _value(line.argv, "--listen") or "127.0.0.1:4533"): line.argv
+            for line in LINES if line.argv[:2] == ("tracker", "serve-rotctld")
+            and "--port" not in line.argv}
+
+
 def _value(argv, flag: str) -> str | None:
     return argv[argv.index(flag) + 1] if flag in argv else None
+
+
+# (block, listen address) -> words of a `tracker serve-rotctld` line
+SERVE_ROTCTLD = _serve_rotctld_lines()
 
 
 def _emulated_tcp(line: Line, port: str) -> str | None:
@@ -262,6 +277,22 @@ def _with_emulator(line: Line, argv: list[str], emulate) -> list[str]:
     return [*argv[:i], box.url, *argv[i + 1:]]
 
 
+def _run_with_serve_rotctld(line: Line, argv: list[str]) -> None:
+    """A server line runs until SIGTERM; a rotctl line talks to its block's server."""
+    server_argv = argv if argv[0] == "tracker" else SERVE_ROTCTLD[(line.block,
+                                                                   _value(argv, "-r"))]
+    server = ServeRotctldProcess(*server_argv[2:])
+    try:
+        if argv[0] == "rotctl":
+            i = argv.index("-r") + 1
+            r = subprocess.run([ROTCTL, *argv[1:i], server.where, *argv[i + 1:]],
+                               capture_output=True, text=True, timeout=30)
+            assert r.returncode == 0, r.stderr[-2000:]
+    finally:
+        code, _out, err = server.stop()
+    assert code == 0, err[-2000:]
+
+
 def _param(line: Line):
     # a Dask cluster and the example scripts (a week of plans) take seconds each: `slow`
     slow = "--dask" in line.argv or line.argv[:1] == ("python",)
@@ -279,6 +310,10 @@ def test_readme_command(line, folder, emulate, monkeypatch, capsys, request):
         r = subprocess.run([sys.executable, str(ROOT / argv[1]), *argv[2:]], cwd=folder,
                            capture_output=True, text=True, timeout=120)
         assert r.returncode == 0, r.stderr[-2000:]
+        return
+    if argv[:2] == ["tracker", "serve-rotctld"] or (
+            argv[0] == "rotctl" and (line.block, _value(argv, "-r")) in SERVE_ROTCTLD):
+        _run_with_serve_rotctld(line, argv)
         return
     argv = _with_emulator(line, argv, emulate)
     if argv[0] == "rotctl":

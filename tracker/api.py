@@ -106,6 +106,7 @@ from tracker.service.plan import (
     build_rolling_schedule,
     wanted_targets,
 )
+from tracker.service.rotctld_server import RotctldServer
 from tracker.session import ControllerSession, EffectiveLimits, Interrupted, driver_limits
 from tracker.skytrack import SkyTrack
 from tracker.station import HorizonMask, Station, locator_lat_lon, parse_station
@@ -168,6 +169,8 @@ __all__ = [  # noqa: RUF022 (grouped by topic, the order the docs follow)
     # following passes: one antenna pass after pass, the demo's time, two antennas on AZ/AZ
     "DemoTime", "PassFollower", "SharedAzAz", "demo_speed", "demo_start", "describe_pass",
     "describe_result", "follow_passes", "follow_together", "next_pass",
+    # station mode: the rotctld-compatible control port
+    "RotctldServer",
     # emulated controllers
     "Bench", "EmulatorOptions", "Gs232Controller", "make_controller", "parse_fault",
     "serve_pty", "serve_tcp",

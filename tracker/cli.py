@@ -45,6 +45,7 @@ def _named_command(argv: Sequence[str]) -> str | None:
         if word == "--config":
             next(words, None)
         elif not word.startswith("-"):
+            word = word.replace("-", "_")     # serve-rotctld is module serve_rotctld
             return word if word in names else None
     return None
 
