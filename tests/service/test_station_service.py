@@ -205,3 +205,52 @@ def test_an_unreadable_state_file_is_set_aside(catalog, tmp_path):
     st.run_until(datetime(2026, 8, 22, 13, 1, tzinfo=timezone.utc))
     assert (tmp_path / "state.json.bad").read_text() == "{ not json"
     assert st.said("is unreadable")
+
+
+class _SpyControl:
+    """Stands in for the control port: records when the service hands the rotator out and
+    takes it back, and what the controller had received by then."""
+
+    def __init__(self, wire):
+        self.wire = wire
+        self.owner = "station"
+        self.calls: list[tuple[str, int]] = []
+
+    def hand_over(self) -> None:
+        self.owner = "outside"
+        self.calls.append(("hand_over", len(self.wire())))
+
+    def take_back(self, reason: str) -> None:
+        self.owner = "station"
+        self.calls.append(("take_back", len(self.wire())))
+
+
+def test_the_rotator_is_handed_out_between_passes_and_taken_back_before_each(catalog):
+    st = Station_(catalog)
+    spy = _SpyControl(st.bench.bytes_written)
+    st.service.control = spy
+    st.run_until(datetime(2026, 8, 22, 13, 25, tzinfo=timezone.utc))
+    kinds = [k for k, _n in spy.calls]
+    assert kinds[0] == "hand_over" and "take_back" in kinds
+    first_take = kinds.index("take_back")
+    # nothing was sent to the controller before the station took the rotator back
+    assert spy.calls[first_take][1] == 0 < len(st.wire)
+    assert st.board.status()["state"] == "stopped"
+
+
+def test_all_stop_during_a_pass_reaches_the_controller(catalog):
+    st = Station_(catalog, mode="stream")
+    sent: list[bool] = []
+    set_target = st.board.set_target
+
+    def interrupt_while_tracking(*args, **kw):
+        set_target(*args, **kw)
+        if not sent and st.board.status()["state"] == "tracking":
+            sent.append(st.service.all_stop())
+            raise KeyboardInterrupt      # what the session's signal handler raises
+
+    st.board.set_target = interrupt_while_tracking
+    with pytest.raises(KeyboardInterrupt):
+        st.run_until(datetime(2026, 8, 22, 13, 25, tzinfo=timezone.utc))
+    assert sent == [True]
+    assert st.wire.rstrip(b"\r").endswith(b"S")       # the last word on the wire is all-stop

@@ -264,6 +264,8 @@ class StationService:
         self.stream = stream
         self.board = board
         self.keeper = keeper
+        if keeper is not None:
+            keeper.events = self._element_event
         self._catalog = catalog
         self.state_path = Path(state_path).expanduser() if state_path else None
         self.pass_log = pass_log
@@ -286,6 +288,13 @@ class StationService:
         self.report.faults.append(text)
         self.board.add_fault(text)
         self.say(f"fault: {text}")
+
+    def _element_event(self, kind: str, **data: Any) -> None:
+        text = str(data.get("text", ""))
+        if kind == "fault":
+            self.fault(text)
+        else:
+            self.say(text)
 
     def request_reload(self, reload: Callable[[], None]) -> None:
         """Ask for ``reload`` (re-read the configuration) at the next safe moment: between
