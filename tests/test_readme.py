@@ -9,7 +9,9 @@ tested without anyone adding it:
   line gives one, so every run is reproducible. The live demos are replayed on virtual time:
   ``tracker track`` without ``--port`` gets ``--speed max`` and the ``tracker upload``
   simulation ``--speed 1000`` (the README's demo takes a minute of real time; the commands,
-  the pass and the output are the same).
+  the pass and the output are the same). A simulated station day (``tracker station run
+  --simulate``) runs on virtual time too (``--speed max``), from :data:`AT` for at most
+  :data:`STATION_HOURS` of its hours, its status page (if any) on a free port.
 * Ports: ``emu://`` runs as written. ``/dev/pts/N`` (the README's "the pty that ``tracker
   emulate --pty`` printed") gets a real ``tracker emulate --pty`` of the line's protocol, and
   ``socket://127.0.0.1:PORT`` one on TCP when the README starts an emulator on ``--tcp PORT``.
@@ -22,6 +24,7 @@ tested without anyone adding it:
   naming its ``--listen`` address talks to a real one of that line.
 * ``tracker tle update`` downloads from a local fake of CelesTrak serving the bundled groups;
   a URL in the README is pointed at it as well.
+* A fenced block marked ``text`` shows a command's output: its lines are not commands.
 * Files a line reads are made first: ``my.tle`` / ``active.txt`` (the bundled amateur group),
   ``stations.csv`` / ``net.toml`` (two stations), a ``--from`` plan file (by the README's own
   ``--steptable`` line that writes it).
@@ -48,7 +51,7 @@ from pathlib import Path
 
 import pytest
 from _paths import DATA
-from _rigs import ROTCTL, ServeRotctldProcess
+from _rigs import ROTCTL, ServeRotctldProcess, free_port
 
 from tracker.cli import main
 
@@ -56,6 +59,7 @@ ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"
 BUNDLED = ROOT / "tle" / "data"
 AT = "2026-08-23T02:00:00Z"   # bundled epochs are 2026-08-22; an ISS pass starts 02:07
+STATION_HOURS = 1.0   # from AT: the ISS pass at 02:07 and the next ones
 TAKES_AT = {"passes", "next", "plan", "track", "upload", "batch", "schedule", "tle"}
 EMULATED_PORT = re.compile(r"^socket://127\.0\.0\.1:(\d+)$")
 
@@ -75,18 +79,21 @@ class Line:
 
 def _code_lines(text: str):
     """(line number, block number, text) of every line in a fenced block or a 4-space
-    indented block."""
+    indented block; a fenced ``text`` block is a command's output, not commands."""
     fenced = False
+    output = False
     prev_blank = True
     indented = False
     block = 0
     for n, raw in enumerate(text.splitlines(), 1):
         if raw.startswith("```"):
             fenced = not fenced
+            output = fenced and raw[3:].strip() == "text"
             block += 1
             continue
         if fenced:
-            yield n, block, raw
+            if not output:
+                yield n, block, raw
             continue
         if raw.startswith("    ") and (prev_blank or indented):
             block += not indented
@@ -260,7 +267,23 @@ def _tracker_argv(argv: list[str]) -> list[str]:
         argv = [*argv, "--speed", "max"]
     if command == "upload" and demo and "--speed" not in argv:
         argv = [*argv, "--speed", "1000"]
+    if argv[1:3] == ["station", "run"] and "--simulate" in argv:
+        hours = min(float(_value(argv, "--hours") or 24.0), STATION_HOURS)
+        argv = _with_value(argv, "--speed", "max")
+        argv = _with_value(argv, "--hours", f"{hours:g}")
+        if "--at" not in argv:
+            argv = _with_value(argv, "--at", AT)
+        if "--status-port" in argv:
+            argv = _with_value(argv, "--status-port", str(free_port()))
     return argv
+
+
+def _with_value(argv: list[str], flag: str, value: str) -> list[str]:
+    """``argv`` with ``flag`` set to ``value`` (replaced, or added at the end)."""
+    if flag in argv:
+        i = argv.index(flag)
+        return [*argv[:i + 1], value, *argv[i + 2:]]
+    return [*argv, flag, value]
 
 
 def _with_emulator(line: Line, argv: list[str], emulate) -> list[str]:
