@@ -58,7 +58,15 @@ from tracker.celestial import (
     SolarSystemTarget,
     parse_radec,
 )
-from tracker.clock import Clock, LockstepClock, ManualClock, SimClock, SystemClock, utc
+from tracker.clock import (
+    Clock,
+    LockstepClock,
+    ManualClock,
+    PacedClock,
+    SimClock,
+    SystemClock,
+    utc,
+)
 from tracker.config import Config, ScheduleSettings, load_config
 from tracker.controllers import CONTROLLERS, Controller, controller, register_controller
 from tracker.emulator import EmulatorOptions, Gs232Controller, serve_pty, serve_tcp
@@ -143,7 +151,7 @@ __all__ = [  # noqa: RUF022 (grouped by topic, the order the docs follow)
     "Catalog", "ElementSet", "TleStore", "age_warning", "age_warnings", "default_cache_dir",
     "load_file", "parse_text",
     # time
-    "Clock", "LockstepClock", "ManualClock", "SimClock", "SystemClock", "utc",
+    "Clock", "LockstepClock", "ManualClock", "PacedClock", "SimClock", "SystemClock", "utc",
     # targets
     "RADIO_SOURCES", "FixedTarget", "SatelliteTarget", "ScheduleTarget", "SkyTrack",
     "SolarSystemTarget", "Target", "event_labels", "parse_radec", "parse_schedule",

@@ -254,3 +254,19 @@ def test_all_stop_during_a_pass_reaches_the_controller(catalog):
         st.run_until(datetime(2026, 8, 22, 13, 25, tzinfo=timezone.utc))
     assert sent == [True]
     assert st.wire.rstrip(b"\r").endswith(b"S")       # the last word on the wire is all-stop
+
+
+def test_a_pass_not_chosen_at_first_is_tracked_once_a_reload_chooses_it(catalog, tmp_path):
+    st = Station_(catalog, state_path=tmp_path / "state.json")
+    st.service.settings = ScheduleSettings(targets={"NOAA 20": 1}, min_max_el_deg=45.0,
+                                           horizon_h=6.0)     # NOAA 20 peaks at 42 deg
+    lower = ScheduleSettings(targets={"NOAA 20": 1}, min_max_el_deg=10.0, horizon_h=6.0)
+
+    def reload() -> None:
+        st.service.settings = lower
+
+    st.hooks.append(lambda text: st.service.request_reload(reload)
+                    if "schedule (start)" in text else None)
+    report = st.run_until(datetime(2026, 8, 22, 13, 25, tzinfo=timezone.utc))
+    assert [(o.target, o.chosen) for o in _done(report)] == [("NOAA 20 (JPSS-1)", True)]
+    assert not [o for o in report.outcomes if o.key == _done(report)[0].key and not o.chosen]

@@ -1,8 +1,8 @@
 """The status page in a real headless Chromium (Debian's chromium + chromium-driver, driven
-by selenium): it loads, and while a simulated pass runs (the follower on the emu:// GS-232B
-with a fast SimClock, in a thread, writing through BoardFeed) it updates in place; and the
-docs' screenshot (``_station_demo.py``) is made. Every wait is a poll with a generous
-deadline."""
+by selenium): it loads, and while a real station service runs a simulated pass (the ISS on
+the in-process GS-232B emulator, virtual time held to 20x real time, in a thread) it updates
+in place; and the docs' screenshot (``_station_demo.py``) is made. Every wait is a poll with
+a generous deadline."""
 
 from __future__ import annotations
 
@@ -32,32 +32,21 @@ def _js(browser, script: str):
 def test_the_page_follows_a_simulated_pass():
     from selenium.webdriver.support.ui import WebDriverWait
 
-    from tracker.api import Bench, SimClock, make_controller
+    from tracker.api import PacedClock
     from tracker.service.web import StatusServer
 
-    passes, k = demo.two_passes(demo.parse_at("2026-08-22T13:00Z"))
-    pas = passes[k]
-    # 20x: the pre-position and the pass's first minutes take a few real seconds
-    clock = SimClock(pas.aos - timedelta(seconds=90), speed=20.0)
-    board = demo.station_board(clock, passes)
-    station = demo.DemoStation(board, passes)
+    _before, pas = demo.high_pass(demo.parse_at("2026-08-22T13:00Z"))
+    # 20x from shortly before the station takes the pass: the pre-position and the pass's
+    # first minutes take a few real seconds
+    clock = PacedClock(pas.aos - timedelta(seconds=300), speed=20.0)
+    service, bench = demo.station(clock)
+    board = service.board
     stop = threading.Event()
     failure: list[BaseException] = []
 
-    with Bench(make_controller("gs232b", clock, rotator="G-5500")) as bench:
-        follower = demo.follower(station, clock, bench, pas)
-
-        def run() -> None:
-            try:
-                follower.run(passes=1, should_stop=stop.is_set)
-            except BaseException as e:   # reported by the test, not lost in the thread
-                failure.append(e)
-            finally:
-                follower.close()
-
-        loop = threading.Thread(target=run, name="pass", daemon=True)
+    with bench:
         with StatusServer(board, port=0) as server, headless_chromium(1100, 800) as browser:
-            loop.start()
+            loop = demo.run_in_thread(service, stop, failure)
             try:
                 browser.get(server.url)
                 wait = WebDriverWait(browser, WAIT_S, poll_frequency=0.2)
@@ -79,8 +68,9 @@ def test_the_page_follows_a_simulated_pass():
                 assert _js(browser, "return document.getElementById('sky-antenna')"
                                     ".hasAttribute('hidden')") is False
                 assert "ISS (ZARYA)" in browser.find_element("id", "current-pass").text
-                assert _js(browser, "return document.querySelectorAll("
-                                    "'#timeline-bars .bar').length") >= 3
+                # the schedule is polled every 10 s
+                wait.until(lambda d: _js(d, "return document.querySelectorAll("
+                                            "'#timeline-bars .bar').length") >= 3)
                 shot = browser.get_screenshot_as_png()
             finally:
                 stop.set()

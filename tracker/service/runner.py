@@ -166,6 +166,10 @@ def _deg(v: float | None, nd: int = 1) -> str:
     return "-" if v is None or not math.isfinite(v) else f"{v:.{nd}f}"
 
 
+class _CutShort(Exception):
+    """The live loop stopped because the service was asked to stop."""
+
+
 class _PassWatch:
     """What one pass's loop or table runner reports: onto the board through a
     :class:`~tracker.service.board.BoardFeed`, into the pass's figures (motor starts and
@@ -275,10 +279,11 @@ class StationService:
         self.schedule: RollingSchedule | None = None
         self.state = StationState()
         self.report = StationReport(iso_utc(clock.now()), iso_utc(clock.now()))
-        self._logged: set[str] = set()
+        self._logged: set[tuple[str, bool]] = set()
         self._reload: Callable[[], None] | None = None
         self._reload_wanted = False
         self._active: Any = None          # the pass's follower or driver, for all-stop
+        self._should_stop: Callable[[], bool] = _never
 
     # -- small parts ---------------------------------------------------------------------
     def say(self, text: str) -> None:
@@ -342,12 +347,25 @@ class StationService:
                 p.state, p.reason = kept["state"], kept.get("reason", "")
         self.schedule = sched
         self.board.set_schedule(sched.entries())
+        if self.keeper is None:
+            self.board.set_elements([self._fixed_elements(sched)])
         n = len(sched.chosen)
         nxt = sched.due(now_s)
         self.say(f"schedule ({why}): {n} pass(es) in the next {self.settings.horizon_h:g} h"
                  + (f", next {nxt.target.name} at {iso_utc(nxt.pass_.aos)}" if nxt else ""))
         for p in sched.skipped:
             self._finish(p, "skipped", p.reason, chosen=False)
+
+    def _fixed_elements(self, sched: RollingSchedule) -> dict[str, Any]:
+        """The board's element line for a catalogue given once (no refresh)."""
+        epochs = sorted({getattr(getattr(p.target, "elements", None), "epoch", None)
+                         for p in sched.chosen} - {None})
+        age_h = None
+        if epochs:
+            mid = epochs[len(epochs) // 2]
+            age_h = round((self.clock.now() - mid).total_seconds() / 3600.0, 1)
+        return {"source": "catalogue given at the start", "count": len(self.catalog()),
+                "age_h": age_h, "checked_utc": None, "note": "not refreshed"}
 
     def refresh_elements(self) -> None:
         if self.keeper is None:
@@ -360,7 +378,10 @@ class StationService:
     # -- the loop --------------------------------------------------------------------------
     def run(self, until_s: float | None = None,
             should_stop: Callable[[], bool] = _never) -> StationReport:
-        """Run until ``until_s`` (POSIX s; None: until stopped) or ``should_stop``."""
+        """Run until ``until_s`` (POSIX s; None: until stopped) or ``should_stop`` (asked
+        every cycle of a live pass too: a pass cut short stays planned, so a restart goes on
+        with it)."""
+        self._should_stop = should_stop
         self._load_state()
         self.say(f"station {self.station.name}: {self.spec.name} on {self.controller.name}; "
                  f"targets {', '.join(self.settings.targets) or '-'}; groups "
@@ -477,6 +498,11 @@ class StationService:
                 self._run_table(p, track, watch, outcome)
             else:
                 self._run_stream(p, watch, outcome)
+        except _CutShort:
+            p.state = "planned"        # not an outcome: a restart goes on with this pass
+            self.board.update_pass(p.key, state="planned")
+            self.say(f"pass of {p.target.name} cut short: the station is stopping")
+            return
         except StallError as e:
             outcome.outcome, outcome.reason = "failed", f"stall: {e}"
         except (PortLostError, RotatorIOError) as e:
@@ -500,13 +526,12 @@ class StationService:
                                 first=p.pass_)
         self._active = follower
         try:
-            results = follower.run(1)
+            results = follower.run(1, should_stop=self._should_stop)
         finally:
             self._active = None
             follower.close()
         if not results:
-            outcome.outcome, outcome.reason = "failed", "the pass was cut short"
-            return
+            raise _CutShort()
         res = results[0]
         outcome.commands, outcome.reconnects = res.commands, res.reconnects
         if res.errors_deg:
@@ -551,22 +576,27 @@ class StationService:
                 outcome: PassOutcome | None = None) -> None:
         p.state, p.reason = state, reason
         self.board.update_pass(p.key, state=state, reason=reason)
-        if p.key in self._logged:
+        if (p.key, chosen) in self._logged:
             return
-        self._logged.add(p.key)
+        self._logged.add((p.key, chosen))
+        if chosen:   # a pass a later schedule chose: its outcome replaces "not scheduled"
+            self.report.outcomes = [o for o in self.report.outcomes
+                                    if o.key != p.key or o.chosen]
         if outcome is None:
             outcome = PassOutcome(p.key, p.target.name, iso_utc(p.pass_.aos),
                                   iso_utc(p.pass_.los), p.mode, state, reason,
                                   chosen=chosen, max_el_deg=float(p.pass_.max_el_deg),
                                   predicted_max_error_deg=p.predicted_max_error_deg)
         self.report.outcomes.append(outcome)
+        if not chosen:
+            # in the schedule with its reason, and in the report; not a pass of the station's
+            # (a later schedule may choose it, so the state file must not hold it)
+            return
         record = outcome.record()
         self.board.add_pass(record)
-        if chosen:
-            self.say(f"pass of {p.target.name} {state}"
-                     + (f": {reason}" if reason else "")
-                     + (f"; measured max error {outcome.measured_max_error_deg:.1f} deg"
-                        if outcome.measured_max_error_deg is not None else ""))
+        self.say(f"pass of {p.target.name} {state}" + (f": {reason}" if reason else "")
+                 + (f"; measured max error {outcome.measured_max_error_deg:.1f} deg"
+                    if outcome.measured_max_error_deg is not None else ""))
         self.state.note(p.key, state, reason, p.pass_.los.timestamp())
         self.state.prune(self.clock.timestamp())
         self._save(record)
