@@ -42,9 +42,10 @@ def test_a_simulated_stretch_tracks_and_reports(isolated_home, capsys):
     log = isolated_home / "passes.jsonl"
     code = main(["station", "run", "--simulate", "--speed", "max", "--hours", "0.6",
                  "--at", "2026-08-22T12:50:00Z", "--config", str(_config(isolated_home)),
-                 "--pass-log", str(log)])
+                 "--pass-log", str(log), "--plot", str(isolated_home / "day.png")])
     out = capsys.readouterr().out
     assert code == 0
+    assert (isolated_home / "day.png").read_bytes().startswith(b"\x89PNG")
     assert out.startswith("SIMULATION: built-in gs232b emulator with a G-5500")
     assert re.search(r"passes: 1 scheduled, 1 tracked, 0 skipped, 0 failed", out)
     assert "NOAA 20 (JPSS-1)" in out.split("station report")[1]

@@ -76,6 +76,10 @@ def register(sub) -> None:
     r.add_argument("--pass-log", metavar="FILE",
                    help="JSON lines, one per pass, rotated at 5 MB (default: passes.jsonl "
                         "beside the state file)")
+    r.add_argument("--plot", metavar="PNG",
+                   help="at the end, write the run's timeline: tracked passes solid, the "
+                        "others hollow (needs matplotlib: the [plot] extra)")
+    r.add_argument("--force", action="store_true", help="let --plot replace a file")
     r.add_argument("--listen", metavar="ADDR", default="127.0.0.1",
                    help="address the status page and control port listen on (default "
                         "127.0.0.1; anything else lets others on that network see the page "
@@ -218,6 +222,10 @@ def run(args: argparse.Namespace) -> int:
     station = station_from_args(args)
     stream = _stream_settings(config, spec)
     state_path, log_path = _state_paths(args)
+    if args.plot:
+        from tracker.plot import check_plot_path
+
+        check_plot_path(args.plot, force=args.force, label="--plot")  # before, not after hours
     from_files = args.simulate or bool(getattr(args, "tle", None))
     catalog = catalog_from_args(args) if from_files else None
     clock, hours, banner = _clock(args, catalog, settings)
@@ -248,7 +256,8 @@ def run(args: argparse.Namespace) -> int:
             schedule=settings, stream=stream, board=board, keeper=keeper, catalog=catalog,
             state_path=state_path, pass_log=PassLog(log_path) if log_path else None,
             say=say, control=control)
-        until_s = clock.timestamp() + hours * 3600.0 if hours is not None else None
+        start_s = clock.timestamp()
+        until_s = start_s + hours * 3600.0 if hours is not None else None
         report = _serve(args, service, until_s)
     finally:
         for server in reversed(servers):
@@ -256,6 +265,10 @@ def run(args: argparse.Namespace) -> int:
         if bench is not None:
             bench.close()
     print(report.text())
+    if args.plot:
+        path = report.plot(args.plot, start_s, clock.timestamp(), force=args.force,
+                           label="--plot")
+        print(f"timeline: {path}")
     return 0
 
 

@@ -94,9 +94,11 @@ class PassOutcome:
     travel_deg: float = 0.0
     reconnects: int = 0
     faults: list[str] = field(default_factory=list)
+    pass_: Any = field(default=None, repr=False, compare=False)   # the Pass, for plots
 
     def record(self) -> dict[str, Any]:
         out = dict(self.__dict__)
+        out.pop("pass_")
         for k in ("max_el_deg", "predicted_max_error_deg", "measured_max_error_deg",
                   "travel_deg"):
             v = out[k]
@@ -112,6 +114,20 @@ class StationReport:
     ended_utc: str
     outcomes: list[PassOutcome] = field(default_factory=list)
     faults: list[str] = field(default_factory=list)
+
+    def plot(self, path: str | Path, start_s: float, end_s: float, *, force: bool = False,
+             label: str = "") -> Path:
+        """The run as a timeline (the ``[plot]`` extra): every pass of the targets, the
+        tracked ones solid, the rest hollow."""
+        from tracker.export import pass_records
+        from tracker.plot import timeline_plot
+
+        shown = [o for o in self.outcomes if o.pass_ is not None]
+        tracked = {i for i, o in enumerate(shown) if o.outcome == "done"}
+        return timeline_plot(pass_records([o.pass_ for o in shown]), path, start_s, end_s,
+                             title=f"station run {self.started_utc} .. {self.ended_utc}: "
+                                   f"{len(tracked)} passes tracked (solid)",
+                             chosen=tracked, force=force, label=label)
 
     def count(self, outcome: str, chosen: bool = True) -> int:
         return sum(1 for o in self.outcomes if o.outcome == outcome and o.chosen == chosen)
@@ -492,7 +508,8 @@ class StationService:
         watch = _PassWatch(self.board, self.spec, p.target.name, track, self.say)
         outcome = PassOutcome(p.key, p.target.name, iso_utc(p.pass_.aos), iso_utc(p.pass_.los),
                               p.mode, "done", max_el_deg=float(p.pass_.max_el_deg),
-                              predicted_max_error_deg=p.predicted_max_error_deg)
+                              predicted_max_error_deg=p.predicted_max_error_deg,
+                              pass_=p.pass_)
         try:
             if p.mode == "table":
                 self._run_table(p, track, watch, outcome)
@@ -586,7 +603,8 @@ class StationService:
             outcome = PassOutcome(p.key, p.target.name, iso_utc(p.pass_.aos),
                                   iso_utc(p.pass_.los), p.mode, state, reason,
                                   chosen=chosen, max_el_deg=float(p.pass_.max_el_deg),
-                                  predicted_max_error_deg=p.predicted_max_error_deg)
+                                  predicted_max_error_deg=p.predicted_max_error_deg,
+                                  pass_=p.pass_)
         self.report.outcomes.append(outcome)
         if not chosen:
             # in the schedule with its reason, and in the report; not a pass of the station's
