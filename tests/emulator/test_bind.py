@@ -19,13 +19,15 @@ from tracker.clock import SimClock
 from tracker.emulator import Gs232Controller, serve_tcp
 from tracker.emulator.faults import install
 
-LISTEN_RE = re.compile(r"create_server\(|\.bind\(|\.listen\(|HTTPServer\(|TCPServer\(|"
+LISTEN_RE = re.compile(r"create_server\(|\.bind\(|\.listen\(|HTTPServer\(|TCPServer\b|"
                        r"start_server\(|LocalCluster\(|serve_forever\(|run_server\(")
 
 # Package files with a listening call, each reviewed: how many calls, and why they are safe.
 REVIEWED = {
     "tracker/emulator/serve.py": 1,        # TcpServer._listen_on: bind defaults to 127.0.0.1
     "tracker/batch/distributed.py": 1,  # LocalCluster: host None -> 127.0.0.1, no dashboard
+    "tracker/service/web.py": 1,        # StatusServer: host defaults to 127.0.0.1
+    "tracker/service/rotctld_server.py": 2,   # RotctldServer: host defaults to 127.0.0.1
 }
 
 
@@ -116,3 +118,29 @@ def test_dask_local_cluster_binds_loopback():
     finally:
         client.close()
         cluster.close()
+
+
+def test_the_status_page_and_the_control_port_listen_on_loopback_by_default():
+    pytest.importorskip("flask")
+    from tracker.clock import ManualClock
+    from tracker.mount import preset
+    from tracker.service.board import StatusBoard
+    from tracker.service.rotctld_server import RotctldServer
+    from tracker.service.web import StatusServer
+
+    clock = ManualClock(datetime.fromisoformat(T0))
+    page = StatusServer(StatusBoard(clock), port=0)
+    port = RotctldServer(lambda: None, preset("G-5500"), clock=clock, port=0)
+    page.start()
+    port.start()
+    try:
+        assert page.url.startswith("http://127.0.0.1:")
+        assert port.address[0] == "127.0.0.1"
+        other = _other_local_address()
+        if other is not None:
+            for p in (int(page.url.rsplit(":", 1)[1].strip("/")), port.address[1]):
+                with pytest.raises(OSError):
+                    socket.create_connection((other, p), timeout=1).close()
+    finally:
+        page.close()
+        port.close()
