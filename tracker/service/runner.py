@@ -33,6 +33,7 @@ import re
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -374,8 +375,9 @@ class StationService:
 
     def _fixed_elements(self, sched: RollingSchedule) -> dict[str, Any]:
         """The board's element line for a catalogue given once (no refresh)."""
-        epochs = sorted({getattr(getattr(p.target, "elements", None), "epoch", None)
-                         for p in sched.chosen} - {None})
+        found = (getattr(getattr(p.target, "elements", None), "epoch", None)
+                 for p in sched.chosen)
+        epochs: list[datetime] = sorted({e for e in found if e is not None})
         age_h = None
         if epochs:
             mid = epochs[len(epochs) // 2]
