@@ -157,3 +157,21 @@ def test_sighup_reloads_the_config_between_passes_and_sigterm_ends_cleanly(isola
     assert "reloading the configuration (SIGHUP)" in out
     assert "NOAA 20 (JPSS-1)" in line or "FUNCUBE-1" in line
     assert "all-stop sent; the station is stopped" in out and "station report" in out
+
+
+def test_the_systemd_unit_runs_the_station_reloads_with_sighup_and_stops_with_sigterm():
+    import configparser
+    import shlex
+    from pathlib import Path
+
+    unit = configparser.ConfigParser(interpolation=None, strict=False)
+    unit.read(Path(__file__).resolve().parents[2] / "examples" / "tracker-station.service")
+    service = unit["Service"]
+    argv = shlex.split(service["ExecStart"])
+    assert Path(argv[0]).name == "tracker" and argv[1:3] == ["station", "run"]
+    from tracker.cli import build_parser
+
+    args = build_parser(argv[1:]).parse_args(argv[1:])    # the unit's flags are the CLI's
+    assert args.func.__module__ == "tracker.commands.station"
+    assert "-HUP" in service["ExecReload"] and service["KillSignal"] == "SIGTERM"
+    assert service["Restart"] == "on-failure"
