@@ -12,6 +12,7 @@ matches at one step raise :class:`AmbiguousSatelliteError`; none raise
 from __future__ import annotations
 
 import difflib
+import functools
 import re
 import statistics
 import warnings
@@ -94,6 +95,13 @@ def age_warnings(sets: Iterable[ElementSet], now: datetime,
             "predictions may be off; run `tracker tle update`"]
 
 
+@functools.lru_cache(maxsize=256)
+def _group_of(source: str) -> str:
+    """The group a set's source file names (``.../amateur.txt`` -> ``amateur``); the few
+    sources of a catalogue repeat for every set, so the path is parsed once each."""
+    return Path(source).stem
+
+
 class Catalog:
     """Element sets keyed by NORAD id (the newest epoch wins), with per-group membership."""
 
@@ -113,7 +121,7 @@ class Catalog:
         old = self._by_id.get(es.norad_id)
         if old is None or es.epoch > old.epoch:
             self._by_id[es.norad_id] = es
-        group = Path(es.source).stem
+        group = _group_of(es.source)
         self._groups.setdefault(group, set()).add(es.norad_id)
         if origin:
             self._origins.setdefault(group, set()).add(origin)

@@ -41,7 +41,7 @@ from tracker.timescale import DAY_S, to_datetime, to_posix
 TIME_TOL_S = 0.01          # rise/set/TCA refinement tolerance
 VISIBLE_SUN_EL_DEG = -6.0  # civil twilight: darker than this, a sunlit satellite is visible
 _EDGE_S = 3.0              # margin around find_events crossings (they are good to 0.5 s)
-_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+MAX_SAMPLES = 33            # samples per bracket and round of the maximum's search
 
 # Coarse sampling steps for the generic finder, by target kind: fast enough to catch every
 # rise of a target moving at most ~15 deg/h, while a whole day costs a few hundred samples.
@@ -171,27 +171,24 @@ def _bisect_crossings(g, lo: np.ndarray, hi: np.ndarray, up_lo: np.ndarray) -> n
     return np.where(up_lo, lo, hi)
 
 
-def _golden_max(el_fn, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """Golden-section maximisation of ``el_fn`` on each ``[lo, hi]`` (vectorised)."""
+def _refine_max(el_fn, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The time of the maximum of ``el_fn`` on each ``[lo, hi]`` to :data:`TIME_TOL_S`:
+    each round samples every bracket :data:`MAX_SAMPLES` times in one vectorised call and
+    keeps the two samples around the highest, shrinking the bracket 16-fold (3 calls for
+    a 20 s bracket, where a golden-section search needs 17: each call's fixed cost is most
+    of a single pass's search)."""
     a = lo.astype(float).copy()
     b = hi.astype(float).copy()
     if a.size == 0:
         return a
-    width = float(np.max(b - a))
-    n = max(1, math.ceil(math.log(max(width, TIME_TOL_S) / TIME_TOL_S) / -math.log(_GOLDEN)))
-    c = b - _GOLDEN * (b - a)
-    d = a + _GOLDEN * (b - a)
-    fc, fd = el_fn(c), el_fn(d)
-    for _ in range(n):
-        left = fc > fd  # the maximum is in [a, d]
-        b = np.where(left, d, b)
-        a = np.where(left, a, c)
-        # Recompute both interior points: simpler than reusing one when the choice differs
-        # between passes, and still one vectorised call per iteration.
-        c = b - _GOLDEN * (b - a)
-        d = a + _GOLDEN * (b - a)
-        both = el_fn(np.concatenate([c, d]))
-        fc, fd = both[: len(c)], both[len(c):]
+    frac = np.linspace(0.0, 1.0, MAX_SAMPLES)
+    rows = np.arange(a.size)
+    while float(np.max(b - a)) > TIME_TOL_S:
+        t = a[:, None] + (b - a)[:, None] * frac[None, :]
+        el = np.asarray(el_fn(t.ravel()), dtype=float).reshape(t.shape)
+        j = np.clip(np.argmax(np.where(np.isfinite(el), el, -np.inf), axis=1), 1,
+                    MAX_SAMPLES - 2)
+        a, b = t[rows, j - 1], t[rows, j + 1]
     return 0.5 * (a + b)
 
 
@@ -483,7 +480,7 @@ def _build_passes(target, station, spans, azel, t0: float, t1: float,
     los = np.where(b_known, b, np.minimum(b, t1))
 
     # Maximum: coarse grid over each pass (highest of several culminations), then golden
-    # section on the neighbourhood of the best grid point; all passes in one call per step.
+    # sampling of the neighbourhood of the best grid point; all passes in one call per round.
     n_grid = 64
     frac = np.linspace(0.0, 1.0, n_grid)
     grid = aos[:, None] + (los - aos)[:, None] * frac[None, :]
@@ -493,7 +490,7 @@ def _build_passes(target, station, spans, azel, t0: float, t1: float,
     rows = np.arange(len(spans))
     lo = grid[rows, np.maximum(best - 1, 0)]
     hi = grid[rows, np.minimum(best + 1, n_grid - 1)]
-    tca = _golden_max(lambda t: azel(t)[1], lo, hi)
+    tca = _refine_max(lambda t: azel(t)[1], lo, hi)
     end_vals = np.concatenate([aos, tca, los])
     az_all, el_all = azel(end_vals)
     k = len(spans)
