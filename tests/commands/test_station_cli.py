@@ -55,6 +55,8 @@ def test_a_simulated_stretch_tracks_and_reports(isolated_home, capsys):
 @pytest.mark.parametrize("argv, words", [
     (["--speed", "10"], "--speed needs --simulate"),
     (["--simulate", "--hours", "0"], "--hours 0 is invalid"),
+    (["--simulate", "--speed", "1e-300"], "1e-300 is invalid; use a number from 0.01"),
+    (["--simulate", "--speed", "nan"], "nan is invalid"),
     (["--simulate", "--control-port", "4533"], "--control-port needs a real controller"),
     (["--simulate", "--status-port", "70000"], "--status-port 70000 is invalid"),
     (["--simulate", "--protocol", "rotctld"], "has no built-in emulator"),
@@ -63,6 +65,21 @@ def test_a_simulated_stretch_tracks_and_reports(isolated_home, capsys):
 def test_bad_input_is_one_line_and_exit_2(isolated_home, capsys, argv, words):
     assert main(["station", "run", *argv]) == 2
     err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0], err
+
+
+@pytest.mark.parametrize("targets, argv, words", [
+    ('{ "NOSUCHSAT" = 1 }', [], "[schedule] targets: no satellite 'NOSUCHSAT'"),
+    ('{ "NOAA 20" = 1 }', ["--status-port", "8", "--listen", "garbage!!"],
+     "cannot listen on garbage!!:8 (not an address"),
+])
+def test_a_simulation_that_cannot_start_is_one_line_and_exit_2(isolated_home, capsys,
+                                                              targets, argv, words):
+    config = _config(isolated_home, targets)
+    assert main(["station", "run", "--simulate", "--speed", "max", "--hours", "0.5", "--at",
+                 "2026-08-22T12:50:00Z", "--config", str(config), *argv]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines()
+           if not line.startswith("tracker: note:")]
     assert len(err) == 1 and words in err[0], err
 
 

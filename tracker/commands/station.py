@@ -37,6 +37,7 @@ from tracker.errors import ConfigError
 DEFAULT_STATUS_PORT = 8073
 DEFAULT_CONTROL_PORT = 4533
 MAX_HOURS = 24 * 366
+SPEED_RANGE = (0.01, 100_000.0)   # slower than this, a nap's real wait overflows the OS's
 
 
 def register(sub) -> None:
@@ -100,9 +101,10 @@ def _speed_arg(text: str) -> float:
         speed = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number or 'max'") from None
-    if not (math.isfinite(speed) and 0 < speed <= 100_000):
-        raise argparse.ArgumentTypeError(f"{text} is invalid; use a number above 0 and at "
-                                         f"most 100000, or max")
+    low, high = SPEED_RANGE
+    if not (math.isfinite(speed) and low <= speed <= high):
+        raise argparse.ArgumentTypeError(f"{text} is invalid; use a number from {low:g} to "
+                                         f"{high:g}, or max")
     return speed
 
 
