@@ -83,6 +83,40 @@ def test_a_simulation_that_cannot_start_is_one_line_and_exit_2(isolated_home, ca
     assert len(err) == 1 and words in err[0], err
 
 
+def test_a_second_sigterm_while_the_station_shuts_down_does_not_kill_it(isolated_home, capsys,
+                                                                       monkeypatch):
+    import tracker.service.simulate as simulate
+    from tracker.service.runner import StationService
+
+    def run_until_sigterm(self, until_s=None):
+        signal.raise_signal(signal.SIGTERM)       # the session's handler: all-stop, then out
+        raise AssertionError("SIGTERM did not interrupt the run")
+
+    handlers_at_close: list = []
+    emulated = simulate.emulated
+
+    def watched(*args, **kw):
+        bench, connect = emulated(*args, **kw)
+        close = bench.close
+
+        def close_and_note() -> None:
+            handlers_at_close.append(signal.getsignal(signal.SIGTERM))
+            close()
+        bench.close = close_and_note
+        return bench, connect
+
+    monkeypatch.setattr(StationService, "run", run_until_sigterm)
+    monkeypatch.setattr(simulate, "emulated", watched)
+    before = signal.getsignal(signal.SIGTERM)
+    assert main(["station", "run", "--simulate", "--speed", "max", "--hours", "0.5", "--at",
+                 "2026-08-22T12:50:00Z", "--config", str(_config(isolated_home))]) == 0
+    out = capsys.readouterr().out
+    assert "SIGTERM: stopping the rotator" in out and "station report" in out
+    # while it closed up, a second SIGTERM would not have been the default (kill)
+    assert handlers_at_close and handlers_at_close[0] not in (signal.SIG_DFL, before)
+    assert signal.getsignal(signal.SIGTERM) is before
+
+
 def test_a_state_path_that_is_a_folder_is_refused(isolated_home, capsys):
     config = _config(isolated_home)
     assert main(["station", "run", "--port", "socket://127.0.0.1:9", "--config", str(config),
