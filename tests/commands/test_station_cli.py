@@ -70,6 +70,7 @@ def test_bad_input_is_one_line_and_exit_2(isolated_home, capsys, argv, words):
 
 @pytest.mark.parametrize("targets, argv, words", [
     ('{ "NOSUCHSAT" = 1 }', [], "[schedule] targets: no satellite 'NOSUCHSAT'"),
+    ('{ "NOAA 20" = 1 }', ["--at", "1900-01-01"], "only usable within 730 days"),
     ('{ "NOAA 20" = 1 }', ["--status-port", "8", "--listen", "garbage!!"],
      "cannot listen on garbage!!:8 (not an address"),
 ])
@@ -77,7 +78,7 @@ def test_a_simulation_that_cannot_start_is_one_line_and_exit_2(isolated_home, ca
                                                               targets, argv, words):
     config = _config(isolated_home, targets)
     assert main(["station", "run", "--simulate", "--speed", "max", "--hours", "0.5", "--at",
-                 "2026-08-22T12:50:00Z", "--config", str(config), *argv]) == 2
+                 "2026-08-22T12:50:00Z", "--config", str(config), *argv]) == 2  # last --at wins
     err = [line for line in capsys.readouterr().err.splitlines()
            if not line.startswith("tracker: note:")]
     assert len(err) == 1 and words in err[0], err
