@@ -330,3 +330,17 @@ def test_a_huge_state_file_is_set_aside_and_an_earlier_one_set_aside_is_kept(cat
     assert st.said("larger than 4,000,000 bytes")
     assert (tmp_path / "state.json.bad").read_text() == "set aside before\n"
     assert (tmp_path / "state.json.bad.1").stat().st_size > 5_000_000
+
+
+@pytest.mark.parametrize("targets, min_el_deg, why", [
+    ({"NOAA 20": 1}, 89.9, "pass(es) of the targets left out, e.g. NOAA 20 (JPSS-1): max el"),
+    ({"43700": 1}, 10.0, "always up like a geostationary satellite"),     # QO-100, always up
+])
+def test_a_schedule_without_a_pass_says_so_and_why(catalog, targets, min_el_deg, why):
+    st = Station_(catalog, targets=targets)
+    st.service.settings = ScheduleSettings(targets=targets, min_max_el_deg=min_el_deg,
+                                           horizon_h=6.0)
+    report = st.run_until(datetime(2026, 8, 22, 13, 0, tzinfo=timezone.utc))
+    assert [o for o in report.outcomes if o.chosen] == []
+    line = st.said("schedule (start)")[0]
+    assert "no pass in the schedule" in line and why in line, line

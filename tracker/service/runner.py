@@ -162,6 +162,16 @@ def _reason_kind(o: PassOutcome) -> str:
     return f"{'not scheduled' if not o.chosen else o.outcome}: {head}"
 
 
+def _why_none(sched: RollingSchedule) -> str:
+    """Why a schedule holds no pass, for the line that says so."""
+    if not sched.skipped:
+        return (": no pass in the schedule (no target rises and sets then: never above the "
+                "horizon, or always up like a geostationary satellite)")
+    first = sched.skipped[0]
+    return (f": no pass in the schedule ({len(sched.skipped)} pass(es) of the targets left "
+            f"out, e.g. {first.target.name}: {first.reason})")
+
+
 def _deg(v: float | None, nd: int = 1) -> str:
     return "-" if v is None or not math.isfinite(v) else f"{v:.{nd}f}"
 
@@ -350,7 +360,8 @@ class StationService:
         n = len(sched.chosen)
         nxt = sched.due(now_s)
         self.say(f"schedule ({why}): {n} pass(es) in the next {self.settings.horizon_h:g} h"
-                 + (f", next {nxt.target.name} at {iso_utc(nxt.pass_.aos)}" if nxt else ""))
+                 + (f", next {nxt.target.name} at {iso_utc(nxt.pass_.aos)}" if nxt else "")
+                 + ("" if n else _why_none(sched)))
         for p in sched.skipped:
             self._finish(p, "skipped", p.reason, chosen=False)
 
