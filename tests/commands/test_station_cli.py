@@ -118,6 +118,19 @@ def test_a_second_sigterm_while_the_station_shuts_down_does_not_kill_it(isolated
     assert signal.getsignal(signal.SIGTERM) is before
 
 
+def test_a_second_run_on_the_same_state_file_is_refused_before_it_sends_anything(
+        isolated_home, capsys):
+    from tracker.service.records import state_lock
+
+    state = isolated_home / "state.json"
+    with state_lock(state):                       # the first run holds it
+        assert main(["station", "run", "--simulate", "--speed", "max", "--hours", "0.5",
+                     "--at", "2026-08-22T12:50:00Z", "--config", str(_config(isolated_home)),
+                     "--state", str(state)]) == 2
+    out, err = capsys.readouterr()
+    assert "is in use by another station run" in err and "station report" not in out
+
+
 def test_a_state_path_that_is_a_folder_is_refused(isolated_home, capsys):
     config = _config(isolated_home)
     assert main(["station", "run", "--port", "socket://127.0.0.1:9", "--config", str(config),

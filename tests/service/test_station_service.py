@@ -344,3 +344,15 @@ def test_a_schedule_without_a_pass_says_so_and_why(catalog, targets, min_el_deg,
     assert [o for o in report.outcomes if o.chosen] == []
     line = st.said("schedule (start)")[0]
     assert "no pass in the schedule" in line and why in line, line
+
+
+def test_a_state_file_is_held_by_one_run_at_a_time(tmp_path):
+    from tracker.service.records import state_lock
+
+    state = tmp_path / "state.json"
+    with state_lock(state):
+        with pytest.raises(ConfigError, match="in use by another station run"), \
+                state_lock(state):
+            pass
+    with state_lock(state):          # released at the end of the first
+        pass

@@ -239,16 +239,22 @@ def run(args: argparse.Namespace) -> int:
     else:
         connect = connector(str(port), entry, spec, clock,
                             args.baud or config.tracking.get("baudrate"))
+    from contextlib import ExitStack
+
+    from tracker.service.records import state_lock
     from tracker.session import route_stop_signals
 
     guard = _StopGuard()
     restore_signals = route_stop_signals(guard, guard.signals)
     try:
-        report = _run_service(args, guard, StationService(
-            station=station, spec=spec, controller=entry, connect=connect, clock=clock,
-            schedule=settings, stream=stream, board=board, keeper=keeper, catalog=catalog,
-            state_path=state_path, pass_log=PassLog(log_path) if log_path else None,
-            say=say), hours, say)
+        with ExitStack() as held:
+            if state_path is not None:    # before anything is sent: one run per state file
+                held.enter_context(state_lock(state_path))
+            report = _run_service(args, guard, StationService(
+                station=station, spec=spec, controller=entry, connect=connect, clock=clock,
+                schedule=settings, stream=stream, board=board, keeper=keeper,
+                catalog=catalog, state_path=state_path,
+                pass_log=PassLog(log_path) if log_path else None, say=say), hours, say)
         print(report.text())
     finally:
         if bench is not None:

@@ -18,7 +18,8 @@ import logging
 import logging.handlers
 import math
 import os
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -113,6 +114,34 @@ class StationState:
                           indent=1)
         Path(path).expanduser().parent.mkdir(parents=True, exist_ok=True)
         write_atomic(path, text + "\n", force=True, label="state file")
+
+
+@contextmanager
+def state_lock(path: str | Path) -> Iterator[None]:
+    """Hold ``FILE.lock`` beside the state file for a run: a second station run on the same
+    state file (and so, most likely, the same rotator) is refused with a
+    :class:`ConfigError` instead of both driving and overwriting each other's outcomes."""
+    try:
+        import fcntl
+    except ImportError:        # pragma: no cover - Windows: no advisory locks, no check
+        yield
+        return
+    lock = Path(path).expanduser().with_name(Path(path).name + ".lock")
+    try:
+        lock.parent.mkdir(parents=True, exist_ok=True)
+        handle = open(lock, "a+", encoding="utf-8")
+    except OSError as e:
+        raise ConfigError(f"state file {path}: cannot open its lock {lock} ({e.strerror}); "
+                          f"choose a writable folder") from None
+    try:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise ConfigError(f"state file {path} is in use by another station run; stop "
+                              f"that one first (two runs would drive one rotator)") from None
+        yield
+    finally:
+        handle.close()
 
 
 def _entry_ok(entry: Any) -> bool:
