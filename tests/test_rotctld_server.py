@@ -265,6 +265,34 @@ def test_a_client_leaving_mid_move_does_not_stop_but_close_does(served):
     assert _last_command(s.written()) == b"S"
 
 
+def test_a_command_cut_short_by_a_disconnect_is_not_run(served):
+    s = served("gs232b", "G-5500")
+    with socket.create_connection(s.url.split(":"), timeout=WAIT_S) as cut:
+        cut.sendall(b"P 100 3")                # "P 100 35" cut short
+    c = Client(s.url)
+    try:
+        assert c.ask("\\") == ["RPRT -4"]     # a bare backslash: unknown, the client stays
+        assert len(c.ask("p", 2)) == 2
+    finally:
+        c.close()
+    assert _moves(s.written()) == []
+
+
+def test_a_line_without_end_is_refused_and_does_not_hold_up_the_others(served):
+    s = served("gs232b", "G-5500")
+    with socket.create_connection(s.url.split(":"), timeout=WAIT_S) as hog:
+        hog.sendall(b"P " + b"9" * 100_000)
+        assert hog.recv(100) == b"RPRT -1\n"
+        assert hog.recv(100) == b""              # and closed
+        other = Client(s.url)
+        try:
+            assert other.ask("P 10 10") == ["RPRT 0"]
+        finally:
+            other.close()
+    assert _moves(s.written()) == [b"W010 010"]
+    assert any("longer than 1024 bytes" in t for k, t in s.events if k == "refused")
+
+
 def test_several_clients_at_once_and_the_board_counts_them(served):
     board = StatusBoard(SimClock(datetime.fromisoformat(T0)))
     s = served("gs232b", "G-5500", board=board)

@@ -56,6 +56,8 @@ def test_a_simulated_stretch_tracks_and_reports(isolated_home, capsys):
 @pytest.mark.parametrize("argv, words", [
     (["--speed", "10"], "--speed needs --simulate"),
     (["--simulate", "--hours", "0"], "--hours 0 is invalid"),
+    (["--simulate", "--speed", "1e-300"], "1e-300 is invalid; use a number from 0.01"),
+    (["--simulate", "--speed", "nan"], "nan is invalid"),
     (["--simulate", "--control-port", "4533"], "--control-port needs a real controller"),
     (["--simulate", "--status-port", "70000"], "--status-port 70000 is invalid"),
     (["--simulate", "--protocol", "rotctld"], "has no built-in emulator"),
@@ -65,6 +67,69 @@ def test_bad_input_is_one_line_and_exit_2(isolated_home, capsys, argv, words):
     assert main(["station", "run", *argv]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and words in err[0], err
+
+
+@pytest.mark.parametrize("targets, argv, words", [
+    ('{ "NOSUCHSAT" = 1 }', [], "[schedule] targets: no satellite 'NOSUCHSAT'"),
+    ('{ "NOAA 20" = 1 }', ["--at", "1900-01-01"], "only usable within 730 days"),
+    ('{ "NOAA 20" = 1 }', ["--status-port", "8", "--listen", "garbage!!"],
+     "cannot listen on garbage!!:8 (not an address"),
+])
+def test_a_simulation_that_cannot_start_is_one_line_and_exit_2(isolated_home, capsys,
+                                                              targets, argv, words):
+    config = _config(isolated_home, targets)
+    assert main(["station", "run", "--simulate", "--speed", "max", "--hours", "0.5", "--at",
+                 "2026-08-22T12:50:00Z", "--config", str(config), *argv]) == 2  # last --at wins
+    err = [line for line in capsys.readouterr().err.splitlines()
+           if not line.startswith("tracker: note:")]
+    assert len(err) == 1 and words in err[0], err
+
+
+def test_a_second_sigterm_while_the_station_shuts_down_does_not_kill_it(isolated_home, capsys,
+                                                                       monkeypatch):
+    import tracker.service.simulate as simulate
+    from tracker.service.runner import StationService
+
+    def run_until_sigterm(self, until_s=None):
+        signal.raise_signal(signal.SIGTERM)       # the session's handler: all-stop, then out
+        raise AssertionError("SIGTERM did not interrupt the run")
+
+    handlers_at_close: list = []
+    emulated = simulate.emulated
+
+    def watched(*args, **kw):
+        bench, connect = emulated(*args, **kw)
+        close = bench.close
+
+        def close_and_note() -> None:
+            handlers_at_close.append(signal.getsignal(signal.SIGTERM))
+            close()
+        bench.close = close_and_note
+        return bench, connect
+
+    monkeypatch.setattr(StationService, "run", run_until_sigterm)
+    monkeypatch.setattr(simulate, "emulated", watched)
+    before = signal.getsignal(signal.SIGTERM)
+    assert main(["station", "run", "--simulate", "--speed", "max", "--hours", "0.5", "--at",
+                 "2026-08-22T12:50:00Z", "--config", str(_config(isolated_home))]) == 0
+    out = capsys.readouterr().out
+    assert "SIGTERM: stopping the rotator" in out and "station report" in out
+    # while it closed up, a second SIGTERM would not have been the default (kill)
+    assert handlers_at_close and handlers_at_close[0] not in (signal.SIG_DFL, before)
+    assert signal.getsignal(signal.SIGTERM) is before
+
+
+def test_a_second_run_on_the_same_state_file_is_refused_before_it_sends_anything(
+        isolated_home, capsys):
+    from tracker.service.records import state_lock
+
+    state = isolated_home / "state.json"
+    with state_lock(state):                       # the first run holds it
+        assert main(["station", "run", "--simulate", "--speed", "max", "--hours", "0.5",
+                     "--at", "2026-08-22T12:50:00Z", "--config", str(_config(isolated_home)),
+                     "--state", str(state)]) == 2
+    out, err = capsys.readouterr()
+    assert "is in use by another station run" in err and "station report" not in out
 
 
 def test_a_state_path_that_is_a_folder_is_refused(isolated_home, capsys):

@@ -14,7 +14,7 @@ import pytest
 from tle.catalog import Catalog
 from tracker.config import ScheduleSettings
 from tracker.controllers import controller
-from tracker.errors import ConfigError
+from tracker.errors import ConfigError, PropagationError
 from tracker.mount import preset
 from tracker.service.plan import build_rolling_schedule, pass_key, wanted_targets
 from tracker.station import Station
@@ -178,3 +178,15 @@ def test_unknown_names_are_one_line(catalog, kw, message):
     with pytest.raises(ConfigError, match=message) as info:
         wanted_targets(catalog, ScheduleSettings(**kw))
     assert "\n" not in str(info.value)
+
+
+def test_a_day_no_satellite_can_be_predicted_for_says_so(catalog):
+    far_s = datetime(1900, 1, 1, tzinfo=timezone.utc).timestamp()
+    with pytest.raises(PropagationError, match=r"days before the elements' epoch .* only "
+                                               r"usable within 730 days"):
+        build_rolling_schedule(catalog, STATION, SPEC, settings(), NO_TABLES, far_s)
+    # one target with elements of that time is enough: the others are left out quietly
+    sun = build_rolling_schedule(catalog, STATION, SPEC, settings(targets={"Sun": 1,
+                                                                             "SO-50": 1}),
+                                 NO_TABLES, far_s)
+    assert {p.target.name for p in sun.chosen} == {"Sun"}

@@ -19,6 +19,7 @@ from tle.catalog import Catalog
 from tracker.clock import LockstepClock
 from tracker.config import ScheduleSettings
 from tracker.controllers import controller
+from tracker.errors import ConfigError
 from tracker.mount import preset
 from tracker.service.board import StatusBoard
 from tracker.service.records import PassLog, StationState
@@ -270,3 +271,104 @@ def test_a_pass_not_chosen_at_first_is_tracked_once_a_reload_chooses_it(catalog,
     report = st.run_until(datetime(2026, 8, 22, 13, 25, tzinfo=timezone.utc))
     assert [(o.target, o.chosen) for o in _done(report)] == [("NOAA 20 (JPSS-1)", True)]
     assert not [o for o in report.outcomes if o.key == _done(report)[0].key and not o.chosen]
+
+
+def test_a_target_the_catalogue_does_not_know_stops_the_run_at_the_start(catalog):
+    st = Station_(catalog, targets={"NOSUCHSAT": 1})
+    with pytest.raises(ConfigError, match="NOSUCHSAT"):
+        st.run_until(datetime(2026, 8, 22, 13, 25, tzinfo=timezone.utc))
+    assert not st.said("fault: schedule not recomputed")
+
+
+def test_a_reload_naming_an_unknown_target_keeps_the_old_schedule(catalog):
+    st = Station_(catalog, targets={"NOAA 20": 1})
+    old = st.service.settings
+
+    def reload() -> None:
+        st.service.settings = ScheduleSettings(targets={"NOSUCHSAT": 1}, horizon_h=6.0)
+
+    st.hooks.append(lambda text: st.service.request_reload(reload)
+                    if "schedule (start)" in text else None)
+    report = st.run_until(datetime(2026, 8, 22, 13, 25, tzinfo=timezone.utc))
+    assert st.said("fault: configuration not reloaded, the old one stays: [schedule] "
+                   "targets: no satellite 'NOSUCHSAT'")
+    assert st.service.settings is old
+    assert [o.target for o in _done(report)] == ["NOAA 20 (JPSS-1)"]
+    assert not st.said("schedule not recomputed")
+
+
+class _SlowKeeper:
+    """An element keeper whose refresh takes a second of the clock (a download)."""
+
+    def __init__(self, catalog, clock):
+        self._catalog, self.clock, self.events = catalog, clock, None
+        self._done = False
+
+    def due(self) -> bool:
+        return not self._done
+
+    def refresh(self) -> bool:
+        self._done = True
+        self.clock.sleep(1.0)
+        return False
+
+    def ages(self, _now):
+        return []
+
+    def catalog(self):
+        return self._catalog
+
+
+def test_the_first_schedule_is_computed_once_when_the_refresh_takes_time(catalog):
+    st = Station_(catalog)
+    st.service.keeper = _SlowKeeper(catalog, st.clock)
+    st.run_until(datetime(2026, 8, 22, 12, 57, tzinfo=timezone.utc))
+    assert len(st.said("schedule (")) == 1, st.said("schedule (")
+
+
+def test_state_file_entries_of_the_wrong_shape_are_dropped_not_a_crash(catalog, tmp_path):
+    state = tmp_path / "state.json"
+    odd = {"text": {"state": "done", "los_s": "x"}, "inf": {"state": "done", "los_s": 1e999},
+           "reason": {"state": "done", "reason": 3}, "bool": {"state": "done", "los_s": True}}
+    state.write_text(json.dumps({"version": 1, "passes": odd}).replace("Infinity", "1e999"))
+    st = Station_(catalog, state_path=state)
+    report = st.run_until(datetime(2026, 8, 22, 13, 25, tzinfo=timezone.utc))
+    assert len(_done(report)) == 1
+    assert not set(odd) & set(json.loads(state.read_text())["passes"])
+
+
+def test_a_huge_state_file_is_set_aside_and_an_earlier_one_set_aside_is_kept(catalog, tmp_path):
+    state = tmp_path / "state.json"
+    (tmp_path / "state.json.bad").write_text("set aside before\n")
+    state.write_text(json.dumps({"version": 1, "passes": {}}) + " " * 5_000_000)
+    st = Station_(catalog, state_path=state)
+    st.run_until(datetime(2026, 8, 22, 13, 1, tzinfo=timezone.utc))
+    assert st.said("larger than 4,000,000 bytes")
+    assert (tmp_path / "state.json.bad").read_text() == "set aside before\n"
+    assert (tmp_path / "state.json.bad.1").stat().st_size > 5_000_000
+
+
+@pytest.mark.parametrize("targets, min_el_deg, why", [
+    ({"NOAA 20": 1}, 89.9, "pass(es) of the targets left out, e.g. NOAA 20 (JPSS-1): max el"),
+    ({"43700": 1}, 10.0, "always up like a geostationary satellite"),     # QO-100, always up
+])
+def test_a_schedule_without_a_pass_says_so_and_why(catalog, targets, min_el_deg, why):
+    st = Station_(catalog, targets=targets)
+    st.service.settings = ScheduleSettings(targets=targets, min_max_el_deg=min_el_deg,
+                                           horizon_h=6.0)
+    report = st.run_until(datetime(2026, 8, 22, 13, 0, tzinfo=timezone.utc))
+    assert [o for o in report.outcomes if o.chosen] == []
+    line = st.said("schedule (start)")[0]
+    assert "no pass in the schedule" in line and why in line, line
+
+
+def test_a_state_file_is_held_by_one_run_at_a_time(tmp_path):
+    from tracker.service.records import state_lock
+
+    state = tmp_path / "state.json"
+    with state_lock(state):
+        with pytest.raises(ConfigError, match="in use by another station run"), \
+                state_lock(state):
+            pass
+    with state_lock(state):          # released at the end of the first
+        pass

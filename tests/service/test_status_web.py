@@ -81,6 +81,8 @@ def test_unknown_routes_and_methods(client):
     assert c.get("/nothing").status_code == 404
     r = c.post("/api/status")
     assert r.status_code == 405 and "read-only" in r.get_json()["error"]
+    r = c.options("/api/status")
+    assert r.status_code == 405 and "OPTIONS is not allowed" in r.get_json()["error"]
 
 
 def test_page_and_its_files_load_nothing_from_elsewhere(client):
@@ -136,6 +138,8 @@ def test_server_on_a_real_socket_serves_and_closes():
         # a second server on the same port is refused with the reason
         with pytest.raises(ConfigError, match=f"cannot listen on 127.0.0.1:{srv.port}"):
             StatusServer(b, port=srv.port).start()
+        with pytest.raises(ConfigError, match=r"cannot listen on garbage!!:0 \(not an address"):
+            StatusServer(b, host="garbage!!", port=0).start()
     finally:
         srv.close()
     assert srv._thread is not None and not srv._thread.is_alive()

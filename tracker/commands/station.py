@@ -37,6 +37,7 @@ from tracker.errors import ConfigError
 DEFAULT_STATUS_PORT = 8073
 DEFAULT_CONTROL_PORT = 4533
 MAX_HOURS = 24 * 366
+SPEED_RANGE = (0.01, 100_000.0)   # slower than this, a nap's real wait overflows the OS's
 
 
 def register(sub) -> None:
@@ -104,9 +105,10 @@ def _speed_arg(text: str) -> float:
         speed = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number or 'max'") from None
-    if not (math.isfinite(speed) and 0 < speed <= 100_000):
-        raise argparse.ArgumentTypeError(f"{text} is invalid; use a number above 0 and at "
-                                         f"most 100000, or max")
+    low, high = SPEED_RANGE
+    if not (math.isfinite(speed) and low <= speed <= high):
+        raise argparse.ArgumentTypeError(f"{text} is invalid; use a number from {low:g} to "
+                                         f"{high:g}, or max")
     return speed
 
 
@@ -245,34 +247,73 @@ def run(args: argparse.Namespace) -> int:
     else:
         connect = connector(str(port), entry, spec, clock,
                             args.baud or config.tracking.get("baudrate"))
-    servers: list[Any] = []
+    from contextlib import ExitStack
+
+    from tracker.service.records import state_lock
+    from tracker.session import route_stop_signals
+
+    guard = _StopGuard()
+    restore_signals = route_stop_signals(guard, guard.signals)
     try:
-        servers += [s for s in (_status_server(args, board, say),
-                                _control_server(args, connect, spec, station, clock, board,
-                                                say)) if s is not None]
-        control = next((s for s in servers if hasattr(s, "take_back")), None)
-        service = StationService(
-            station=station, spec=spec, controller=entry, connect=connect, clock=clock,
-            schedule=settings, stream=stream, board=board, keeper=keeper, catalog=catalog,
-            state_path=state_path, pass_log=PassLog(log_path) if log_path else None,
-            say=say, control=control)
         start_s = clock.timestamp()
-        until_s = start_s + hours * 3600.0 if hours is not None else None
-        report = _serve(args, service, until_s)
+        with ExitStack() as held:
+            if state_path is not None:    # before anything is sent: one run per state file
+                held.enter_context(state_lock(state_path))
+            report = _run_service(args, guard, StationService(
+                station=station, spec=spec, controller=entry, connect=connect, clock=clock,
+                schedule=settings, stream=stream, board=board, keeper=keeper,
+                catalog=catalog, state_path=state_path,
+                pass_log=PassLog(log_path) if log_path else None, say=say), hours, say)
+        print(report.text())
+        if args.plot:
+            path = report.plot(args.plot, start_s, clock.timestamp(), force=args.force,
+                               label="--plot")
+            print(f"timeline: {path}")
     finally:
-        for server in reversed(servers):
-            server.close()
         if bench is not None:
             bench.close()
-    print(report.text())
-    if args.plot:
-        path = report.plot(args.plot, start_s, clock.timestamp(), force=args.force,
-                           label="--plot")
-        print(f"timeline: {path}")
+        restore_signals()
     return 0
 
 
-def _serve(args: argparse.Namespace, service: Any, until_s: float | None) -> Any:
+def _run_service(args: argparse.Namespace, guard: _StopGuard, service: Any,
+                 hours: float | None, say: Any) -> Any:
+    """Start the status page and the control port, run the service, close the servers."""
+    servers: list[Any] = []
+    try:
+        servers += [s for s in (_status_server(args, service.board, say),
+                                _control_server(args, service.connect, service.spec,
+                                                service.station, service.clock,
+                                                service.board, say))
+                    if s is not None]
+        service.control = next((s for s in servers if hasattr(s, "take_back")), None)
+        clock = service.clock
+        until_s = clock.timestamp() + hours * 3600.0 if hours is not None else None
+        return _serve(args, service, until_s, guard)
+    finally:
+        for server in reversed(servers):
+            server.close()
+
+
+class _StopGuard:
+    """SIGINT and SIGTERM outside the controller session (which has its own handlers):
+    before it they end the run; after it (the all-stop is sent) a second one is let pass, so
+    it cannot kill the process before the servers close and the report is printed."""
+
+    signals = tuple(s for s in (signal.SIGINT, getattr(signal, "SIGTERM", None)) if s)
+
+    def __init__(self) -> None:
+        self.session_began = False
+
+    def __call__(self, signum: int, _frame: object) -> None:
+        from tracker.session import Interrupted
+
+        if not self.session_began:
+            raise Interrupted(signum)
+
+
+def _serve(args: argparse.Namespace, service: Any, until_s: float | None,
+           guard: _StopGuard) -> Any:
     """Run the service inside a controller session: SIGINT/SIGTERM end it with all-stop,
     SIGHUP asks for a reload between passes."""
     from tracker.session import ControllerSession, Interrupted
@@ -286,13 +327,13 @@ def _serve(args: argparse.Namespace, service: Any, until_s: float | None) -> Any
     def on_hup(_signum: int, _frame: object) -> None:
         service.request_reload(reload)
 
-    stops = tuple(s for s in (signal.SIGINT, getattr(signal, "SIGTERM", None)) if s)
     hup = getattr(signal, "SIGHUP", None)
     old_hup = signal.signal(hup, on_hup) if hup is not None else None
     try:
-        with ControllerSession(service.all_stop, stop_at_end=False, signals=stops,
+        with ControllerSession(service.all_stop, stop_at_end=False, signals=guard.signals,
                                on_stop_failed=lambda why: service.fault(
                                    f"all-stop failed: {why}")) as session:
+            guard.session_began = True
             try:
                 return service.run(until_s)
             except Interrupted:

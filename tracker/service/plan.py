@@ -139,14 +139,19 @@ def wanted_targets(catalog: Catalog, settings: ScheduleSettings) -> list[tuple[T
 
 
 def _satellite_passes(targets: list[SatelliteTarget], station: Station, start_s: float,
-                      end_s: float) -> list[Pass]:
-    """Passes with AOS before ``end_s`` and LOS after ``start_s`` (the batch finder)."""
+                      end_s: float, *, only: bool = False) -> list[Pass]:
+    """Passes with AOS before ``end_s`` and LOS after ``start_s`` (the batch finder).
+    ``only``: they are all the targets, so if not one has elements usable then (a far
+    ``--at``, elements years old) a :class:`PropagationError` says so, rather than an
+    empty schedule that does not say why."""
     from tracker.batch import find_passes_batch, split_by_epoch
 
     near, _far = split_by_epoch([t.elements for t in targets], start_s - LOOKBACK_S, end_s)
     near_ids = {id(es) for es in near}  # the others' passes would look real and not be
     usable = [t for t in targets if id(t.elements) in near_ids]
     if not usable:
+        if only:
+            targets[0].check_span(start_s - LOOKBACK_S, end_s)
         return []
     table = find_passes_batch([t.satellite.model for t in usable], [t.name for t in usable],
                               [station], to_datetime(start_s - LOOKBACK_S),
@@ -180,7 +185,8 @@ def _candidates(wanted: list[tuple[Target, int]], station: Station, start_s: flo
                 end_s: float) -> list[tuple[Pass, int]]:
     priority = {id(t): p for t, p in wanted}
     sats = [t for t, _p in wanted if isinstance(t, SatelliteTarget)]
-    passes = _satellite_passes(sats, station, start_s, end_s) if sats else []
+    passes = (_satellite_passes(sats, station, start_s, end_s, only=len(sats) == len(wanted))
+              if sats else [])
     for target, _p in wanted:
         if not isinstance(target, SatelliteTarget):
             passes += _other_passes(target, station, start_s, end_s)

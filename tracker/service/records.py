@@ -16,8 +16,10 @@ from __future__ import annotations
 import json
 import logging
 import logging.handlers
+import math
 import os
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -28,6 +30,8 @@ STATE_VERSION = 1
 # Outcomes older than this are dropped from the state file (the schedule never reaches back
 # that far, so they can no longer be asked about).
 STATE_KEEP_S = 3 * 86400.0
+# A state file holds a few days of pass outcomes (kilobytes); a bigger one is not ours.
+MAX_STATE_BYTES = 4_000_000
 
 
 class _RaisingRotatingHandler(logging.handlers.RotatingFileHandler):
@@ -78,13 +82,14 @@ class StationState:
         if not path.exists():
             return cls(), ""
         try:
+            if path.stat().st_size > MAX_STATE_BYTES:
+                raise ValueError(f"larger than {MAX_STATE_BYTES:,} bytes")
             data = json.loads(path.read_text(encoding="utf-8"))
             if data.get("version") != STATE_VERSION or not isinstance(data.get("passes"), dict):
                 raise ValueError("not a station state file of this version")
-            passes = {str(k): dict(v) for k, v in data["passes"].items()
-                      if isinstance(v, dict) and isinstance(v.get("state"), str)}
+            passes = {str(k): dict(v) for k, v in data["passes"].items() if _entry_ok(v)}
         except (OSError, ValueError, AttributeError) as e:
-            bad = path.with_name(path.name + ".bad")
+            bad = _free_name(path.with_name(path.name + ".bad"))
             try:
                 os.replace(path, bad)
                 where = f"; set aside as {bad}"
@@ -109,3 +114,51 @@ class StationState:
                           indent=1)
         Path(path).expanduser().parent.mkdir(parents=True, exist_ok=True)
         write_atomic(path, text + "\n", force=True, label="state file")
+
+
+@contextmanager
+def state_lock(path: str | Path) -> Iterator[None]:
+    """Hold ``FILE.lock`` beside the state file for a run: a second station run on the same
+    state file (and so, most likely, the same rotator) is refused with a
+    :class:`ConfigError` instead of both driving and overwriting each other's outcomes."""
+    try:
+        import fcntl
+    except ImportError:        # pragma: no cover - Windows: no advisory locks, no check
+        yield
+        return
+    lock = Path(path).expanduser().with_name(Path(path).name + ".lock")
+    try:
+        lock.parent.mkdir(parents=True, exist_ok=True)
+        handle = open(lock, "a+", encoding="utf-8")
+    except OSError as e:
+        raise ConfigError(f"state file {path}: cannot open its lock {lock} ({e.strerror}); "
+                          f"choose a writable folder") from None
+    try:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise ConfigError(f"state file {path} is in use by another station run; stop "
+                              f"that one first (two runs would drive one rotator)") from None
+        yield
+    finally:
+        handle.close()
+
+
+def _entry_ok(entry: Any) -> bool:
+    """One pass outcome as :meth:`StationState.note` writes it (others are dropped)."""
+    if not isinstance(entry, dict) or not isinstance(entry.get("state"), str):
+        return False
+    los_s = entry.get("los_s", 0.0)
+    return (isinstance(los_s, (int, float)) and not isinstance(los_s, bool)
+            and math.isfinite(los_s) and isinstance(entry.get("reason", ""), str))
+
+
+def _free_name(path: Path) -> Path:
+    """``path``, or ``path.1``, ``path.2`` ... the first that does not exist: a state file set
+    aside never replaces one set aside before."""
+    n = 0
+    candidate = path
+    while candidate.exists() or candidate.is_symlink():
+        n += 1
+        candidate = path.with_name(f"{path.name}.{n}")
+    return candidate

@@ -61,6 +61,9 @@ RIG_ENAVAIL = 11     # feature not available: continuous moves (M) cannot be gua
 ROT_MODEL_NETROTCTL = 2   # what dump_state names as the model: Hamlib's network rotator
 DUMP_STATE_VERSION = 1    # the key=value dump_state Hamlib 4.x rotctld sends
 POLL_S = 0.25             # how often a move under the stall watch is read back
+# The longest request is a few dozen bytes; a longer line is refused and the client closed,
+# so a client that never sends a newline cannot grow the server's memory.
+MAX_LINE_BYTES = 1024
 
 EventSink = Callable[..., None]
 
@@ -122,7 +125,7 @@ def parse_line(line: str) -> tuple[str | None, str, list[str]]:
         sep = "\n" if text[0] == "+" else text[0]
         text = text[1:].lstrip()
     if text.startswith("\\"):
-        name, *args = text[1:].split()
+        name, *args = text[1:].split() or [""]
         return sep, LONG_NAMES.get(name, "\\" + name), args
     return sep, text[:1], text[1:].split()
 
@@ -296,7 +299,11 @@ class RotctldServer:
     def _serve_client(self, rfile: Any, wfile: Any) -> None:
         self._count(+1)
         try:
-            for raw in rfile:
+            while True:
+                raw = rfile.readline(MAX_LINE_BYTES + 1)
+                if not raw.endswith(b"\n"):
+                    self._unterminated(raw, wfile)
+                    return
                 line = raw.decode("ascii", "replace")
                 if not line.strip():
                     continue
@@ -309,6 +316,16 @@ class RotctldServer:
             pass    # the client went away; its move goes on, as with rotctld
         finally:
             self._count(-1)
+
+    def _unterminated(self, raw: bytes, wfile: Any) -> None:
+        """A read without its newline: the end of the stream, with a command cut short by a
+        disconnect (never run: "P 100 3" may be the start of "P 100 35"), or a line longer
+        than :data:`MAX_LINE_BYTES` (refused; the client is closed)."""
+        if len(raw) > MAX_LINE_BYTES:
+            self.events("refused", text=f"control port: a request line longer than "
+                                        f"{MAX_LINE_BYTES} bytes; client closed")
+            wfile.write(f"RPRT -{RIG_EINVAL}\n".encode("ascii"))
+            wfile.flush()
 
     def _count(self, delta: int) -> None:
         with self._lock:

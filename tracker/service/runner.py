@@ -179,6 +179,16 @@ def _reason_kind(o: PassOutcome) -> str:
     return f"{'not scheduled' if not o.chosen else o.outcome}: {head}"
 
 
+def _why_none(sched: RollingSchedule) -> str:
+    """Why a schedule holds no pass, for the line that says so."""
+    if not sched.skipped:
+        return (": no pass in the schedule (no target rises and sets then: never above the "
+                "horizon, or always up like a geostationary satellite)")
+    first = sched.skipped[0]
+    return (f": no pass in the schedule ({len(sched.skipped)} pass(es) of the targets left "
+            f"out, e.g. {first.target.name}: {first.reason})")
+
+
 def _deg(v: float | None, nd: int = 1) -> str:
     return "-" if v is None or not math.isfinite(v) else f"{v:.{nd}f}"
 
@@ -343,7 +353,10 @@ class StationService:
         return self.keeper.catalog() if self.keeper is not None else self._catalog
 
     # -- schedule --------------------------------------------------------------------------
-    def replan(self, why: str) -> None:
+    def replan(self, why: str, *, strict: bool = False) -> None:
+        """Recompute the schedule from now. A failure is a fault and the old schedule stays;
+        with ``strict`` it is raised instead (the first schedule of a run, a reload: a name
+        the catalogue does not know must stop the run or the reload, not fault forever)."""
         from tracker.service.plan import build_rolling_schedule
 
         now_s = self.clock.timestamp()
@@ -356,6 +369,8 @@ class StationService:
             sched = build_rolling_schedule(self.catalog(), self.station, self.spec,
                                            self.settings, self.controller, now_s, keep=keep)
         except TrackerError as e:
+            if strict:
+                raise
             self.fault(f"schedule not recomputed ({why}): {e}")
             return
         for p in [*sched.chosen, *sched.skipped]:
@@ -369,7 +384,8 @@ class StationService:
         n = len(sched.chosen)
         nxt = sched.due(now_s)
         self.say(f"schedule ({why}): {n} pass(es) in the next {self.settings.horizon_h:g} h"
-                 + (f", next {nxt.target.name} at {iso_utc(nxt.pass_.aos)}" if nxt else ""))
+                 + (f", next {nxt.target.name} at {iso_utc(nxt.pass_.aos)}" if nxt else "")
+                 + ("" if n else _why_none(sched)))
         for p in sched.skipped:
             self._finish(p, "skipped", p.reason, chosen=False)
 
@@ -391,7 +407,8 @@ class StationService:
         changed = self.keeper.refresh()
         self.board.set_elements(self.keeper.ages(self.clock.now()))
         if changed or self.schedule is None:
-            self.replan("new elements" if changed else "start")
+            self.replan("new elements" if changed else "start",
+                        strict=self.schedule is None)
 
     # -- the loop --------------------------------------------------------------------------
     def run(self, until_s: float | None = None,
@@ -409,7 +426,8 @@ class StationService:
                 now_s = self.clock.timestamp()
                 if until_s is not None and now_s >= until_s:
                     break
-                self._between_passes(now_s)
+                self._between_passes()
+                now_s = self.clock.timestamp()
                 p = self.schedule.due(now_s) if self.schedule is not None else None
                 start_s = self._start_s(p) if p is not None else math.inf
                 if p is not None and now_s >= start_s:
@@ -423,22 +441,25 @@ class StationService:
             self.board.set_state("stopped", "service ended")
         return self.report
 
-    def _between_passes(self, now_s: float) -> None:
+    def _between_passes(self) -> None:
         if self._reload_wanted and self._reload is not None:
             self._reload_wanted = False
             self.say("reloading the configuration (SIGHUP)")
+            old = self.settings, self.stream
             try:
                 self._reload()
+                self.replan("configuration reloaded", strict=True)
             except TrackerError as e:
+                self.settings, self.stream = old
                 self.fault(f"configuration not reloaded, the old one stays: {e}")
-            else:
-                self.replan("configuration reloaded")
         if self.keeper is not None and self.keeper.due():
             self.refresh_elements()
+        now_s = self.clock.timestamp()      # a refresh or a reload takes (real) time
         if self.schedule is None or now_s - self.schedule.computed_s >= REPLAN_S \
                 or now_s < self.schedule.computed_s:
-            self.replan("start" if self.schedule is None else "hourly")
-        self._skip_missed(self.clock.timestamp())
+            self.replan("start" if self.schedule is None else "hourly",
+                        strict=self.schedule is None)
+        self._skip_missed(now_s)
 
     def _idle(self, nxt: PlannedPass | None, wait_s: float) -> None:
         if self.control is not None and getattr(self.control, "owner", "") != "outside":

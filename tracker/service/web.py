@@ -24,7 +24,7 @@ from importlib import resources
 from typing import Any
 
 try:
-    from flask import Flask, Response, request, send_from_directory
+    from flask import Flask, Response, abort, request, send_from_directory
     from waitress import create_server
 except ImportError as _e:   # pragma: no cover - exercised in a subprocess by the tests
     raise ImportError(f"the station's status page needs Flask and waitress ({_e.name} is not "
@@ -92,6 +92,12 @@ def make_app(board: StatusBoard) -> Flask:
         return _json({"ok": ok, "state": st["state"], "now_utc": st["now_utc"],
                       "version": board.version}, 200 if ok else 503)
 
+    @app.before_request
+    def read_only():
+        # Flask answers OPTIONS itself (200, the methods allowed); nothing but GET is served.
+        if request.method not in ("GET", "HEAD"):
+            abort(405)
+
     @app.errorhandler(404)
     def not_found(_e):
         if request.path.startswith("/api/"):
@@ -137,6 +143,9 @@ class StatusServer:
         except OSError as e:
             raise ConfigError(f"status page: cannot listen on {self.host}:{self.port} "
                               f"({e.strerror or e})") from None
+        except ValueError:    # waitress: a host it cannot resolve
+            raise ConfigError(f"status page: cannot listen on {self.host}:{self.port} (not "
+                              f"an address of this machine)") from None
         self._server = server
         # a name such as "localhost" may bind several sockets (a MultiSocketServer)
         self.port = int(getattr(server, "effective_port", None)
