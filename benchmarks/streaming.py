@@ -47,20 +47,45 @@ def _readback(truth: MotorModel, t: float) -> tuple[float, float]:
     return float(round(az)), float(round(el))
 
 
-def fly_stream(track, spec, station, deadband_deg: float, cycle_s: float = 0.5):
-    """The live loop's decisions against a simulated rotator; returns (cmd_t, az, el), plan."""
+class CycleMeter:
+    """CPU time of the live loop's per-cycle work (what :func:`tracker.stream.run_pass` asks
+    of :class:`TrackCore` each cycle: observe, decide, commanded, status), over cycles."""
+
+    def __init__(self) -> None:
+        self.cpu_ns = 0
+        self.cycles = 0
+
+    @property
+    def us_per_cycle(self) -> float:
+        return self.cpu_ns / 1000.0 / max(self.cycles, 1)
+
+
+def fly_stream(track, spec, station, deadband_deg: float, cycle_s: float = 0.5,
+               meter: CycleMeter | None = None):
+    """The live loop's decisions against a simulated rotator; returns (cmd_t, az, el), plan.
+
+    With ``meter`` the core's per-cycle calls (and the status the live loop shows each cycle)
+    are timed in CPU time; the commands are the same either way."""
     plan = plan_pass(track, spec, station, current=(spec.park_az_deg, spec.park_el_deg))
     core = TrackCore(plan, track, spec, station,
                      StreamSettings(deadband_deg=deadband_deg, cycle_s=cycle_s))
     t = min(core.preposition_t_s, float(track.t_s[0])) - cycle_s
     truth = MotorModel(spec, spec.park_az_deg, spec.park_el_deg, t)
     cmds = []
+    cpu_ns = time.thread_time_ns
     while t <= core.los_s:
-        core.observe(t, *_readback(truth, t))
+        wire = _readback(truth, t)
+        c0 = cpu_ns() if meter is not None else 0
+        core.observe(t, *wire)
         cmd = core.decide(t)
         if cmd is not None:
-            truth.command(cmd.az_m_deg, cmd.el_deg, t)
             core.commanded(t, cmd)
+        if meter is not None:
+            core.status(t)
+            meter.cpu_ns += cpu_ns() - c0
+            meter.cycles += 1
+        if cmd is not None:
+            truth.command(cmd.az_m_deg, cmd.el_deg, t)
             cmds.append((t, cmd.az_m_deg, cmd.el_deg))
         t += cycle_s
     return cmds, plan, t
