@@ -27,6 +27,7 @@ minimises the maximum error until the next expected command, for the fewest moto
 from __future__ import annotations
 
 import copy
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -34,7 +35,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from tracker.geometry import MountPath, pointing_enu
-from tracker.mount import AxisMotor, drive_axis
+from tracker.mount import AxisMotor, drive_axis, move_from_rest
 from tracker.skytrack import angle_between_deg
 
 # What one command costs besides its motor starts, in starts: the bytes and the read-back
@@ -65,6 +66,34 @@ def _predict(axis: AxisMotor, target_deg: float, t0_s: float,
     return pos, a.arrival_s(), starts
 
 
+def _quantise(axis: AxisMotor, targets_deg: np.ndarray) -> np.ndarray:
+    """:meth:`AxisMotor.quantise` of each of ``targets_deg`` (the same rounding: half to
+    even, then the limits)."""
+    res = axis.resolution_deg
+    return np.clip(np.round(np.asarray(targets_deg, dtype=float) / res) * res, axis.min_deg,
+                   axis.max_deg)
+
+
+def _predict_all(axis: AxisMotor, targets_deg: np.ndarray, t0_s: float, ts: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_predict` for each of ``targets_deg``: positions ``(k, n)``, arrival times and
+    motor starts ``(k,)``. An axis at rest takes :func:`~tracker.mount.drive_axis`'s closed
+    form for one command, for all targets at once; a running (or jammed) one steps each."""
+    if axis.jammed or axis.moving(t0_s):
+        sims = [_predict(axis, float(v), t0_s, ts) for v in targets_deg]
+        return (np.array([p for p, _a, _s in sims]), np.array([a for _p, a, _s in sims]),
+                np.array([s for _p, _a, s in sims]))
+    p0 = float(axis.position(t0_s))
+    cmd = _quantise(axis, targets_deg)
+    step = np.abs(cmd - p0)
+    moving = step > 1e-9
+    arrival = t0_s + np.where(moving, axis.start_delay_s, 0.0) + step / axis.rate_deg_s
+    pos = move_from_rest(p0, cmd[:, None], ts[None, :] - t0_s, axis.rate_deg_s,
+                         axis.start_delay_s)
+    pos[:, ts < t0_s] = p0
+    return pos, arrival, moving.astype(int)
+
+
 def _at(path: MountPath, t_s: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The path's mechanical az and el at ``t_s`` (el 0 on an azimuth-only path)."""
     az, el = path.mount_at(t_s)
@@ -77,7 +106,7 @@ def predicted_error(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | No
     ts = np.asarray(ts, dtype=float)
     az = az_axis.position(ts)
     el = el_axis.position(ts) if el_axis is not None else np.zeros_like(ts)
-    return angle_between_deg(pointing_enu(az, el, path.stop_bearing_deg), path.target_enu(ts))
+    return path.error_deg(ts, az, el)
 
 
 def needs_command(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t0_s: float,
@@ -87,11 +116,16 @@ def needs_command(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None
     Looking ahead by one cycle plus the start delay makes the loop move *before* the target
     leaves the deadband instead of after it, so the error stays within it.
     """
-    ts = t0_s + np.arange(0.0, max(lookahead_s, step_s) + 1e-9, step_s)
-    ts = ts[ts <= path.end_s]
-    if len(ts) == 0:
-        return False
-    return bool(np.max(predicted_error(path, az_axis, el_axis, t0_s, ts)) > deadband_deg)
+    # Once a cycle: scalar math on the same instants as ``np.arange`` would give.
+    end_s = path.end_s
+    for k in range(math.ceil((max(lookahead_s, step_s) + 1e-9) / step_s)):
+        t = t0_s + k * step_s
+        if t > end_s:
+            break
+        el = el_axis.position(t) if el_axis is not None else 0.0
+        if path.error_deg(t, az_axis.position(t), el) > deadband_deg:
+            return True
+    return False
 
 
 def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t0_s: float,
@@ -120,9 +154,8 @@ def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t
     lag_deg = float(angle_between_deg(here, cur_dir))
     reach = angle_between_deg(target_dir, cur_dir) <= 2.5 * deadband_deg + lag_deg + 2.0
     n_cand = max(1, int(np.argmin(reach)) if not reach.all() else len(ts))
-    q_az = np.array([az_axis.quantise(a) for a in cand_az[:n_cand]])
-    q_el = (np.array([el_axis.quantise(e) for e in cand_el[:n_cand]]) if el_axis is not None
-            else np.zeros(n_cand))
+    q_az = _quantise(az_axis, cand_az[:n_cand])
+    q_el = _quantise(el_axis, cand_el[:n_cand]) if el_axis is not None else np.zeros(n_cand)
     # Each axis is its own relay: a move that leaves one axis alone saves a motor start, so
     # candidates include moving only azimuth or only elevation (the other keeps its target).
     keep_az = az_axis.target_deg
@@ -143,16 +176,10 @@ def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t
 
     # The axes are independent: simulate each distinct target once per axis.
     u_az, i_az = np.unique(c_az, return_inverse=True)
-    sim_az = [_predict(az_axis, v, t0_s, ts) for v in u_az]
-    pos_az = np.array([p for p, _a, _s in sim_az])[i_az]
-    arr_az = np.array([a for _p, a, _s in sim_az])[i_az]
-    st_az = np.array([s for _p, _a, s in sim_az])[i_az]
+    pos_az, arr_az, st_az = (x[i_az] for x in _predict_all(az_axis, u_az, t0_s, ts))
     if el_axis is not None:
         u_el, i_el = np.unique(c_el, return_inverse=True)
-        sim_el = [_predict(el_axis, v, t0_s, ts) for v in u_el]
-        pos_el = np.array([p for p, _a, _s in sim_el])[i_el]
-        arr_el = np.array([a for _p, a, _s in sim_el])[i_el]
-        st_el = np.array([s for _p, _a, s in sim_el])[i_el]
+        pos_el, arr_el, st_el = (x[i_el] for x in _predict_all(el_axis, u_el, t0_s, ts))
     else:
         pos_el = np.zeros_like(pos_az)
         arr_el = np.full(len(c_az), t0_s)

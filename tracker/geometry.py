@@ -19,15 +19,24 @@ Driving an axis through commands is the motor model's (:func:`tracker.mount.driv
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from tracker.mount import RotatorSpec
-from tracker.skytrack import SkyTrack, angle_between_deg, azel_to_enu
+from tracker.skytrack import (
+    SkyTrack,
+    angle_between_deg,
+    angle_between_scalar_deg,
+    azel_to_enu,
+    azel_to_enu_scalar,
+    interp1,
+)
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
     from tracker.station import Station
@@ -43,15 +52,25 @@ def pointing_enu(az_m_deg: ArrayLike, el_deg: ArrayLike,
     return azel_to_enu(bearing, el_deg)
 
 
-def pointing_error_deg(spec: RotatorSpec, ant_az_m_deg: ArrayLike, ant_el_deg: ArrayLike | None,
-                       target: np.ndarray | tuple[ArrayLike, ArrayLike]) -> np.ndarray:
+def pointing_error_deg(spec: RotatorSpec, ant_az_m_deg: float | ArrayLike,
+                       ant_el_deg: float | ArrayLike | None,
+                       target: np.ndarray | tuple[float | ArrayLike, float | ArrayLike]) -> Any:
     """Angle between where a mount at (mechanical az, el) points and the target.
 
     ``target`` is either east-north-up unit vectors (shape ``(..., 3)``) or a pair
     ``(bearing_deg, el_deg)``. Great-circle angle for az/el rotators (el > 90 points over the
     top); for azimuth-only rotators (or ``ant_el_deg`` None) the azimuth difference alone,
-    since the beam's elevation is not steerable. Broadcasts over leading axes.
+    since the beam's elevation is not steerable. Broadcasts over leading axes; floats (az, el
+    and a ``(bearing, el)`` pair) take a scalar path and give a float.
     """
+    if isinstance(ant_az_m_deg, float) and isinstance(target, tuple) and isinstance(
+            target[0], float) and isinstance(target[1], float) and (
+            ant_el_deg is None or isinstance(ant_el_deg, float)):
+        b = spec.bearing_of(ant_az_m_deg)
+        if not spec.has_elevation or ant_el_deg is None:
+            return abs((b - target[0] + 180.0) % 360.0 - 180.0)
+        return angle_between_scalar_deg(
+            azel_to_enu_scalar(b, ant_el_deg), azel_to_enu_scalar(target[0], target[1]))
     bearing = spec.bearing_of(ant_az_m_deg)
     if isinstance(target, tuple):
         target_az = np.asarray(target[0], dtype=float)
@@ -259,6 +278,38 @@ class MountPath:
     @property
     def end_s(self) -> float:
         return float(self.t_s[-1])
+
+    @cached_property
+    def _columns(self) -> tuple[list[float], list[float], list[float] | None,
+                                list[list[float]] | None]:
+        """``t_s``, ``az_m_deg``, ``el_deg`` and the target's columns as lists, for
+        :func:`~tracker.skytrack.interp1`."""
+        el = None if self.el_deg is None else self.el_deg.tolist()
+        sky = None if self.sky_enu is None else [self.sky_enu[:, k].tolist() for k in range(3)]
+        return self.t_s.tolist(), self.az_m_deg.tolist(), el, sky
+
+    def error_deg(self, t_s: float | np.ndarray, az_m_deg: float | ArrayLike,
+                  el_deg: float | ArrayLike) -> Any:
+        """Great-circle angle between a mount at mechanical ``az_m_deg`` / ``el_deg`` and
+        where the target is at ``t_s`` (:meth:`target_enu`); arrays broadcast, and floats take
+        a scalar path (the live loop's per-cycle checks) that gives a float."""
+        if isinstance(t_s, float) and isinstance(az_m_deg, float) and isinstance(
+                el_deg, float):
+            here = azel_to_enu_scalar((az_m_deg + self.stop_bearing_deg) % 360.0, el_deg)
+            return angle_between_scalar_deg(here, self._target_enu_scalar(t_s))
+        return angle_between_deg(pointing_enu(az_m_deg, el_deg, self.stop_bearing_deg),
+                                 self.target_enu(t_s))
+
+    def _target_enu_scalar(self, t_s: float) -> tuple[float, float, float]:
+        """:meth:`target_enu` at one float time, on floats."""
+        ts, az, el, sky = self._columns
+        if sky is None:
+            e = 0.0 if el is None else interp1(t_s, ts, el)
+            return azel_to_enu_scalar((interp1(t_s, ts, az) + self.stop_bearing_deg) % 360.0,
+                                      e)
+        x, y, z = (interp1(t_s, ts, c) for c in sky)
+        norm = math.sqrt(x * x + y * y + z * z)
+        return x / norm, y / norm, z / norm
 
     def mount_at(self, t_s: float | np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         """Mechanical az and mount el at ``t_s`` (linear: the mechanical frame has no wrap;

@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import math
+from bisect import bisect_right
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
+from functools import cached_property
 
 import numpy as np
 
@@ -62,8 +66,21 @@ class SkyTrack:
         """East-north-up unit vectors, shape ``(n, 3)``."""
         return azel_to_enu(self.az_deg, self.el_deg)
 
+    @cached_property
+    def _sampled(self) -> tuple[list[float], list[list[float]]]:
+        """``t_s`` and the unit vectors' columns as lists, for :func:`interp1`."""
+        v = self.unit_vectors()
+        return self.t_s.tolist(), [v[:, i].tolist() for i in range(3)]
+
     def direction_at(self, t_s) -> tuple[np.ndarray, np.ndarray]:
-        """Az/el at arbitrary times, interpolated on the unit sphere (safe across 0/360)."""
+        """Az/el at arbitrary times, interpolated on the unit sphere (safe across 0/360).
+
+        A float time takes a scalar path (floats back): the live loop asks once a cycle."""
+        if isinstance(t_s, float):
+            ts, cols = self._sampled
+            e, n, u = (interp1(t_s, ts, c) for c in cols)
+            return (math.degrees(math.atan2(e, n)) % 360.0,  # type: ignore[return-value]
+                    math.degrees(math.atan2(u, math.hypot(e, n))))
         t_s = np.asarray(t_s, dtype=float)
         v = self.unit_vectors()
         enu = np.stack([np.interp(t_s, self.t_s, v[:, i]) for i in range(3)], axis=-1)
@@ -85,6 +102,39 @@ def azel_to_enu(az_deg, el_deg) -> np.ndarray:
     el = np.radians(np.asarray(el_deg, dtype=float))
     ce = np.cos(el)
     return np.stack([ce * np.sin(az), ce * np.cos(az), np.sin(el)], axis=-1)
+
+
+def interp1(x: float, xp: Sequence[float], fp: Sequence[float]) -> float:
+    """``np.interp(x, xp, fp)`` for one float on lists, with numpy's arithmetic (bisect,
+    then the same lerp): per-cycle look-ups, where a numpy call costs more than the work."""
+    if x != x or x < xp[0]:
+        return x if x != x else fp[0]
+    j = bisect_right(xp, x) - 1
+    if j >= len(xp) - 1 or xp[j] == x:
+        return fp[j]
+    slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
+    return slope * (x - xp[j]) + fp[j]
+
+
+def azel_to_enu_scalar(az_deg: float, el_deg: float) -> tuple[float, float, float]:
+    """:func:`azel_to_enu` of one direction, on floats (the live loop's per-cycle checks)."""
+    az = math.radians(az_deg)
+    el = math.radians(el_deg)
+    ce = math.cos(el)
+    return ce * math.sin(az), ce * math.cos(az), math.sin(el)
+
+
+def angle_between_scalar_deg(a: Sequence[float], b: Sequence[float]) -> float:
+    """:func:`angle_between_deg` of two unit vectors given as float triples (numpy's order of
+    operations, so both agree to rounding of the trigonometric functions)."""
+    a0, a1, a2 = a
+    b0, b1, b2 = b
+    c0 = a1 * b2 - a2 * b1
+    c1 = a2 * b0 - a0 * b2
+    c2 = a0 * b1 - a1 * b0
+    cross = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+    dot = a0 * b0 + a1 * b1 + a2 * b2
+    return math.degrees(math.atan2(cross, dot))
 
 
 def enu_to_azel(enu) -> tuple[np.ndarray, np.ndarray]:
