@@ -27,20 +27,12 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from passsuite import pass_suite
+from passsuite import pass_suite, sample_suite
 from streaming import CycleMeter, fly_stream
 
 from tracker.mount import preset
 
 TOL_DEG = 1e-9
-
-
-def sample_suite(suite: list, n: int) -> list:
-    """``n`` passes spread evenly over ``suite`` (all of it when ``n`` <= 0 or larger)."""
-    if n <= 0 or n >= len(suite):
-        return list(suite)
-    return [suite[round(i * (len(suite) - 1) / (n - 1))] for i in range(n)] if n > 1 else [
-        suite[0]]
 
 
 def pass_key(sp) -> str:

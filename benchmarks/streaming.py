@@ -30,7 +30,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from passsuite import pass_suite
+from passsuite import pass_suite, sample_suite
 
 from tracker.aim import gpredict_aim
 from tracker.geometry import MountPath, pointing_error_deg
@@ -217,12 +217,15 @@ def summarise(rows: list[dict], followable: np.ndarray, bound: np.ndarray) -> di
 
 def compare(suite, spec, deadbands: list[float]) -> tuple[dict, list[str], np.ndarray]:
     """Fly every pass of ``suite`` with the stream policy at each deadband and with the
-    Gpredict-style loop; returns (summary per policy, stream policy names, followable)."""
+    Gpredict-style loop; returns (summary per policy, stream policy names, followable).
+    ``res["lossy"]`` lists the stream policy's passes with lost seconds: (policy, target,
+    station, max el, lost s, the planner's predicted lost s)."""
     names = [f"stream D={d:g}" for d in deadbands]
     rows: dict[str, list] = {n: [] for n in [*names, "gpredict-style"]}
     cost = dict.fromkeys(rows, 0.0)
     followable = []
     plan_max = []
+    lossy: list[tuple] = []
     for sp in suite:
         tr, st = sp.track, sp.station
         t_start = None
@@ -238,12 +241,19 @@ def compare(suite, spec, deadbands: list[float]) -> tuple[dict, list[str], np.nd
         rows["gpredict-style"].append(measure(tr, spec, st, gcmds, t_start))
         cost["gpredict-style"] += time.perf_counter() - t2
         followable.append(plan.lost_track_s == 0)
+        meta = sp.meta
+        for name in names:
+            lost_s = rows[name][-1]["lost_s"]
+            if lost_s > 0:
+                lossy.append((name, meta["target"], meta["station"], meta["max_el_deg"],
+                              lost_s, float(plan.lost_track_s)))
     followable = np.array(followable)
     plan_max = np.array(plan_max)
     bounds = dict(zip(names, deadbands, strict=True))
     res = {k: summarise(v, followable, plan_max + bounds.get(k, 5.0)) for k, v in rows.items()}
     for k in res:
         res[k]["cost"] = cost[k]
+    res["lossy"] = lossy
     return res, names, followable
 
 
@@ -251,6 +261,7 @@ def print_results(res: dict, names: list[str], followable: np.ndarray) -> None:
     """The side-by-side table and, per stream deadband, the three targets: no lost seconds on
     followable passes, max error <= 3 deg on >= 99 % of passes, motor starts vs Gpredict's."""
     n = len(followable)
+    lossy = res.pop("lossy", [])
     labels = [
         ("passes", lambda r: f"{n}"),
         ("max error deg", lambda r: f"{r['max']:.2f}"),
@@ -270,6 +281,11 @@ def print_results(res: dict, names: list[str], followable: np.ndarray) -> None:
     for label, fmt in labels:
         print(f"{label:<24}" + "".join(f"{fmt(r):>17}" for r in res.values()))
     print(f"followable passes (planner predicts no loss): {int(followable.sum())} of {n}")
+    for name, target, station, max_el, lost_s, plan_lost_s in lossy:
+        why = ("the planner predicts loss too" if plan_lost_s > 0 else
+               "FOLLOWABLE by the planner's prediction")
+        print(f"  lossy {name}: {target} from {station}, max el {max_el:.1f}: lost "
+              f"{lost_s:.2f} s; planner predicts {plan_lost_s:.1f} s ({why})")
     g = res["gpredict-style"]
     for name in names:
         s = res[name]
@@ -290,6 +306,8 @@ def main(argv=None) -> int:
     ap.add_argument("--rotator", default="G-5500")
     ap.add_argument("--mains-hz", type=int, default=50, choices=(50, 60))
     ap.add_argument("--overhead", type=int, default=24)
+    ap.add_argument("--sample", type=int, default=0,
+                    help="fly only this many passes spread evenly over the suite (0 = all)")
     ap.add_argument("--bound-deg", type=float, default=3.0,
                     help="also print the fewest motor starts any policy needs for this max "
                          "error (0 = skip)")
@@ -298,6 +316,9 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     suite = pass_suite(days=args.days, max_sats=args.max_sats or None,
                        n_overhead=args.overhead)
+    if args.sample:
+        print(f"sample: {min(args.sample, len(suite))} of {len(suite)} passes, evenly spread")
+        suite = sample_suite(suite, args.sample)
     print(f"rotator {spec.name}: az {spec.az_rate_deg_s:.2f} deg/s, el "
           f"{spec.el_rate_deg_s:.2f} deg/s, start delay {spec.start_delay_s:g} s, span "
           f"{spec.az_span_deg:g}, el max {spec.el_max_deg:g}")
