@@ -18,6 +18,7 @@ from tracker.skytrack import (
     azel_to_enu,
     azel_to_enu_scalar,
     interp1,
+    interp1_rows,
 )
 
 SPEC = preset("G-5500", 50)
@@ -32,6 +33,10 @@ def test_interp1_is_np_interp_on_random_points_and_the_edges():
     xs = np.concatenate([rng.uniform(xp[0] - 5, xp[-1] + 5, 3000), xp])
     got = [interp1(float(x), xp.tolist(), fp.tolist()) for x in xs]
     assert got == [float(np.interp(float(x), xp, fp)) for x in xs]
+    rows = np.stack([fp, fp[::-1] * 3.0, np.cos(fp)], axis=1)
+    got_rows = np.array([interp1_rows(float(x), xp.tolist(), rows.tolist()) for x in xs])
+    ref_rows = np.stack([np.interp(xs, xp, rows[:, k]) for k in range(3)], axis=1)
+    assert np.array_equal(got_rows, ref_rows)
 
 
 def test_scalar_unit_vectors_and_angles_agree_with_the_array_ones():

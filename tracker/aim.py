@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from tracker.geometry import MountPath, pointing_enu
+from tracker.geometry import MountPath, pointing_enu, pointing_error_rows_deg
 from tracker.mount import AxisMotor, drive_axis, move_from_rest
 from tracker.skytrack import angle_between_deg
 
@@ -170,24 +170,28 @@ def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t
     noop = (np.abs(c_az - keep_az) < 1e-9) & (np.abs(c_el - keep_el) < 1e-9)
     if noop.all():
         noop[:] = False
-    _, first = np.unique(np.stack([c_az, c_el], axis=1)[~noop], axis=0, return_index=True)
+    # The first of each distinct (az, el), in candidate order (a pair as one complex number:
+    # a 1-d unique, whose stable sort gives the first occurrence).
+    _, first = np.unique((c_az + 1j * c_el)[~noop], return_index=True)
     first = np.flatnonzero(~noop)[np.sort(first)]
     c_az, c_el, c_t = c_az[first], c_el[first], c_t[first]
 
     # The axes are independent: simulate each distinct target once per axis.
     u_az, i_az = np.unique(c_az, return_inverse=True)
-    pos_az, arr_az, st_az = (x[i_az] for x in _predict_all(az_axis, u_az, t0_s, ts))
+    pos_az, arr_az, st_az = _predict_all(az_axis, u_az, t0_s, ts)
+    arr_az, st_az = arr_az[i_az], st_az[i_az]
     if el_axis is not None:
         u_el, i_el = np.unique(c_el, return_inverse=True)
-        pos_el, arr_el, st_el = (x[i_el] for x in _predict_all(el_axis, u_el, t0_s, ts))
+        pos_el, arr_el, st_el = _predict_all(el_axis, u_el, t0_s, ts)
+        arr_el, st_el = arr_el[i_el], st_el[i_el]
     else:
-        pos_el = np.zeros_like(pos_az)
+        pos_el, i_el = np.zeros((1, len(ts))), np.zeros(len(c_az), dtype=int)
         arr_el = np.full(len(c_az), t0_s)
         st_el = np.zeros(len(c_az))
     arrival = np.maximum(arr_az, arr_el)
     starts = st_az + st_el
-    err = angle_between_deg(pointing_enu(pos_az, pos_el, path.stop_bearing_deg),
-                            target_dir[None, :, :])              # (k, n)
+    err = pointing_error_rows_deg(pos_az, pos_el, i_az, i_el, path.stop_bearing_deg,
+                                  target_dir)                    # (k, n)
     # The loop commands again once the antenna, settled on its aim point, is more than the
     # deadband off the path; a candidate that cannot arrive inside the horizon holds nothing.
     leaves = (ts[None, :] >= arrival[:, None]) & (err > deadband_deg)

@@ -31,11 +31,13 @@ from numpy.typing import ArrayLike
 from tracker.mount import RotatorSpec
 from tracker.skytrack import (
     SkyTrack,
+    angle_between_components_deg,
     angle_between_deg,
     angle_between_scalar_deg,
     azel_to_enu,
     azel_to_enu_scalar,
     interp1,
+    interp1_rows,
 )
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
@@ -50,6 +52,21 @@ def pointing_enu(az_m_deg: ArrayLike, el_deg: ArrayLike,
     """Boresight unit vectors of a mount at mechanical az / el (el > 90 points over the top)."""
     bearing = np.mod(np.asarray(az_m_deg, dtype=float) + stop_bearing_deg, 360.0)
     return azel_to_enu(bearing, el_deg)
+
+
+def pointing_error_rows_deg(az_m_deg: np.ndarray, el_deg: np.ndarray, i_az: np.ndarray,
+                            i_el: np.ndarray, stop_bearing_deg: float,
+                            target_enu: np.ndarray) -> np.ndarray:
+    """``angle_between_deg(pointing_enu(az_m_deg[i_az], el_deg[i_el], stop_bearing_deg),
+    target_enu)`` (the same values) for mounts that pair an azimuth row with an elevation
+    row: the trigonometry is done once per row, not once per pair (the aim policy's candidates
+    share a few targets per axis)."""
+    b = np.radians(np.mod(az_m_deg + stop_bearing_deg, 360.0))
+    e = np.radians(el_deg)
+    ce = np.cos(e)[i_el]
+    t = np.asarray(target_enu, dtype=float)
+    return angle_between_components_deg(ce * np.sin(b)[i_az], ce * np.cos(b)[i_az],
+                                        np.sin(e)[i_el], t[..., 0], t[..., 1], t[..., 2])
 
 
 def pointing_error_deg(spec: RotatorSpec, ant_az_m_deg: float | ArrayLike,
@@ -282,10 +299,10 @@ class MountPath:
     @cached_property
     def _columns(self) -> tuple[list[float], list[float], list[float] | None,
                                 list[list[float]] | None]:
-        """``t_s``, ``az_m_deg``, ``el_deg`` and the target's columns as lists, for
-        :func:`~tracker.skytrack.interp1`."""
+        """``t_s``, ``az_m_deg``, ``el_deg`` and the target's rows as lists, for
+        :func:`~tracker.skytrack.interp1` and :func:`~tracker.skytrack.interp1_rows`."""
         el = None if self.el_deg is None else self.el_deg.tolist()
-        sky = None if self.sky_enu is None else [self.sky_enu[:, k].tolist() for k in range(3)]
+        sky = None if self.sky_enu is None else self.sky_enu.tolist()
         return self.t_s.tolist(), self.az_m_deg.tolist(), el, sky
 
     def error_deg(self, t_s: float | np.ndarray, az_m_deg: float | ArrayLike,
@@ -307,7 +324,7 @@ class MountPath:
             e = 0.0 if el is None else interp1(t_s, ts, el)
             return azel_to_enu_scalar((interp1(t_s, ts, az) + self.stop_bearing_deg) % 360.0,
                                       e)
-        x, y, z = (interp1(t_s, ts, c) for c in sky)
+        x, y, z = interp1_rows(t_s, ts, sky)
         norm = math.sqrt(x * x + y * y + z * z)
         return x / norm, y / norm, z / norm
 
