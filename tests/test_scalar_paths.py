@@ -159,3 +159,14 @@ def test_predict_all_is_predict_per_target(moving):
         for k, v in enumerate(targets):
             p, a, s = _predict(axis, float(v), 100.0, ts)
             assert np.array_equal(pos[k], p) and arr[k] == a and starts[k] == s
+
+
+@pytest.mark.parametrize("path", _paths())
+def test_target_travel_bound_holds(path):
+    rng = np.random.default_rng(16)
+    t0 = rng.uniform(path.start_s - 5, path.end_s + 5, 3000)
+    t1 = t0 + rng.uniform(0.0, 4.0, len(t0))
+    moved = angle_between_deg(path.target_enu(t0), path.target_enu(t1))
+    bound = np.array([path.target_travel_bound_deg(float(a), float(b))
+                      for a, b in zip(t0, t1, strict=True)])
+    assert np.all(moved <= bound + 1e-9)

@@ -66,6 +66,11 @@ def _predict(axis: AxisMotor, target_deg: float, t0_s: float,
     return pos, a.arrival_s(), starts
 
 
+# Rounding room when a bound on the error decides instead of the samples (the error itself is
+# computed to ~1e-12 deg).
+_BOUND_SLACK_DEG = 1e-6
+
+
 def _quantise(axis: AxisMotor, targets_deg: np.ndarray) -> np.ndarray:
     """:meth:`AxisMotor.quantise` of each of ``targets_deg`` (the same rounding: half to
     even, then the limits)."""
@@ -118,7 +123,23 @@ def needs_command(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None
     """
     # Once a cycle: scalar math on the same instants as ``np.arange`` would give.
     end_s = path.end_s
-    for k in range(math.ceil((max(lookahead_s, step_s) + 1e-9) / step_s)):
+    n = math.ceil((max(lookahead_s, step_s) + 1e-9) / step_s)
+    if t0_s > end_s:
+        return False
+    az0 = az_axis.position(t0_s)
+    el0 = el_axis.position(t0_s) if el_axis is not None else 0.0
+    err0 = path.error_deg(t0_s, az0, el0)
+    if err0 > deadband_deg:
+        return True
+    # The error can grow by at most what the target and each axis move meanwhile (an axis
+    # runs one way toward its target): well inside the deadband, no sample can leave it.
+    t_last = t0_s + (n - 1) * step_s
+    growth = path.target_travel_bound_deg(t0_s, t_last) + abs(az_axis.position(t_last) - az0)
+    if el_axis is not None:
+        growth += abs(el_axis.position(t_last) - el0)
+    if err0 + growth < deadband_deg - _BOUND_SLACK_DEG:
+        return False
+    for k in range(1, n):
         t = t0_s + k * step_s
         if t > end_s:
             break

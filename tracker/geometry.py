@@ -20,6 +20,7 @@ Driving an axis through commands is the motor model's (:func:`tracker.mount.driv
 from __future__ import annotations
 
 import math
+from bisect import bisect_right
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -316,6 +317,31 @@ class MountPath:
             return angle_between_scalar_deg(here, self._target_enu_scalar(t_s))
         return angle_between_deg(pointing_enu(az_m_deg, el_deg, self.stop_bearing_deg),
                                  self.target_enu(t_s))
+
+    @cached_property
+    def _travel_cum_deg(self) -> list[float]:
+        """Per sample, an upper bound on the angle the target has moved since the first one:
+        between two samples it moves along the arc between them (the target interpolated on
+        the sphere), or by at most its az and el steps (the path's own pointing)."""
+        if self.sky_enu is not None:
+            step = angle_between_deg(self.sky_enu[:-1], self.sky_enu[1:])
+        else:
+            step = np.abs(np.diff(self.az_m_deg))
+            if self.el_deg is not None:
+                step = step + np.abs(np.diff(self.el_deg))
+        return np.concatenate(([0.0], np.cumsum(step))).tolist()
+
+    def target_travel_bound_deg(self, t0_s: float, t1_s: float) -> float:
+        """An upper bound on the angle the target (:meth:`target_enu`) moves between
+        ``t0_s`` and ``t1_s`` (``t0_s <= t1_s``): the whole sample intervals they touch."""
+        ts = self._columns[0]
+        last = len(ts) - 2
+        if last < 0:
+            return 0.0
+        j0 = min(max(bisect_right(ts, t0_s) - 1, 0), last)
+        j1 = min(max(bisect_right(ts, t1_s) - 1, 0), last)
+        cum = self._travel_cum_deg
+        return cum[j1 + 1] - cum[j0]
 
     def _target_enu_scalar(self, t_s: float) -> tuple[float, float, float]:
         """:meth:`target_enu` at one float time, on floats."""
