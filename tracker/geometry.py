@@ -368,7 +368,13 @@ class MountPath:
             az, el = self.mount_at(t_s)
             return pointing_enu(az, np.zeros_like(az) if el is None else el,
                                 self.stop_bearing_deg)
-        v = np.stack([np.interp(t_s, self.t_s, self.sky_enu[:, k]) for k in range(3)],
-                     axis=-1)
+        v = np.stack([np.interp(t_s, self.t_s, col) for col in self._sky_columns], axis=-1)
         return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+    @cached_property
+    def _sky_columns(self) -> tuple[np.ndarray, ...]:
+        """The target's east, north, up columns, contiguous (np.interp copies a strided
+        column on every call)."""
+        assert self.sky_enu is not None
+        return tuple(np.ascontiguousarray(self.sky_enu[:, k]) for k in range(3))
 
