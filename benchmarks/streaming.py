@@ -219,7 +219,8 @@ def compare(suite, spec, deadbands: list[float]) -> tuple[dict, list[str], np.nd
     """Fly every pass of ``suite`` with the stream policy at each deadband and with the
     Gpredict-style loop; returns (summary per policy, stream policy names, followable).
     ``res["lossy"]`` lists the stream policy's passes with lost seconds: (policy, target,
-    station, max el, lost s, the planner's predicted lost s)."""
+    station, max el, lost s, the planner's predicted lost s, whether :func:`start_bound`
+    finds each axis able to keep within the lost-track limit knowing the future)."""
     names = [f"stream D={d:g}" for d in deadbands]
     rows: dict[str, list] = {n: [] for n in [*names, "gpredict-style"]}
     cost = dict.fromkeys(rows, 0.0)
@@ -245,8 +246,11 @@ def compare(suite, spec, deadbands: list[float]) -> tuple[dict, list[str], np.nd
         for name in names:
             lost_s = rows[name][-1]["lost_s"]
             if lost_s > 0:
+                # Knowing the future, can each axis alone keep within the lost-track limit?
+                # (None: no: the rotator cannot physically follow this pass.)
+                starts = start_bound(tr, spec, st, LOST_DEG)
                 lossy.append((name, meta["target"], meta["station"], meta["max_el_deg"],
-                              lost_s, float(plan.lost_track_s)))
+                              lost_s, float(plan.lost_track_s), starts is not None))
     followable = np.array(followable)
     plan_max = np.array(plan_max)
     bounds = dict(zip(names, deadbands, strict=True))
@@ -281,11 +285,16 @@ def print_results(res: dict, names: list[str], followable: np.ndarray) -> None:
     for label, fmt in labels:
         print(f"{label:<24}" + "".join(f"{fmt(r):>17}" for r in res.values()))
     print(f"followable passes (planner predicts no loss): {int(followable.sum())} of {n}")
-    for name, target, station, max_el, lost_s, plan_lost_s in lossy:
+    for name, target, station, max_el, lost_s, plan_lost_s, feasible in lossy:
         why = ("the planner predicts loss too" if plan_lost_s > 0 else
                "FOLLOWABLE by the planner's prediction")
+        bound = ("feasible: each axis alone can keep the planner's path within 5 deg "
+                 "knowing the future" if feasible else
+                 "INFEASIBLE: an axis cannot keep the planner's path within 5 deg even "
+                 "knowing the future")
         print(f"  lossy {name}: {target} from {station}, max el {max_el:.1f}: lost "
-              f"{lost_s:.2f} s; planner predicts {plan_lost_s:.1f} s ({why})")
+              f"{lost_s:.2f} s; planner predicts {plan_lost_s:.1f} s ({why}); clairvoyant "
+              f"bound: {bound}")
     g = res["gpredict-style"]
     for name in names:
         s = res[name]

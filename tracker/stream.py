@@ -46,7 +46,7 @@ from tracker.geometry import (
     raise_to_mask,
 )
 from tracker.mount import MotorModel, RotatorSpec
-from tracker.skytrack import SkyTrack, angle_between_deg, interp1
+from tracker.skytrack import SkyTrack, angle_between_deg, interp1_rows
 from tracker.stall import AxisWatch, moving_axis, stall_error
 from tracker.station import Station
 
@@ -177,9 +177,9 @@ class TrackCore:
         # calls on one-element arrays.
         dt = np.gradient(self.path.t_s)
         self._path_t = self.path.t_s.tolist()
-        self._az_rate = np.abs(np.gradient(self.path.az_m_deg) / dt).tolist()
         path_el = self.path.el_deg if self.path.el_deg is not None else np.zeros_like(dt)
-        self._el_rate = np.abs(np.gradient(path_el) / dt).tolist()
+        self._rates = np.stack([np.abs(np.gradient(self.path.az_m_deg) / dt),
+                                np.abs(np.gradient(path_el) / dt)], axis=1).tolist()
         plan_az = np.asarray(plan.cmd_az_deg, dtype=float)
         self._plan_az = plan_az.tolist()
         self._plan_el = np.asarray(getattr(plan, "cmd_el_deg", np.zeros_like(plan_az)),
@@ -528,13 +528,12 @@ class TrackCore:
         """True where the path runs the az or el motor more than ``follow_fraction`` of
         the time (near the zenith, keyhole sweeps)."""
         f = self.settings.follow_fraction
-        ts = (t_s, t_s + lookahead_s)
-        az = max(interp1(t, self._path_t, self._az_rate) for t in ts)
-        if az > f * self.spec.az_rate_deg_s:
+        az0, el0 = interp1_rows(t_s, self._path_t, self._rates)
+        az1, el1 = interp1_rows(t_s + lookahead_s, self._path_t, self._rates)
+        if max(az0, az1) > f * self.spec.az_rate_deg_s:
             return True
         if self.spec.has_elevation:
-            el = max(interp1(t, self._path_t, self._el_rate) for t in ts)
-            return el > f * self.spec.el_rate_deg_s
+            return max(el0, el1) > f * self.spec.el_rate_deg_s
         return False
 
     def _moves(self, moves, fallback) -> list[tuple[float, float, float | None]]:
