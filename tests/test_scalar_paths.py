@@ -170,3 +170,25 @@ def test_target_travel_bound_holds(path):
     bound = np.array([path.target_travel_bound_deg(float(a), float(b))
                       for a, b in zip(t0, t1, strict=True)])
     assert np.all(moved <= bound + 1e-9)
+
+
+@pytest.mark.parametrize("path", _paths())
+def test_choose_aim_by_error_blocks_is_choose_aim_on_all_samples(path, monkeypatch):
+    import tracker.aim as aim
+
+    rng = np.random.default_rng(17)
+    states = []
+    for _ in range(40):
+        t0 = float(rng.uniform(path.start_s, path.end_s - 30.0))
+        az0, el0 = path.mount_at(t0)
+        motor = MotorModel(SPEC, float(az0 + rng.normal(0, 4)),
+                           float(np.clip(el0 + rng.normal(0, 4), 0, 180)), t0 - 1.0)
+        states.append((t0, motor, float(rng.uniform(1.5, 6.0))))
+
+    def aims(block):
+        monkeypatch.setattr(aim, "_ERROR_BLOCK", block)
+        return [aim.choose_aim(path, m.az, m.el, t0, band) for t0, m, band in states]
+
+    whole = aims(10**6)
+    assert aims(1) == whole and aims(32) == whole
+    assert max(a.hold_s for a in whole) > 32 * 0.5    # holds past the first block of 32

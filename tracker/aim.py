@@ -211,24 +211,15 @@ def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t
         st_el = np.zeros(len(c_az))
     arrival = np.maximum(arr_az, arr_el)
     starts = st_az + st_el
-    err = pointing_error_rows_deg(pos_az, pos_el, i_az, i_el, path.stop_bearing_deg,
-                                  target_dir)                    # (k, n)
-    # The loop commands again once the antenna, settled on its aim point, is more than the
-    # deadband off the path; a candidate that cannot arrive inside the horizon holds nothing.
-    leaves = (ts[None, :] >= arrival[:, None]) & (err > deadband_deg)
-    next_idx = np.where(leaves.any(axis=1), np.argmax(leaves, axis=1), len(ts) - 1)
-    hold = np.where(arrival <= ts[-1], ts[next_idx] - t0_s, 0.0)
     if min_window_s is None:
         min_window_s = 4.0 * step_s
-    # The error before the quickest candidate can arrive is the same for all of them (the
-    # antenna is where it is), so it does not count in the comparison.
-    t_settle = min(float(np.min(arrival)), ts[-1])
-    window_end = np.maximum(t0_s + np.maximum(hold, min_window_s), t_settle)
-    # The sample where the error leaves the deadband ends the hold and is the next
-    # command's, not this one's, unless it comes on arrival: then this aim never held.
-    in_window = (ts[None, :] >= t_settle) & (
-        (ts[None, :] < window_end[:, None] - 1e-9) | (ts[None, :] <= arrival[:, None] + step_s))
-    peak = np.max(np.where(in_window, err, 0.0), axis=1)
+
+    def err_cols(i0: int, i1: int) -> np.ndarray:                # (k, i1 - i0)
+        return pointing_error_rows_deg(pos_az[:, i0:i1], pos_el[:, i0:i1], i_az, i_el,
+                                       path.stop_bearing_deg, target_dir[i0:i1])
+
+    hold, peak = _hold_and_peak(err_cols, ts, t0_s, arrival, deadband_deg, min_window_s,
+                                step_s)
     # Slack above the best peak only when the deadband cannot be kept anyway (the rotator
     # lags); otherwise a longer hold must not buy a peak outside the deadband.
     best_peak = float(np.min(peak))
@@ -245,6 +236,46 @@ def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t
                aim_t_s=float(c_t[pick]), hold_s=float(hold[pick]),
                peak_error_deg=float(peak[pick]), arrival_s=float(arrival[pick]),
                candidates=len(c_az), starts=int(starts[pick]))
+
+
+# Candidate errors are computed this many samples at a time, until they decide every hold.
+_ERROR_BLOCK = 32
+
+
+def _hold_and_peak(err_cols: Callable[[int, int], np.ndarray], ts: np.ndarray, t0_s: float,
+                   arrival: np.ndarray, deadband_deg: float, min_window_s: float,
+                   step_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Each candidate's hold and peak error (module docstring) from its errors over ``ts``
+    (``err_cols(i0, i1)``: the columns ``i0:i1``). Columns are computed in blocks, only as far
+    as needed: once every candidate has left the deadband and no later sample is in any
+    window, the rest cannot change a hold or a peak."""
+    n = len(ts)
+    # The error before the quickest candidate can arrive is the same for all of them (the
+    # antenna is where it is), so it does not count in the comparison.
+    t_settle = min(float(np.min(arrival)), ts[-1])
+    m = min(_ERROR_BLOCK, n)
+    err = err_cols(0, m)
+    while True:
+        # The loop commands again once the antenna, settled on its aim point, is more than
+        # the deadband off the path; a candidate that cannot arrive inside the horizon holds
+        # nothing.
+        leaves = (ts[None, :m] >= arrival[:, None]) & (err > deadband_deg)
+        left = leaves.any(axis=1)
+        next_idx = np.where(left, np.argmax(leaves, axis=1), n - 1)
+        hold = np.where(arrival <= ts[-1], ts[next_idx] - t0_s, 0.0)
+        window_end = np.maximum(t0_s + np.maximum(hold, min_window_s), t_settle)
+        if m == n or (left.all() and ts[m] >= float(np.max(window_end)) - 1e-9
+                      and ts[m] > float(np.max(arrival)) + step_s):
+            break
+        m_next = min(2 * m, n)
+        err = np.concatenate([err, err_cols(m, m_next)], axis=1)
+        m = m_next
+    # The sample where the error leaves the deadband ends the hold and is the next
+    # command's, not this one's, unless it comes on arrival: then this aim never held.
+    tm = ts[None, :m]
+    in_window = (tm >= t_settle) & (
+        (tm < window_end[:, None] - 1e-9) | (tm <= arrival[:, None] + step_s))
+    return hold, np.max(np.where(in_window, err, 0.0), axis=1)
 
 
 def gpredict_aim(path: MountPath, t0_s: float, threshold_deg: float, cycle_s: float,
