@@ -192,3 +192,26 @@ def test_choose_aim_by_error_blocks_is_choose_aim_on_all_samples(path, monkeypat
     whole = aims(10**6)
     assert aims(1) == whole and aims(32) == whole
     assert max(a.hold_s for a in whole) > 32 * 0.5    # holds past the first block of 32
+
+
+def _stations():
+    from tracker.station import HorizonMask, Station
+
+    mask = HorizonMask((0.0, 80.0, 170.0, 250.0, 330.0), (12.0, 3.5, 25.0, 0.0, 7.25))
+    return [Station("flat", 48.0, 11.0, 0.0, min_el_deg=2.5),
+            Station("masked", 48.0, 11.0, 0.0, min_el_deg=1.0, mask=mask)]
+
+
+@pytest.mark.parametrize("station", _stations(), ids=lambda s: s.name)
+@pytest.mark.parametrize("spec", [SPEC, SPEC.with_(stop_bearing_deg=180.0, az_span_deg=360.0)])
+def test_raise_to_mask_float_path_agrees_with_the_array_path(spec, station):
+    from tracker.geometry import raise_to_mask
+
+    rng = np.random.default_rng(18)
+    az = rng.uniform(0, spec.az_span_deg, 3000)
+    el = np.round(rng.uniform(0, 180, 3000) * 2.0) / 2.0
+    ref = raise_to_mask(spec, station, az, el)
+    got = [raise_to_mask(spec, station, float(a), float(e)) for a, e in zip(az, el, strict=True)]
+    assert all(isinstance(g, float) for g in got)
+    assert np.array_equal(np.array(got), ref)
+    assert np.any(ref != el)                        # some were raised (or lowered over the top)

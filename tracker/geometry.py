@@ -127,8 +127,8 @@ def boresight_horizon_ok(spec: RotatorSpec, station: Station, m_az_deg: ArrayLik
     return look_e >= np.asarray(station.horizon_at(look_b)) - tol_deg
 
 
-def raise_to_mask(spec: RotatorSpec, station: Station, m_az_deg: ArrayLike, el_deg: ArrayLike,
-                  step_deg: float | None = None) -> np.ndarray:
+def raise_to_mask(spec: RotatorSpec, station: Station, m_az_deg: float | ArrayLike,
+                  el_deg: float | ArrayLike, step_deg: float | None = None) -> Any:
     """Elevations moved just clear of the horizon mask where the boresight is below it.
 
     A position below the mask gets the lowest whole ``step_deg`` (default: the spec's
@@ -136,10 +136,20 @@ def raise_to_mask(spec: RotatorSpec, station: Station, m_az_deg: ArrayLike, el_d
     ``180 - step``. Positions on or above the mask are returned unchanged; so are all of an
     azimuth-only rotator's. The caller clamps the result to its own limits.
     """
+    res = spec.resolution_deg if step_deg is None else step_deg
+    if isinstance(m_az_deg, float) and isinstance(el_deg, float) and spec.has_elevation:
+        # One command (the live loop's last guard): the same test and step on floats.
+        b = spec.bearing_of(m_az_deg)
+        over = el_deg > 90.0
+        look_b = (b + 180.0) % 360.0 if over else b % 360.0
+        floor_deg = float(station.horizon_at(look_b))
+        if (180.0 - el_deg if over else el_deg) >= floor_deg - 1e-9:
+            return el_deg
+        step_up = math.ceil(floor_deg / res - 1e-9) * res
+        return 180.0 - step_up if over else step_up
     e = np.asarray(el_deg, dtype=float)
     if not spec.has_elevation:
         return e.copy()
-    res = spec.resolution_deg if step_deg is None else step_deg
     look_b, _look_e = boresight_look(spec, m_az_deg, e)
     floor = np.asarray(station.horizon_at(look_b))
     safe_look = np.ceil(floor / res - 1e-9) * res
