@@ -1,6 +1,8 @@
 """Streaming benchmark: the live loop's policy vs a Gpredict-style loop on a simulated G-5500.
 
-Run: ``python benchmarks/streaming.py [--days 1] [--max-sats 30] [--deadband 3]``
+Run: ``python benchmarks/streaming.py [--days 1] [--max-sats 30] [--deadband 3]
+[--sample N]`` (the 7-day suite: ``--days 7 --max-sats 0``; ``--sample`` flies N passes spread
+evenly over it)
 
 Both policies fly every pass of the pass suite (benchmarks/passsuite.py) against the same
 simulated rotator (THE motor model, tracker.mount, G-5500 at 50 Hz rates), starting parked:
@@ -16,7 +18,10 @@ simulated rotator (THE motor model, tracker.mount, G-5500 at 50 Hz rates), start
 Per policy: max / p99 great-circle pointing error over all visible time (sampled every
 0.25 s), lost-track seconds (error > 5 deg while up; also on the passes the planner calls
 followable), passes with max error <= 3 deg, motor starts and commands sent, and the
-simulation cost per pass (ratio against the baseline in the same run).
+simulation cost per pass (ratio against the baseline in the same run). Each stream pass with
+lost seconds is listed with the planner's predicted loss and the clairvoyant per-axis bound
+(:func:`start_bound` at the lost-track limit): whether the rotator could follow it at all.
+The decision cost per cycle alone: benchmarks/decision_cost.py.
 """
 
 from __future__ import annotations

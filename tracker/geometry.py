@@ -1,6 +1,7 @@
 """Mount geometry shared by the planner, the live loop and the step-table compiler.
 
-One owner for what the three ask of a mount's pointing (pure numpy, no I/O, no clock):
+One owner for what the three ask of a mount's pointing (numpy, with float paths for the
+live loop's per-cycle calls; no I/O, no clock):
 
 * :class:`MountPath`: a path in the mechanical frame (mechanical azimuth and mount elevation
   over time) and where the target is meanwhile. ``MountPath.from_plan`` takes a plan's
