@@ -178,6 +178,15 @@ def pass_suite(groups=("amateur", "weather"), stations=STATIONS, start: datetime
     return out
 
 
+def sample_suite(suite: list[SuitePass], n: int) -> list[SuitePass]:
+    """``n`` passes spread evenly over ``suite`` (all of it when ``n`` <= 0 or larger)."""
+    if n <= 0 or n >= len(suite):
+        return list(suite)
+    if n == 1:
+        return [suite[0]]
+    return [suite[round(i * (len(suite) - 1) / (n - 1))] for i in range(n)]
+
+
 if __name__ == "__main__":
     import time
 

@@ -1,6 +1,8 @@
 """Streaming benchmark: the live loop's policy vs a Gpredict-style loop on a simulated G-5500.
 
-Run: ``python benchmarks/streaming.py [--days 1] [--max-sats 30] [--deadband 3]``
+Run: ``python benchmarks/streaming.py [--days 1] [--max-sats 30] [--deadband 3]
+[--sample N]`` (the 7-day suite: ``--days 7 --max-sats 0``; ``--sample`` flies N passes spread
+evenly over it)
 
 Both policies fly every pass of the pass suite (benchmarks/passsuite.py) against the same
 simulated rotator (THE motor model, tracker.mount, G-5500 at 50 Hz rates), starting parked:
@@ -16,7 +18,10 @@ simulated rotator (THE motor model, tracker.mount, G-5500 at 50 Hz rates), start
 Per policy: max / p99 great-circle pointing error over all visible time (sampled every
 0.25 s), lost-track seconds (error > 5 deg while up; also on the passes the planner calls
 followable), passes with max error <= 3 deg, motor starts and commands sent, and the
-simulation cost per pass (ratio against the baseline in the same run).
+simulation cost per pass (ratio against the baseline in the same run). Each stream pass with
+lost seconds is listed with the planner's predicted loss and the clairvoyant per-axis bound
+(:func:`start_bound` at the lost-track limit): whether the rotator could follow it at all.
+The decision cost per cycle alone: benchmarks/decision_cost.py.
 """
 
 from __future__ import annotations
@@ -30,7 +35,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from passsuite import pass_suite
+from passsuite import pass_suite, sample_suite
 
 from tracker.aim import gpredict_aim
 from tracker.geometry import MountPath, pointing_error_deg
@@ -47,20 +52,45 @@ def _readback(truth: MotorModel, t: float) -> tuple[float, float]:
     return float(round(az)), float(round(el))
 
 
-def fly_stream(track, spec, station, deadband_deg: float, cycle_s: float = 0.5):
-    """The live loop's decisions against a simulated rotator; returns (cmd_t, az, el), plan."""
+class CycleMeter:
+    """CPU time of the live loop's per-cycle work (what :func:`tracker.stream.run_pass` asks
+    of :class:`TrackCore` each cycle: observe, decide, commanded, status), over cycles."""
+
+    def __init__(self) -> None:
+        self.cpu_ns = 0
+        self.cycles = 0
+
+    @property
+    def us_per_cycle(self) -> float:
+        return self.cpu_ns / 1000.0 / max(self.cycles, 1)
+
+
+def fly_stream(track, spec, station, deadband_deg: float, cycle_s: float = 0.5,
+               meter: CycleMeter | None = None):
+    """The live loop's decisions against a simulated rotator; returns (cmd_t, az, el), plan.
+
+    With ``meter`` the core's per-cycle calls (and the status the live loop shows each cycle)
+    are timed in CPU time; the commands are the same either way."""
     plan = plan_pass(track, spec, station, current=(spec.park_az_deg, spec.park_el_deg))
     core = TrackCore(plan, track, spec, station,
                      StreamSettings(deadband_deg=deadband_deg, cycle_s=cycle_s))
     t = min(core.preposition_t_s, float(track.t_s[0])) - cycle_s
     truth = MotorModel(spec, spec.park_az_deg, spec.park_el_deg, t)
     cmds = []
+    cpu_ns = time.thread_time_ns
     while t <= core.los_s:
-        core.observe(t, *_readback(truth, t))
+        wire = _readback(truth, t)
+        c0 = cpu_ns() if meter is not None else 0
+        core.observe(t, *wire)
         cmd = core.decide(t)
         if cmd is not None:
-            truth.command(cmd.az_m_deg, cmd.el_deg, t)
             core.commanded(t, cmd)
+        if meter is not None:
+            core.status(t)
+            meter.cpu_ns += cpu_ns() - c0
+            meter.cycles += 1
+        if cmd is not None:
+            truth.command(cmd.az_m_deg, cmd.el_deg, t)
             cmds.append((t, cmd.az_m_deg, cmd.el_deg))
         t += cycle_s
     return cmds, plan, t
@@ -192,12 +222,16 @@ def summarise(rows: list[dict], followable: np.ndarray, bound: np.ndarray) -> di
 
 def compare(suite, spec, deadbands: list[float]) -> tuple[dict, list[str], np.ndarray]:
     """Fly every pass of ``suite`` with the stream policy at each deadband and with the
-    Gpredict-style loop; returns (summary per policy, stream policy names, followable)."""
+    Gpredict-style loop; returns (summary per policy, stream policy names, followable).
+    ``res["lossy"]`` lists the stream policy's passes with lost seconds: (policy, target,
+    station, max el, lost s, the planner's predicted lost s, whether :func:`start_bound`
+    finds each axis able to keep within the lost-track limit knowing the future)."""
     names = [f"stream D={d:g}" for d in deadbands]
     rows: dict[str, list] = {n: [] for n in [*names, "gpredict-style"]}
     cost = dict.fromkeys(rows, 0.0)
     followable = []
     plan_max = []
+    lossy: list[tuple] = []
     for sp in suite:
         tr, st = sp.track, sp.station
         t_start = None
@@ -213,12 +247,22 @@ def compare(suite, spec, deadbands: list[float]) -> tuple[dict, list[str], np.nd
         rows["gpredict-style"].append(measure(tr, spec, st, gcmds, t_start))
         cost["gpredict-style"] += time.perf_counter() - t2
         followable.append(plan.lost_track_s == 0)
+        meta = sp.meta
+        for name in names:
+            lost_s = rows[name][-1]["lost_s"]
+            if lost_s > 0:
+                # Knowing the future, can each axis alone keep within the lost-track limit?
+                # (None: no: the rotator cannot physically follow this pass.)
+                starts = start_bound(tr, spec, st, LOST_DEG)
+                lossy.append((name, meta["target"], meta["station"], meta["max_el_deg"],
+                              lost_s, float(plan.lost_track_s), starts is not None))
     followable = np.array(followable)
     plan_max = np.array(plan_max)
     bounds = dict(zip(names, deadbands, strict=True))
     res = {k: summarise(v, followable, plan_max + bounds.get(k, 5.0)) for k, v in rows.items()}
     for k in res:
         res[k]["cost"] = cost[k]
+    res["lossy"] = lossy
     return res, names, followable
 
 
@@ -226,6 +270,7 @@ def print_results(res: dict, names: list[str], followable: np.ndarray) -> None:
     """The side-by-side table and, per stream deadband, the three targets: no lost seconds on
     followable passes, max error <= 3 deg on >= 99 % of passes, motor starts vs Gpredict's."""
     n = len(followable)
+    lossy = res.pop("lossy", [])
     labels = [
         ("passes", lambda r: f"{n}"),
         ("max error deg", lambda r: f"{r['max']:.2f}"),
@@ -245,6 +290,16 @@ def print_results(res: dict, names: list[str], followable: np.ndarray) -> None:
     for label, fmt in labels:
         print(f"{label:<24}" + "".join(f"{fmt(r):>17}" for r in res.values()))
     print(f"followable passes (planner predicts no loss): {int(followable.sum())} of {n}")
+    for name, target, station, max_el, lost_s, plan_lost_s, feasible in lossy:
+        why = ("the planner predicts loss too" if plan_lost_s > 0 else
+               "FOLLOWABLE by the planner's prediction")
+        bound = ("feasible: each axis alone can keep the planner's path within 5 deg "
+                 "knowing the future" if feasible else
+                 "INFEASIBLE: an axis cannot keep the planner's path within 5 deg even "
+                 "knowing the future")
+        print(f"  lossy {name}: {target} from {station}, max el {max_el:.1f}: lost "
+              f"{lost_s:.2f} s; planner predicts {plan_lost_s:.1f} s ({why}); clairvoyant "
+              f"bound: {bound}")
     g = res["gpredict-style"]
     for name in names:
         s = res[name]
@@ -265,6 +320,8 @@ def main(argv=None) -> int:
     ap.add_argument("--rotator", default="G-5500")
     ap.add_argument("--mains-hz", type=int, default=50, choices=(50, 60))
     ap.add_argument("--overhead", type=int, default=24)
+    ap.add_argument("--sample", type=int, default=0,
+                    help="fly only this many passes spread evenly over the suite (0 = all)")
     ap.add_argument("--bound-deg", type=float, default=3.0,
                     help="also print the fewest motor starts any policy needs for this max "
                          "error (0 = skip)")
@@ -273,6 +330,9 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     suite = pass_suite(days=args.days, max_sats=args.max_sats or None,
                        n_overhead=args.overhead)
+    if args.sample:
+        print(f"sample: {min(args.sample, len(suite))} of {len(suite)} passes, evenly spread")
+        suite = sample_suite(suite, args.sample)
     print(f"rotator {spec.name}: az {spec.az_rate_deg_s:.2f} deg/s, el "
           f"{spec.el_rate_deg_s:.2f} deg/s, start delay {spec.start_delay_s:g} s, span "
           f"{spec.az_span_deg:g}, el max {spec.el_max_deg:g}")

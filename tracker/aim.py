@@ -27,14 +27,15 @@ minimises the maximum error until the next expected command, for the fewest moto
 from __future__ import annotations
 
 import copy
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from tracker.geometry import MountPath, pointing_enu
-from tracker.mount import AxisMotor, drive_axis
+from tracker.geometry import MountPath, pointing_enu, pointing_error_rows_deg
+from tracker.mount import AxisMotor, drive_axis, move_from_rest
 from tracker.skytrack import angle_between_deg
 
 # What one command costs besides its motor starts, in starts: the bytes and the read-back
@@ -65,6 +66,39 @@ def _predict(axis: AxisMotor, target_deg: float, t0_s: float,
     return pos, a.arrival_s(), starts
 
 
+# Rounding room when a bound on the error decides instead of the samples (the error itself is
+# computed to ~1e-12 deg).
+_BOUND_SLACK_DEG = 1e-6
+
+
+def _quantise(axis: AxisMotor, targets_deg: np.ndarray) -> np.ndarray:
+    """:meth:`AxisMotor.quantise` of each of ``targets_deg`` (the same rounding: half to
+    even, then the limits)."""
+    res = axis.resolution_deg
+    return np.clip(np.round(np.asarray(targets_deg, dtype=float) / res) * res, axis.min_deg,
+                   axis.max_deg)
+
+
+def _predict_all(axis: AxisMotor, targets_deg: np.ndarray, t0_s: float, ts: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_predict` for each of ``targets_deg``: positions ``(k, n)``, arrival times and
+    motor starts ``(k,)``. An axis at rest takes :func:`~tracker.mount.drive_axis`'s closed
+    form for one command, for all targets at once; a running (or jammed) one steps each."""
+    if axis.jammed or axis.moving(t0_s):
+        sims = [_predict(axis, float(v), t0_s, ts) for v in targets_deg]
+        return (np.array([p for p, _a, _s in sims]), np.array([a for _p, a, _s in sims]),
+                np.array([s for _p, _a, s in sims]))
+    p0 = float(axis.position(t0_s))
+    cmd = _quantise(axis, targets_deg)
+    step = np.abs(cmd - p0)
+    moving = step > 1e-9
+    arrival = t0_s + np.where(moving, axis.start_delay_s, 0.0) + step / axis.rate_deg_s
+    pos = move_from_rest(p0, cmd[:, None], ts[None, :] - t0_s, axis.rate_deg_s,
+                         axis.start_delay_s)
+    pos[:, ts < t0_s] = p0
+    return pos, arrival, moving.astype(int)
+
+
 def _at(path: MountPath, t_s: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The path's mechanical az and el at ``t_s`` (el 0 on an azimuth-only path)."""
     az, el = path.mount_at(t_s)
@@ -77,7 +111,7 @@ def predicted_error(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | No
     ts = np.asarray(ts, dtype=float)
     az = az_axis.position(ts)
     el = el_axis.position(ts) if el_axis is not None else np.zeros_like(ts)
-    return angle_between_deg(pointing_enu(az, el, path.stop_bearing_deg), path.target_enu(ts))
+    return path.error_deg(ts, az, el)
 
 
 def needs_command(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t0_s: float,
@@ -87,11 +121,32 @@ def needs_command(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None
     Looking ahead by one cycle plus the start delay makes the loop move *before* the target
     leaves the deadband instead of after it, so the error stays within it.
     """
-    ts = t0_s + np.arange(0.0, max(lookahead_s, step_s) + 1e-9, step_s)
-    ts = ts[ts <= path.end_s]
-    if len(ts) == 0:
+    # Once a cycle: scalar math on the same instants as ``np.arange`` would give.
+    end_s = path.end_s
+    n = math.ceil((max(lookahead_s, step_s) + 1e-9) / step_s)
+    if t0_s > end_s:
         return False
-    return bool(np.max(predicted_error(path, az_axis, el_axis, t0_s, ts)) > deadband_deg)
+    az0 = az_axis.position(t0_s)
+    el0 = el_axis.position(t0_s) if el_axis is not None else 0.0
+    err0 = path.error_deg(t0_s, az0, el0)
+    if err0 > deadband_deg:
+        return True
+    # The error can grow by at most what the target and each axis move meanwhile (an axis
+    # runs one way toward its target): well inside the deadband, no sample can leave it.
+    t_last = t0_s + (n - 1) * step_s
+    growth = path.target_travel_bound_deg(t0_s, t_last) + abs(az_axis.position(t_last) - az0)
+    if el_axis is not None:
+        growth += abs(el_axis.position(t_last) - el0)
+    if err0 + growth < deadband_deg - _BOUND_SLACK_DEG:
+        return False
+    for k in range(1, n):
+        t = t0_s + k * step_s
+        if t > end_s:
+            break
+        el = el_axis.position(t) if el_axis is not None else 0.0
+        if path.error_deg(t, az_axis.position(t), el) > deadband_deg:
+            return True
+    return False
 
 
 def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t0_s: float,
@@ -120,9 +175,8 @@ def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t
     lag_deg = float(angle_between_deg(here, cur_dir))
     reach = angle_between_deg(target_dir, cur_dir) <= 2.5 * deadband_deg + lag_deg + 2.0
     n_cand = max(1, int(np.argmin(reach)) if not reach.all() else len(ts))
-    q_az = np.array([az_axis.quantise(a) for a in cand_az[:n_cand]])
-    q_el = (np.array([el_axis.quantise(e) for e in cand_el[:n_cand]]) if el_axis is not None
-            else np.zeros(n_cand))
+    q_az = _quantise(az_axis, cand_az[:n_cand])
+    q_el = _quantise(el_axis, cand_el[:n_cand]) if el_axis is not None else np.zeros(n_cand)
     # Each axis is its own relay: a move that leaves one axis alone saves a motor start, so
     # candidates include moving only azimuth or only elevation (the other keeps its target).
     keep_az = az_axis.target_deg
@@ -137,46 +191,35 @@ def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t
     noop = (np.abs(c_az - keep_az) < 1e-9) & (np.abs(c_el - keep_el) < 1e-9)
     if noop.all():
         noop[:] = False
-    _, first = np.unique(np.stack([c_az, c_el], axis=1)[~noop], axis=0, return_index=True)
+    # The first of each distinct (az, el), in candidate order (a pair as one complex number:
+    # a 1-d unique, whose stable sort gives the first occurrence).
+    _, first = np.unique((c_az + 1j * c_el)[~noop], return_index=True)
     first = np.flatnonzero(~noop)[np.sort(first)]
     c_az, c_el, c_t = c_az[first], c_el[first], c_t[first]
 
     # The axes are independent: simulate each distinct target once per axis.
     u_az, i_az = np.unique(c_az, return_inverse=True)
-    sim_az = [_predict(az_axis, v, t0_s, ts) for v in u_az]
-    pos_az = np.array([p for p, _a, _s in sim_az])[i_az]
-    arr_az = np.array([a for _p, a, _s in sim_az])[i_az]
-    st_az = np.array([s for _p, _a, s in sim_az])[i_az]
+    pos_az, arr_az, st_az = _predict_all(az_axis, u_az, t0_s, ts)
+    arr_az, st_az = arr_az[i_az], st_az[i_az]
     if el_axis is not None:
         u_el, i_el = np.unique(c_el, return_inverse=True)
-        sim_el = [_predict(el_axis, v, t0_s, ts) for v in u_el]
-        pos_el = np.array([p for p, _a, _s in sim_el])[i_el]
-        arr_el = np.array([a for _p, a, _s in sim_el])[i_el]
-        st_el = np.array([s for _p, _a, s in sim_el])[i_el]
+        pos_el, arr_el, st_el = _predict_all(el_axis, u_el, t0_s, ts)
+        arr_el, st_el = arr_el[i_el], st_el[i_el]
     else:
-        pos_el = np.zeros_like(pos_az)
+        pos_el, i_el = np.zeros((1, len(ts))), np.zeros(len(c_az), dtype=int)
         arr_el = np.full(len(c_az), t0_s)
         st_el = np.zeros(len(c_az))
     arrival = np.maximum(arr_az, arr_el)
     starts = st_az + st_el
-    err = angle_between_deg(pointing_enu(pos_az, pos_el, path.stop_bearing_deg),
-                            target_dir[None, :, :])              # (k, n)
-    # The loop commands again once the antenna, settled on its aim point, is more than the
-    # deadband off the path; a candidate that cannot arrive inside the horizon holds nothing.
-    leaves = (ts[None, :] >= arrival[:, None]) & (err > deadband_deg)
-    next_idx = np.where(leaves.any(axis=1), np.argmax(leaves, axis=1), len(ts) - 1)
-    hold = np.where(arrival <= ts[-1], ts[next_idx] - t0_s, 0.0)
     if min_window_s is None:
         min_window_s = 4.0 * step_s
-    # The error before the quickest candidate can arrive is the same for all of them (the
-    # antenna is where it is), so it does not count in the comparison.
-    t_settle = min(float(np.min(arrival)), ts[-1])
-    window_end = np.maximum(t0_s + np.maximum(hold, min_window_s), t_settle)
-    # The sample where the error leaves the deadband ends the hold and is the next
-    # command's, not this one's, unless it comes on arrival: then this aim never held.
-    in_window = (ts[None, :] >= t_settle) & (
-        (ts[None, :] < window_end[:, None] - 1e-9) | (ts[None, :] <= arrival[:, None] + step_s))
-    peak = np.max(np.where(in_window, err, 0.0), axis=1)
+
+    def err_cols(i0: int, i1: int) -> np.ndarray:                # (k, i1 - i0)
+        return pointing_error_rows_deg(pos_az[:, i0:i1], pos_el[:, i0:i1], i_az, i_el,
+                                       path.stop_bearing_deg, target_dir[i0:i1])
+
+    hold, peak = _hold_and_peak(err_cols, ts, t0_s, arrival, deadband_deg, min_window_s,
+                                step_s)
     # Slack above the best peak only when the deadband cannot be kept anyway (the rotator
     # lags); otherwise a longer hold must not buy a peak outside the deadband.
     best_peak = float(np.min(peak))
@@ -193,6 +236,46 @@ def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t
                aim_t_s=float(c_t[pick]), hold_s=float(hold[pick]),
                peak_error_deg=float(peak[pick]), arrival_s=float(arrival[pick]),
                candidates=len(c_az), starts=int(starts[pick]))
+
+
+# Candidate errors are computed this many samples at a time, until they decide every hold.
+_ERROR_BLOCK = 32
+
+
+def _hold_and_peak(err_cols: Callable[[int, int], np.ndarray], ts: np.ndarray, t0_s: float,
+                   arrival: np.ndarray, deadband_deg: float, min_window_s: float,
+                   step_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Each candidate's hold and peak error (module docstring) from its errors over ``ts``
+    (``err_cols(i0, i1)``: the columns ``i0:i1``). Columns are computed in blocks, only as far
+    as needed: once every candidate has left the deadband and no later sample is in any
+    window, the rest cannot change a hold or a peak."""
+    n = len(ts)
+    # The error before the quickest candidate can arrive is the same for all of them (the
+    # antenna is where it is), so it does not count in the comparison.
+    t_settle = min(float(np.min(arrival)), ts[-1])
+    m = min(_ERROR_BLOCK, n)
+    err = err_cols(0, m)
+    while True:
+        # The loop commands again once the antenna, settled on its aim point, is more than
+        # the deadband off the path; a candidate that cannot arrive inside the horizon holds
+        # nothing.
+        leaves = (ts[None, :m] >= arrival[:, None]) & (err > deadband_deg)
+        left = leaves.any(axis=1)
+        next_idx = np.where(left, np.argmax(leaves, axis=1), n - 1)
+        hold = np.where(arrival <= ts[-1], ts[next_idx] - t0_s, 0.0)
+        window_end = np.maximum(t0_s + np.maximum(hold, min_window_s), t_settle)
+        if m == n or (left.all() and ts[m] >= float(np.max(window_end)) - 1e-9
+                      and ts[m] > float(np.max(arrival)) + step_s):
+            break
+        m_next = min(2 * m, n)
+        err = np.concatenate([err, err_cols(m, m_next)], axis=1)
+        m = m_next
+    # The sample where the error leaves the deadband ends the hold and is the next
+    # command's, not this one's, unless it comes on arrival: then this aim never held.
+    tm = ts[None, :m]
+    in_window = (tm >= t_settle) & (
+        (tm < window_end[:, None] - 1e-9) | (tm <= arrival[:, None] + step_s))
+    return hold, np.max(np.where(in_window, err, 0.0), axis=1)
 
 
 def gpredict_aim(path: MountPath, t0_s: float, threshold_deg: float, cycle_s: float,

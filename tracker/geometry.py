@@ -1,6 +1,7 @@
 """Mount geometry shared by the planner, the live loop and the step-table compiler.
 
-One owner for what the three ask of a mount's pointing (pure numpy, no I/O, no clock):
+One owner for what the three ask of a mount's pointing (numpy, with float paths for the
+live loop's per-cycle calls; no I/O, no clock):
 
 * :class:`MountPath`: a path in the mechanical frame (mechanical azimuth and mount elevation
   over time) and where the target is meanwhile. ``MountPath.from_plan`` takes a plan's
@@ -19,15 +20,27 @@ Driving an axis through commands is the motor model's (:func:`tracker.mount.driv
 
 from __future__ import annotations
 
+import math
+from bisect import bisect_right
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from tracker.mount import RotatorSpec
-from tracker.skytrack import SkyTrack, angle_between_deg, azel_to_enu
+from tracker.skytrack import (
+    SkyTrack,
+    angle_between_components_deg,
+    angle_between_deg,
+    angle_between_scalar_deg,
+    azel_to_enu,
+    azel_to_enu_scalar,
+    interp1,
+    interp1_rows,
+)
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
     from tracker.station import Station
@@ -43,15 +56,40 @@ def pointing_enu(az_m_deg: ArrayLike, el_deg: ArrayLike,
     return azel_to_enu(bearing, el_deg)
 
 
-def pointing_error_deg(spec: RotatorSpec, ant_az_m_deg: ArrayLike, ant_el_deg: ArrayLike | None,
-                       target: np.ndarray | tuple[ArrayLike, ArrayLike]) -> np.ndarray:
+def pointing_error_rows_deg(az_m_deg: np.ndarray, el_deg: np.ndarray, i_az: np.ndarray,
+                            i_el: np.ndarray, stop_bearing_deg: float,
+                            target_enu: np.ndarray) -> np.ndarray:
+    """``angle_between_deg(pointing_enu(az_m_deg[i_az], el_deg[i_el], stop_bearing_deg),
+    target_enu)`` (the same values) for mounts that pair an azimuth row with an elevation
+    row: the trigonometry is done once per row, not once per pair (the aim policy's candidates
+    share a few targets per axis)."""
+    b = np.radians(np.mod(az_m_deg + stop_bearing_deg, 360.0))
+    e = np.radians(el_deg)
+    ce = np.cos(e)[i_el]
+    t = np.asarray(target_enu, dtype=float)
+    return angle_between_components_deg(ce * np.sin(b)[i_az], ce * np.cos(b)[i_az],
+                                        np.sin(e)[i_el], t[..., 0], t[..., 1], t[..., 2])
+
+
+def pointing_error_deg(spec: RotatorSpec, ant_az_m_deg: float | ArrayLike,
+                       ant_el_deg: float | ArrayLike | None,
+                       target: np.ndarray | tuple[float | ArrayLike, float | ArrayLike]) -> Any:
     """Angle between where a mount at (mechanical az, el) points and the target.
 
     ``target`` is either east-north-up unit vectors (shape ``(..., 3)``) or a pair
     ``(bearing_deg, el_deg)``. Great-circle angle for az/el rotators (el > 90 points over the
     top); for azimuth-only rotators (or ``ant_el_deg`` None) the azimuth difference alone,
-    since the beam's elevation is not steerable. Broadcasts over leading axes.
+    since the beam's elevation is not steerable. Broadcasts over leading axes; floats (az, el
+    and a ``(bearing, el)`` pair) take a scalar path and give a float.
     """
+    if isinstance(ant_az_m_deg, float) and isinstance(target, tuple) and isinstance(
+            target[0], float) and isinstance(target[1], float) and (
+            ant_el_deg is None or isinstance(ant_el_deg, float)):
+        b = spec.bearing_of(ant_az_m_deg)
+        if not spec.has_elevation or ant_el_deg is None:
+            return abs((b - target[0] + 180.0) % 360.0 - 180.0)
+        return angle_between_scalar_deg(
+            azel_to_enu_scalar(b, ant_el_deg), azel_to_enu_scalar(target[0], target[1]))
     bearing = spec.bearing_of(ant_az_m_deg)
     if isinstance(target, tuple):
         target_az = np.asarray(target[0], dtype=float)
@@ -90,8 +128,8 @@ def boresight_horizon_ok(spec: RotatorSpec, station: Station, m_az_deg: ArrayLik
     return look_e >= np.asarray(station.horizon_at(look_b)) - tol_deg
 
 
-def raise_to_mask(spec: RotatorSpec, station: Station, m_az_deg: ArrayLike, el_deg: ArrayLike,
-                  step_deg: float | None = None) -> np.ndarray:
+def raise_to_mask(spec: RotatorSpec, station: Station, m_az_deg: float | ArrayLike,
+                  el_deg: float | ArrayLike, step_deg: float | None = None) -> Any:
     """Elevations moved just clear of the horizon mask where the boresight is below it.
 
     A position below the mask gets the lowest whole ``step_deg`` (default: the spec's
@@ -99,10 +137,20 @@ def raise_to_mask(spec: RotatorSpec, station: Station, m_az_deg: ArrayLike, el_d
     ``180 - step``. Positions on or above the mask are returned unchanged; so are all of an
     azimuth-only rotator's. The caller clamps the result to its own limits.
     """
+    res = spec.resolution_deg if step_deg is None else step_deg
+    if isinstance(m_az_deg, float) and isinstance(el_deg, float) and spec.has_elevation:
+        # One command (the live loop's last guard): the same test and step on floats.
+        b = spec.bearing_of(m_az_deg)
+        over = el_deg > 90.0
+        look_b = (b + 180.0) % 360.0 if over else b % 360.0
+        floor_deg = float(station.horizon_at(look_b))
+        if (180.0 - el_deg if over else el_deg) >= floor_deg - 1e-9:
+            return el_deg
+        step_up = math.ceil(floor_deg / res - 1e-9) * res
+        return 180.0 - step_up if over else step_up
     e = np.asarray(el_deg, dtype=float)
     if not spec.has_elevation:
         return e.copy()
-    res = spec.resolution_deg if step_deg is None else step_deg
     look_b, _look_e = boresight_look(spec, m_az_deg, e)
     floor = np.asarray(station.horizon_at(look_b))
     safe_look = np.ceil(floor / res - 1e-9) * res
@@ -260,6 +308,63 @@ class MountPath:
     def end_s(self) -> float:
         return float(self.t_s[-1])
 
+    @cached_property
+    def _columns(self) -> tuple[list[float], list[float], list[float] | None,
+                                list[list[float]] | None]:
+        """``t_s``, ``az_m_deg``, ``el_deg`` and the target's rows as lists, for
+        :func:`~tracker.skytrack.interp1` and :func:`~tracker.skytrack.interp1_rows`."""
+        el = None if self.el_deg is None else self.el_deg.tolist()
+        sky = None if self.sky_enu is None else self.sky_enu.tolist()
+        return self.t_s.tolist(), self.az_m_deg.tolist(), el, sky
+
+    def error_deg(self, t_s: float | np.ndarray, az_m_deg: float | ArrayLike,
+                  el_deg: float | ArrayLike) -> Any:
+        """Great-circle angle between a mount at mechanical ``az_m_deg`` / ``el_deg`` and
+        where the target is at ``t_s`` (:meth:`target_enu`); arrays broadcast, and floats take
+        a scalar path (the live loop's per-cycle checks) that gives a float."""
+        if isinstance(t_s, float) and isinstance(az_m_deg, float) and isinstance(
+                el_deg, float):
+            here = azel_to_enu_scalar((az_m_deg + self.stop_bearing_deg) % 360.0, el_deg)
+            return angle_between_scalar_deg(here, self._target_enu_scalar(t_s))
+        return angle_between_deg(pointing_enu(az_m_deg, el_deg, self.stop_bearing_deg),
+                                 self.target_enu(t_s))
+
+    @cached_property
+    def _travel_cum_deg(self) -> list[float]:
+        """Per sample, an upper bound on the angle the target has moved since the first one:
+        between two samples it moves along the arc between them (the target interpolated on
+        the sphere), or by at most its az and el steps (the path's own pointing)."""
+        if self.sky_enu is not None:
+            step = angle_between_deg(self.sky_enu[:-1], self.sky_enu[1:])
+        else:
+            step = np.abs(np.diff(self.az_m_deg))
+            if self.el_deg is not None:
+                step = step + np.abs(np.diff(self.el_deg))
+        return np.concatenate(([0.0], np.cumsum(step))).tolist()
+
+    def target_travel_bound_deg(self, t0_s: float, t1_s: float) -> float:
+        """An upper bound on the angle the target (:meth:`target_enu`) moves between
+        ``t0_s`` and ``t1_s`` (``t0_s <= t1_s``): the whole sample intervals they touch."""
+        ts = self._columns[0]
+        last = len(ts) - 2
+        if last < 0:
+            return 0.0
+        j0 = min(max(bisect_right(ts, t0_s) - 1, 0), last)
+        j1 = min(max(bisect_right(ts, t1_s) - 1, 0), last)
+        cum = self._travel_cum_deg
+        return cum[j1 + 1] - cum[j0]
+
+    def _target_enu_scalar(self, t_s: float) -> tuple[float, float, float]:
+        """:meth:`target_enu` at one float time, on floats."""
+        ts, az, el, sky = self._columns
+        if sky is None:
+            e = 0.0 if el is None else interp1(t_s, ts, el)
+            return azel_to_enu_scalar((interp1(t_s, ts, az) + self.stop_bearing_deg) % 360.0,
+                                      e)
+        x, y, z = interp1_rows(t_s, ts, sky)
+        norm = math.sqrt(x * x + y * y + z * z)
+        return x / norm, y / norm, z / norm
+
     def mount_at(self, t_s: float | np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         """Mechanical az and mount el at ``t_s`` (linear: the mechanical frame has no wrap;
         el None for an azimuth-only path)."""
@@ -274,7 +379,13 @@ class MountPath:
             az, el = self.mount_at(t_s)
             return pointing_enu(az, np.zeros_like(az) if el is None else el,
                                 self.stop_bearing_deg)
-        v = np.stack([np.interp(t_s, self.t_s, self.sky_enu[:, k]) for k in range(3)],
-                     axis=-1)
+        v = np.stack([np.interp(t_s, self.t_s, col) for col in self._sky_columns], axis=-1)
         return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+    @cached_property
+    def _sky_columns(self) -> tuple[np.ndarray, ...]:
+        """The target's east, north, up columns, contiguous (np.interp copies a strided
+        column on every call)."""
+        assert self.sky_enu is not None
+        return tuple(np.ascontiguousarray(self.sky_enu[:, k]) for k in range(3))
 

@@ -41,8 +41,10 @@ class MountFrame:
 
     # True bearing <-> mechanical ----------------------------------------------------------
 
-    def bearing_of(self, m_deg: ArrayLike) -> Any:
+    def bearing_of(self, m_deg: float | ArrayLike) -> Any:
         """True bearing in [0, 360) of a mechanical azimuth (scalar or array)."""
+        if isinstance(m_deg, float):   # per-cycle calls: no numpy round trip
+            return (m_deg + self.stop_bearing_deg) % 360.0
         return np.mod(np.asarray(m_deg, dtype=float) + self.stop_bearing_deg, 360.0)
 
     def mech_of(self, bearing_deg: ArrayLike) -> Any:

@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import math
+from bisect import bisect_right
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
+from functools import cached_property
 
 import numpy as np
 
@@ -62,8 +66,20 @@ class SkyTrack:
         """East-north-up unit vectors, shape ``(n, 3)``."""
         return azel_to_enu(self.az_deg, self.el_deg)
 
+    @cached_property
+    def _sampled(self) -> tuple[list[float], list[list[float]]]:
+        """``t_s`` and the unit vectors as lists, for :func:`interp1_rows`."""
+        return self.t_s.tolist(), self.unit_vectors().tolist()
+
     def direction_at(self, t_s) -> tuple[np.ndarray, np.ndarray]:
-        """Az/el at arbitrary times, interpolated on the unit sphere (safe across 0/360)."""
+        """Az/el at arbitrary times, interpolated on the unit sphere (safe across 0/360).
+
+        A float time takes a scalar path (floats back): the live loop asks once a cycle."""
+        if isinstance(t_s, float):
+            ts, rows = self._sampled
+            e, n, u = interp1_rows(t_s, ts, rows)
+            return (math.degrees(math.atan2(e, n)) % 360.0,  # type: ignore[return-value]
+                    math.degrees(math.atan2(u, math.hypot(e, n))))
         t_s = np.asarray(t_s, dtype=float)
         v = self.unit_vectors()
         enu = np.stack([np.interp(t_s, self.t_s, v[:, i]) for i in range(3)], axis=-1)
@@ -87,6 +103,53 @@ def azel_to_enu(az_deg, el_deg) -> np.ndarray:
     return np.stack([ce * np.sin(az), ce * np.cos(az), np.sin(el)], axis=-1)
 
 
+def interp1(x: float, xp: Sequence[float], fp: Sequence[float]) -> float:
+    """``np.interp(x, xp, fp)`` for one float on lists, with numpy's arithmetic (bisect,
+    then the same lerp): per-cycle look-ups, where a numpy call costs more than the work."""
+    if x != x or x < xp[0]:
+        return x if x != x else fp[0]
+    j = bisect_right(xp, x) - 1
+    if j >= len(xp) - 1 or xp[j] == x:
+        return fp[j]
+    slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
+    return slope * (x - xp[j]) + fp[j]
+
+
+def interp1_rows(x: float, xp: Sequence[float], rows: Sequence[Sequence[float]]
+                 ) -> list[float]:
+    """:func:`interp1` of every column of ``rows`` (one row per ``xp``), one bisect for all."""
+    if x != x:
+        return [x] * len(rows[0])
+    if x < xp[0]:
+        return list(rows[0])
+    j = bisect_right(xp, x) - 1
+    if j >= len(xp) - 1 or xp[j] == x:
+        return list(rows[j])
+    dx, u = xp[j + 1] - xp[j], x - xp[j]
+    return [(b - a) / dx * u + a for a, b in zip(rows[j], rows[j + 1], strict=True)]
+
+
+def azel_to_enu_scalar(az_deg: float, el_deg: float) -> tuple[float, float, float]:
+    """:func:`azel_to_enu` of one direction, on floats (the live loop's per-cycle checks)."""
+    az = math.radians(az_deg)
+    el = math.radians(el_deg)
+    ce = math.cos(el)
+    return ce * math.sin(az), ce * math.cos(az), math.sin(el)
+
+
+def angle_between_scalar_deg(a: Sequence[float], b: Sequence[float]) -> float:
+    """:func:`angle_between_deg` of two unit vectors given as float triples (numpy's order of
+    operations, so both agree to rounding of the trigonometric functions)."""
+    a0, a1, a2 = a
+    b0, b1, b2 = b
+    c0 = a1 * b2 - a2 * b1
+    c1 = a2 * b0 - a0 * b2
+    c2 = a0 * b1 - a1 * b0
+    cross = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+    dot = a0 * b0 + a1 * b1 + a2 * b2
+    return math.degrees(math.atan2(cross, dot))
+
+
 def enu_to_azel(enu) -> tuple[np.ndarray, np.ndarray]:
     enu = np.asarray(enu, dtype=float)
     e, n, u = enu[..., 0], enu[..., 1], enu[..., 2]
@@ -97,9 +160,20 @@ def enu_to_azel(enu) -> tuple[np.ndarray, np.ndarray]:
 
 def angle_between_deg(a, b) -> np.ndarray:
     """Great-circle angle between unit vectors (last axis 3), robust near 0 and 180."""
-    cross = np.linalg.norm(np.cross(a, b), axis=-1)
-    dot = np.sum(a * b, axis=-1)
-    return np.degrees(np.arctan2(cross, dot))
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    return angle_between_components_deg(a[..., 0], a[..., 1], a[..., 2],
+                                        b[..., 0], b[..., 1], b[..., 2])
+
+
+def angle_between_components_deg(a0, a1, a2, b0, b1, b2) -> np.ndarray:
+    """:func:`angle_between_deg` of vectors given as their east, north, up components
+    (broadcast): no ``(..., 3)`` arrays to build when the components are at hand."""
+    c0 = a1 * b2 - a2 * b1
+    c1 = a2 * b0 - a0 * b2
+    c2 = a0 * b1 - a1 * b0
+    cross = np.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+    return np.degrees(np.arctan2(cross, a0 * b0 + a1 * b1 + a2 * b2))
 
 
 def angular_separation_deg(az1_deg, el1_deg, az2_deg, el2_deg) -> np.ndarray:

@@ -109,6 +109,8 @@ class Station:
 
     def horizon_at(self, az_deg):
         """The elevation below which the target counts as not visible, at bearing(s) az_deg."""
+        if self.mask is None and isinstance(az_deg, float):   # the live loop's guard
+            return float(self.min_el_deg)
         base = np.full(np.shape(az_deg), float(self.min_el_deg))
         if self.mask is None:
             return base if np.ndim(az_deg) else float(base)

@@ -19,6 +19,7 @@ Works with any :class:`~tracker.protocols.base.RotatorDriver` (``position``/``go
 from __future__ import annotations
 
 import math
+from bisect import bisect_left
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from enum import Enum
@@ -45,7 +46,7 @@ from tracker.geometry import (
     raise_to_mask,
 )
 from tracker.mount import MotorModel, RotatorSpec
-from tracker.skytrack import SkyTrack, angle_between_deg
+from tracker.skytrack import SkyTrack, angle_between_deg, interp1_rows
 from tracker.stall import AxisWatch, moving_axis, stall_error
 from tracker.station import Station
 
@@ -172,14 +173,18 @@ class TrackCore:
         # deadband saves no relay clicks - commands in the running direction start nothing -
         # and holding would build an azimuth lag that takes long to catch up. There the loop
         # follows the plan's own led commands, whose error the planner predicted.
+        # Per-cycle look-ups go through lists (bisect, scalar lerp): cheaper than numpy
+        # calls on one-element arrays.
         dt = np.gradient(self.path.t_s)
-        self._az_rate = np.abs(np.gradient(self.path.az_m_deg) / dt)
+        self._path_t = self.path.t_s.tolist()
         path_el = self.path.el_deg if self.path.el_deg is not None else np.zeros_like(dt)
-        self._el_rate = np.abs(np.gradient(path_el) / dt)
-        self._plan_az = np.asarray(plan.cmd_az_deg, dtype=float)
-        self._plan_el = np.asarray(getattr(plan, "cmd_el_deg", np.zeros_like(self._plan_az)),
-                                   dtype=float)
-        self._plan_t = np.asarray(plan.t_s, dtype=float)
+        self._rates = np.stack([np.abs(np.gradient(self.path.az_m_deg) / dt),
+                                np.abs(np.gradient(path_el) / dt)], axis=1).tolist()
+        plan_az = np.asarray(plan.cmd_az_deg, dtype=float)
+        self._plan_az = plan_az.tolist()
+        self._plan_el = np.asarray(getattr(plan, "cmd_el_deg", np.zeros_like(plan_az)),
+                                   dtype=float).tolist()
+        self._plan_t = np.asarray(plan.t_s, dtype=float).tolist()
         self.mode = str(getattr(plan, "mode", "normal"))
         self.aos_s, self.los_s = pass_window(track, station)
         self.track_from_s = max(self.path.start_s,
@@ -447,9 +452,9 @@ class TrackCore:
         # the wait until it starts has to be foreseen: one cycle and the start delay.
         lookahead = s.cycle_s + self.spec.start_delay_s
         if self._fast(t_s, lookahead):
-            i = min(int(np.searchsorted(self._plan_t, t_s)), len(self._plan_t) - 1)
-            el = float(self._plan_el[i]) if self.spec.has_elevation else None
-            cmd = self._safe(float(self._plan_az[i]), el, "track")
+            i = min(bisect_left(self._plan_t, t_s), len(self._plan_t) - 1)
+            el = self._plan_el[i] if self.spec.has_elevation else None
+            cmd = self._safe(self._plan_az[i], el, "track")
             self._hold_until_s = -math.inf
         else:
             # After the whole pre-position (which already leads into the pass) the antenna
@@ -523,13 +528,12 @@ class TrackCore:
         """True where the path runs the az or el motor more than ``follow_fraction`` of
         the time (near the zenith, keyhole sweeps)."""
         f = self.settings.follow_fraction
-        ts = (t_s, t_s + lookahead_s)
-        az = float(np.max(np.interp(ts, self.path.t_s, self._az_rate)))
-        if az > f * self.spec.az_rate_deg_s:
+        az0, el0 = interp1_rows(t_s, self._path_t, self._rates)
+        az1, el1 = interp1_rows(t_s + lookahead_s, self._path_t, self._rates)
+        if max(az0, az1) > f * self.spec.az_rate_deg_s:
             return True
         if self.spec.has_elevation:
-            el = float(np.max(np.interp(ts, self.path.t_s, self._el_rate)))
-            return el > f * self.spec.el_rate_deg_s
+            return max(el0, el1) > f * self.spec.el_rate_deg_s
         return False
 
     def _moves(self, moves, fallback) -> list[tuple[float, float, float | None]]:
