@@ -294,3 +294,29 @@ def test_error_cause_names_the_unwind_the_rate_and_nothing_when_small():
     why = error_cause(track, g400, "normal", track.t_s, big)
     assert why.startswith("max azimuth error 150 deg") and "no elevation axis" in why
     assert "faster than the rotator's" in why
+
+
+def test_a_pass_joined_under_way_is_caught_up_and_then_followed(catalog):
+    """Joined 5 min after AOS with the antenna parked far from the target (the plan is a
+    flip: az 73, el 138): the first command turns azimuth too (moving only the quicker
+    elevation would never end the catch-up), and once there the antenna stays within the
+    deadband."""
+    noaa = resolve_target("NOAA 20", catalog)
+    spec = preset("G-5500")
+    pas = next_pass(noaa, STATION, utc(2026, 8, 22, 12, 50).timestamp())
+    joined_s = pas.aos.timestamp() + 300.0
+    clock = manual_clock(joined_s)
+    rig = virtual_rig(make_controller("gs232b", clock, rotator="G-5500", az_deg=0.0,
+                                      el_deg=0.0))
+    rec = Recorder(clock)
+    try:
+        (res,) = follow_passes(
+            noaa, lambda: open_driver(rig.url, "gs232b", clock=clock, **driver_limits(spec)),
+            spec, STATION, clock, SETTINGS, passes=1, first=pas, events=rec)
+    finally:
+        rig.close()
+    first = rec.of("command", cmd="goto", reason="track")[0][1]
+    assert first["az_m"] > 30.0                           # azimuth turns toward the target
+    caught = [e for t, e in zip(res.error_t_s, res.errors_deg, strict=True)
+              if t >= joined_s + 60.0]                    # 210 deg at 6 deg/s, with margin
+    assert caught and max(caught) <= SETTINGS.deadband_deg + 1.0, max(caught)

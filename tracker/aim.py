@@ -223,8 +223,19 @@ def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t
     # Slack above the best peak only when the deadband cannot be kept anyway (the rotator
     # lags); otherwise a longer hold must not buy a peak outside the deadband.
     best_peak = float(np.min(peak))
+    usable = np.ones(len(c_az), dtype=bool)
+    if best_peak > deadband_deg:
+        # Far off the target (a pass joined under way, the antenna left behind): the errors
+        # while slewing are every candidate's own, and the lowest peak can belong to one
+        # that never reaches the deadband (moving only the quicker axis). Only candidates
+        # that arrive inside the deadband can end the catch-up; choose among them.
+        first_after = np.minimum(np.searchsorted(ts, arrival - 1e-9), len(ts) - 1)
+        acquires = (arrival <= ts[-1]) & (t0_s + hold > ts[first_after] + 1e-9)
+        if acquires.any():
+            usable = acquires
+            best_peak = float(np.min(peak[acquires]))
     level = deadband_deg if best_peak <= deadband_deg else best_peak + peak_slack_deg
-    ok = peak <= level
+    ok = usable & (peak <= level)
     # Hold per motor start (and a little per command): the fewest relay clicks and bytes for
     # the time the error stays bounded.
     value = hold / (starts + COMMAND_COST_STARTS)

@@ -372,3 +372,13 @@ def test_a_state_file_is_held_by_one_run_at_a_time(tmp_path):
             pass
     with state_lock(state):          # released at the end of the first
         pass
+
+
+def test_a_pass_joined_under_way_counts_its_error_from_acquisition(catalog):
+    # the station starts 5 min after NOAA 20's AOS, the antenna parked far from it
+    st = Station_(catalog, mode="stream", start=datetime(2026, 8, 22, 13, 10,
+                                                           tzinfo=timezone.utc))
+    report = st.run_until(datetime(2026, 8, 22, 13, 25, tzinfo=timezone.utc))
+    (o,) = _done(report)
+    assert o.reason.startswith("joined 3") and "acquisition" in o.reason
+    assert o.measured_max_error_deg is not None and o.measured_max_error_deg < 6.0

@@ -565,6 +565,7 @@ class StationService:
                                 settings, events=watch.event, on_status=watch.status,
                                 first=p.pass_)
         self._active = follower
+        joined_s = self.clock.timestamp()
         try:
             results = follower.run(1, should_stop=self._should_stop)
         finally:
@@ -574,8 +575,18 @@ class StationService:
             raise _CutShort()
         res = results[0]
         outcome.commands, outcome.reconnects = res.commands, res.reconnects
-        if res.errors_deg:
-            outcome.measured_max_error_deg = float(res.max_error_deg)
+        errors = list(res.errors_deg)
+        late_s = joined_s - p.pass_.aos.timestamp()
+        if late_s > 0 and errors:
+            # Joined a pass under way (a restart, a late controller): the slew to catch the
+            # target is not the tracking's error; count from the first reading on target.
+            on = self.stream.deadband_deg + 1.0
+            first = next((i for i, e in enumerate(errors) if e <= on), len(errors))
+            errors = errors[first:]
+            outcome.reason = (f"joined {late_s:.0f} s after AOS; error counted from "
+                              f"acquisition" + ("" if errors else " (never acquired)"))
+        if errors:
+            outcome.measured_max_error_deg = float(max(errors))
 
     def _run_table(self, p: PlannedPass, track: Any, watch: _PassWatch,
                    outcome: PassOutcome) -> None:
