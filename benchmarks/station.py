@@ -268,6 +268,19 @@ def _percentile(values: list[float], q: float) -> float:
     return s[min(len(s) - 1, max(0, math.ceil(q * len(s)) - 1))] if s else math.nan
 
 
+def _watched_replan(svc: Any, run: Run) -> Any:
+    """``svc.replan`` that notes a pass the new schedule chose but carried over as skipped
+    (it would never be tracked)."""
+    replan = svc.replan
+
+    def watched(*args: Any, **kw: Any) -> None:
+        replan(*args, **kw)
+        for p in svc.schedule.chosen if svc.schedule else ():
+            if p.state == "skipped" and not p.reason.startswith("missed"):
+                run.carried_skips.add(f"{p.key} ({p.reason})")
+    return watched
+
+
 def _sample_memory(run: Run, clock: Any) -> None:
     gc.collect()
     run.memory.append((clock.timestamp(), rss_mib(), sys.getallocatedblocks(),
@@ -368,15 +381,7 @@ def main(argv: list[str] | None = None) -> int:  # noqa: C901
             station=station, spec=spec, controller=entry, connect=connect, clock=clock,
             schedule=settings, stream=StreamSettings(), board=StatusBoard(clock, simulated=True),
             keeper=keeper, state_path=state_path, pass_log=PassLog(log_path), say=say)
-        replan = svc.replan
-
-        def watched_replan(why: str, svc: Any = svc, replan: Any = replan) -> None:
-            # a pass chosen by the new schedule but carried over as skipped: never tracked
-            replan(why)
-            for p in svc.schedule.chosen if svc.schedule else ():
-                if p.state == "skipped" and not p.reason.startswith("missed"):
-                    run.carried_skips.add(f"{p.key} ({p.reason})")
-        svc.replan = watched_replan            # type: ignore[method-assign]
+        svc.replan = _watched_replan(svc, run)     # type: ignore[method-assign]
         run.instances += 1
         nxt = next(((a, b) for a, b in restarts if a > clock.timestamp()), None)
         clock.crash_s = nxt[0] if nxt else math.inf
@@ -496,8 +501,8 @@ def main(argv: list[str] | None = None) -> int:  # noqa: C901
     print(f"  state across restarts  passes tracked twice: {len(twice)} {twice[:5]}; done "
           f"passes forgotten by a restart: {len(run.forgotten)} {run.forgotten[:5]}")
     log_lines = sum(1 for _ in log_path.open()) if log_path.exists() else 0
-    print(f"  pass log               {log_lines} lines, state file "
-          f"{len(json.loads(state_path.read_text())['passes'])} passes"
+    kept = (len(json.loads(state_path.read_text())["passes"]) if state_path.exists() else 0)
+    print(f"  pass log               {log_lines} lines, state file {kept} passes"
           + (f"; folder {tmp}" if args.keep else ""))
     for e in run.errors:
         print("  TRACEBACK\n" + e)
