@@ -34,19 +34,9 @@ from collections import Counter
 from datetime import datetime, timezone
 from pathlib import Path
 
+from _memory import heap_mib, rss_mib
+
 T0_S = 1787400000.0          # 2026-08-22 UTC, the bundled element epochs
-
-
-def rss_mib() -> float:
-    try:
-        for line in Path("/proc/self/status").read_text().splitlines():
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) / 1024.0
-    except OSError:
-        pass
-    import resource
-
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
 def fault_plan(rng: random.Random, hours: float, per_hour: float) -> list[str]:
@@ -141,7 +131,7 @@ def main(argv: list[str] | None = None) -> int:  # noqa: C901
 
     end_s = T0_S + args.hours * 3600.0
     gc.collect()
-    mem0, heap0 = rss_mib(), tracemalloc.get_traced_memory()[0] / 2**20
+    mem0, heap0 = rss_mib(), heap_mib()
     real0 = time.monotonic()
     mem_warm, heap_warm = mem0, heap0
     stats: Counter[str] = Counter()
@@ -214,7 +204,7 @@ def main(argv: list[str] | None = None) -> int:  # noqa: C901
         if stats["passes"] == 1:     # imports and caches are warm now: the growth baseline
             gc.collect()
             mem_warm = rss_mib()
-            heap_warm = tracemalloc.get_traced_memory()[0] / 2**20
+            heap_warm = heap_mib()
         if stats["passes"] % 10 == 0:
             hrs = (clock.timestamp() - T0_S) / 3600.0
             print(f"  {hrs:5.1f} h: {stats['passes']} passes, "
@@ -224,7 +214,7 @@ def main(argv: list[str] | None = None) -> int:  # noqa: C901
     if server.errors:
         errors["EMULATOR " + server.errors[0][:60]] += len(server.errors)
     gc.collect()
-    mem1, heap1 = rss_mib(), tracemalloc.get_traced_memory()[0] / 2**20
+    mem1, heap1 = rss_mib(), heap_mib()
     sim_h = (clock.timestamp() - T0_S) / 3600.0
     injected = {k: v for k, v in sorted(inj.stats.items())}
     print("\nsoak results")

@@ -382,3 +382,27 @@ def test_a_pass_joined_under_way_counts_its_error_from_acquisition(catalog):
     (o,) = _done(report)
     assert o.reason.startswith("joined 3") and "acquisition" in o.reason
     assert o.measured_max_error_deg is not None and o.measured_max_error_deg < 6.0
+
+
+def test_a_pass_skipped_for_a_rival_and_chosen_later_is_tracked(catalog, tmp_path):
+    # FENGYUN 3D (12:59-13:13, priority 5) wins the overlap with NOAA 20 (13:04-13:19): NOAA
+    # 20 is left out ("overlaps FENGYUN 3D"). A reload drops the rival before either pass, so
+    # the next schedule chooses NOAA 20: it is tracked, not kept as the earlier skip.
+    state = tmp_path / "state.json"
+    st = Station_(catalog, mode="stream", targets={"NOAA 20": 1, "FENGYUN 3D": 5},
+                  start=datetime(2026, 8, 22, 12, 30, tzinfo=timezone.utc), state_path=state)
+    alone = ScheduleSettings(targets={"NOAA 20": 1}, mode="stream", horizon_h=6.0)
+    key = "43013-20260822T130450Z"
+    first: list[str] = []
+
+    def reload() -> None:
+        first.extend(e["reason"] for e in st.board.schedule() if e["key"] == key)
+        st.service.settings = alone
+
+    st.hooks.append(lambda text: st.service.request_reload(reload)
+                    if "schedule (start)" in text else None)
+    report = st.run_until(datetime(2026, 8, 22, 13, 25, tzinfo=timezone.utc))
+    assert first and first[0].startswith("overlaps FENGYUN 3D")
+    assert [(o.outcome, o.chosen) for o in report.outcomes if o.key == key] == [("done", True)]
+    assert StationState.load(state)[0].passes[key]["state"] == "done"
+    assert [e["state"] for e in st.board.schedule() if e["key"] == key] == ["done"]
