@@ -49,3 +49,13 @@ def emulate():
     for p in made:
         if p.returncode is None:
             p.stop()
+
+
+@pytest.fixture
+def celestrak():
+    """A fake CelesTrak on 127.0.0.1 serving the bundled groups (``tests/_celestrak.py``)."""
+    from _celestrak import FakeCelestrak
+
+    fake = FakeCelestrak()
+    yield fake
+    fake.close()

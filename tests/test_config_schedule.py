@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from test_config import write
 
 from tracker.config import ScheduleSettings, load_config, parse_config, template_text
 from tracker.errors import ConfigError
@@ -15,12 +16,6 @@ if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover
     import tomli as tomllib
-
-
-def write(tmp_path, text: str):
-    p = tmp_path / "config.toml"
-    p.write_text(text)
-    return p
 
 
 def test_table_form_and_every_key(tmp_path):

@@ -6,20 +6,13 @@ from __future__ import annotations
 from datetime import datetime, timezone
 
 import pytest
-from _celestrak import TLE_DATA, FakeCelestrak
+from _celestrak import TLE_DATA
 
 from tle.store import TleStore
 from tracker.clock import ManualClock
 from tracker.service.elements import ElementKeeper
 
 T0 = datetime(2026, 8, 23, 12, tzinfo=timezone.utc)
-
-
-@pytest.fixture
-def celestrak():
-    fake = FakeCelestrak()
-    yield fake
-    fake.close()
 
 
 @pytest.fixture

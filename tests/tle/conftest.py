@@ -6,15 +6,6 @@ import pytest
 
 
 @pytest.fixture
-def celestrak():
-    from _celestrak import FakeCelestrak
-
-    fake = FakeCelestrak()
-    yield fake
-    fake.close()
-
-
-@pytest.fixture
 def cache(tmp_path, monkeypatch):
     """An empty element cache for the CLI (``$TRACKER_CACHE_DIR``), default download URL."""
     monkeypatch.setenv("TRACKER_CACHE_DIR", str(tmp_path))
