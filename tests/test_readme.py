@@ -7,9 +7,9 @@ tested without anyone adding it:
 * ``tracker ...`` runs in-process in a fresh folder, with an empty element cache (the bundled
   snapshot) and no config file. A subcommand that takes ``--at`` gets :data:`AT` unless the
   line gives one, so every run is reproducible. The live demos are replayed on virtual time:
-  ``tracker track`` without ``--port`` gets ``--speed max`` and the ``tracker upload``
-  simulation ``--speed 1000`` (the README's demo takes a minute of real time; the commands,
-  the pass and the output are the same). A simulated station day (``tracker station run
+  ``tracker track`` without ``--port`` and the ``tracker upload`` simulation get ``--speed
+  max`` (the README's demo takes a minute of real time; the commands, the pass and the
+  output are the same). A simulated station day (``tracker station run
   --simulate``) runs on virtual time too (``--speed max``), from :data:`AT` for at most
   :data:`STATION_HOURS` of its hours, its status page (if any) on a free port.
 * Ports: ``emu://`` runs as written. ``/dev/pts/N`` (the README's "the pty that ``tracker
@@ -266,7 +266,7 @@ def _tracker_argv(argv: list[str]) -> list[str]:
     if command == "track" and demo and "--speed" not in argv:
         argv = [*argv, "--speed", "max"]
     if command == "upload" and demo and "--speed" not in argv:
-        argv = [*argv, "--speed", "1000"]
+        argv = [*argv, "--speed", "max"]
     if argv[1:3] == ["station", "run"] and "--simulate" in argv:
         hours = min(float(_value(argv, "--hours") or 24.0), STATION_HOURS)
         argv = _with_value(argv, "--speed", "max")

@@ -66,7 +66,7 @@ CASES = [
     c("upload-max-error-inf", "upload", "ISS", "--tle", SATS, *HERE, "--dry-run",
       "--max-error", "inf", says="--max-error inf is invalid"),
     c("upload-speed-inf", "upload", "ISS", "--tle", SATS, *HERE, "--at",
-      "2026-08-23T02:00:00Z", "--speed", "inf", says="--speed inf is invalid"),
+      "2026-08-23T02:00:00Z", "--speed", "inf", says="--speed: inf is invalid"),
     c("sync-fraction", "rotator", "--port", "emu://gs232b-azaz", "--protocol", "gs232b-azaz",
       "sync", "1.5", says="whole degrees"),
     # -- an empty value is a script that lost a variable (--bind '' would mean every interface)

@@ -332,3 +332,18 @@ def target_from_args(name: str, args: argparse.Namespace) -> Target:
     from tracker.targets import resolve_target
 
     return resolve_target(name, lambda: catalog_from_args(args))
+
+
+def speed_arg(text: str) -> float:
+    """``--speed``: a simulation's factor, or ``max`` for virtual time (``math.inf``)."""
+    import math
+
+    if str(text).strip().lower() == "max":
+        return math.inf
+    try:
+        speed = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number or 'max'") from None
+    if not math.isfinite(speed):     # 'inf' is not 'max': a typo must not mean virtual time
+        raise argparse.ArgumentTypeError(f"{text} is invalid; give a number or max")
+    return speed

@@ -30,6 +30,7 @@ from tracker.commands._common import (
     parse_utc,
     protocol_help,
     rotator_from_args,
+    speed_arg,
     station_from_args,
 )
 from tracker.errors import ConfigError
@@ -59,7 +60,7 @@ def register(sub) -> None:
     r.add_argument("--hours", type=float, metavar="H",
                    help="run this many (simulated) hours, then report (default: until "
                         "stopped; 24 with --simulate)")
-    r.add_argument("--speed", type=_speed_arg, metavar="F",
+    r.add_argument("--speed", type=speed_arg, metavar="F",
                    help="with --simulate: simulated seconds per real second (default 600), "
                         "or 'max' for no waiting at all")
     r.add_argument("--at", metavar="UTC",
@@ -98,25 +99,15 @@ def register(sub) -> None:
     r.set_defaults(func=run)
 
 
-def _speed_arg(text: str) -> float:
-    if str(text).strip().lower() == "max":
-        return math.inf
-    try:
-        speed = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number or 'max'") from None
-    low, high = SPEED_RANGE
-    if not (math.isfinite(speed) and low <= speed <= high):
-        raise argparse.ArgumentTypeError(f"{text} is invalid; use a number from {low:g} to "
-                                         f"{high:g}, or max")
-    return speed
-
-
 def _check_args(args: argparse.Namespace) -> None:
     check_baud_arg(args)
     if args.hours is not None and not (0 < args.hours <= MAX_HOURS):
         raise ConfigError(f"--hours {args.hours:g} is invalid; give more than 0 and at most "
                           f"{MAX_HOURS}")
+    low, high = SPEED_RANGE
+    if args.speed is not None and args.speed != math.inf and not (low <= args.speed <= high):
+        raise ConfigError(f"--speed {args.speed:g} is invalid; use a number from {low:g} to "
+                          f"{high:g}, or max")
     if not args.simulate:
         for flag, value in (("--speed", args.speed), ("--at", args.at)):
             if value is not None:

@@ -37,6 +37,7 @@ from tracker.commands._common import (
     config_from_args,
     parse_utc,
     protocol_help,
+    speed_arg,
     station_from_args,
     target_from_args,
     warn_element_age,
@@ -82,7 +83,7 @@ def register(sub) -> None:
     p.add_argument("--passes", type=int, default=1, metavar="N",
                    help="passes to track in a row, re-planning from the real antenna "
                         "position between them; 0 = until Ctrl-C (default 1)")
-    p.add_argument("--speed", type=_speed_arg, metavar="F",
+    p.add_argument("--speed", type=speed_arg, metavar="F",
                    help="simulation speed factor (emulator demo, or with --at); default so "
                         "a pass shows in about a minute; 'max': no waiting at all (virtual "
                         "time, emulators only; the default with --port emu://... and --at)")
@@ -410,13 +411,3 @@ def _two_antennas(r: _Run, url: str, clock: Clock, timer, log, _banner: str, _tt
         shared.close()
     return (followers, out, partial(shared.session_stop, out.event),
             partial(follow_together, followers, shared, r.args.passes, out.event), close)
-
-
-def _speed_arg(text: str) -> float:
-    """``--speed``: a factor, or ``max`` for virtual time."""
-    if str(text).strip().lower() == "max":
-        return math.inf
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number or 'max'") from None

@@ -21,6 +21,7 @@ from tracker.commands._common import (
     check_number_arg,
     clock_from_args,
     rotator_from_args,
+    speed_arg,
     station_from_args,
     target_from_args,
 )
@@ -68,8 +69,9 @@ def register(sub) -> None:
                    help="send a plan file from `tracker plan --steptable FILE`")
     p.add_argument("--now", action="store_true",
                    help="with --from: the T time has passed; resume from the current point")
-    p.add_argument("--speed", type=float, default=DEMO_SPEED,
-                   help=f"simulation speed without --port (default {DEMO_SPEED:g}x)")
+    p.add_argument("--speed", type=speed_arg, default=DEMO_SPEED,
+                   help=f"simulation speed without --port (default {DEMO_SPEED:g}x); 'max': "
+                        f"virtual time, no waiting (the emulator runs in-process)")
     add_station_args(p)
     add_target_args(p)
     add_time_args(p)
@@ -303,23 +305,34 @@ def _send(args, tables, clock, simulate: bool, spec: RotatorSpec, driver=None, *
 
     server = None
     if simulate:
-        from tracker.emulator import Gs232Controller, serve_pty
+        from tracker.emulator import Gs232Controller
 
-        if not (math.isfinite(args.speed) and 0 < args.speed <= 10_000):
+        virtual = args.speed == math.inf
+        if not virtual and not (math.isfinite(args.speed) and 0 < args.speed <= 10_000):
             raise ConfigError(f"--speed {args.speed:g} is invalid; use a number above 0 and "
-                              f"at most 10000")
-        start = tables[0].upload_t_s - 1.0
-        clock = SimClock(datetime.fromtimestamp(start, timezone.utc), speed=args.speed)
-        ctrl = Gs232Controller(args.protocol, spec, clock=clock)
-        server = serve_pty(ctrl)
+                              f"at most 10000, or max")
+        start = datetime.fromtimestamp(tables[0].upload_t_s - 1.0, timezone.utc)
+        if virtual:
+            from tracker.clock import LockstepClock
+            from tracker.emulator.virtual import Bench
+
+            # Virtual time: the emulator in-process on the runner's clock, every wait a jump.
+            clock = LockstepClock(start)
+            server = Bench(Gs232Controller(args.protocol, spec, clock=clock))
+            where, pace = "in-process", "virtual time (no waiting)"
+        else:
+            from tracker.emulator import serve_pty
+
+            clock = SimClock(start, speed=args.speed)
+            server = serve_pty(Gs232Controller(args.protocol, spec, clock=clock))
+            where, pace = f"on {server.url}", f"a simulated clock at {args.speed:g}x"
         print(f"SIMULATION: no --port given, so this runs against the built-in "
-              f"{args.protocol} emulator on {server.url} with a simulated clock at "
-              f"{args.speed:g}x, starting just before the upload time. Nothing real moves.",
-              flush=True)
+              f"{args.protocol} emulator {where} with {pace}, starting just before the "
+              f"upload time. Nothing real moves.", flush=True)
         if note:
             print(note, flush=True)
         url = server.url
-        # Read deadlines and pacing run on the port's time (real, on this pty), whatever
+        # Read deadlines and pacing run on the port's time (real, on a pty), whatever
         # the simulated clock's speed.
         timing = dict(clock=clock)
     else:
