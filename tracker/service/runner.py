@@ -65,6 +65,9 @@ CLOCK_JUMP_S = 120.0
 LEAD_S = 120.0
 # Passes this long over are no longer kept from one schedule to the next.
 KEEP_S = 6 * 3600.0
+# A read-back that has not moved for this long: the motors have stopped (a motor start is
+# movement after it).
+STILL_S = 3.0
 # A park must end this long before the next pass is handed to the loop.
 PARK_MARGIN_S = 60.0
 # Interval of the sky path the status page draws for the current pass.
@@ -216,27 +219,32 @@ class _PassWatch:
         self.starts = 0
         self.travel_deg = 0.0
         self._last: tuple[float, float] | None = None
+        self._moved_t_s = 0.0
         self._moving = False
         self._detail_state = "uploading"
 
-    def _seen(self, az_m_deg: float, el_deg: float | None) -> None:
-        """A read-back (mechanical azimuth): a motor start when it moves after standing."""
+    def _seen(self, t_s: float, az_m_deg: float, el_deg: float | None) -> None:
+        """A read-back (mechanical azimuth). Travel is counted between readings more than
+        the read-back's rounding apart (a slow axis moves less than that per reading); a
+        motor start is movement after :data:`STILL_S` without any."""
         now = (float(az_m_deg), float(el_deg or 0.0))
-        if self._last is not None:
-            step = abs(now[0] - self._last[0]) + abs(now[1] - self._last[1])
-            moving = step > 1.5 * self.spec.resolution_deg
-            if moving:
-                self.travel_deg += step
-                if not self._moving:
-                    self.starts += 1
-            self._moving = moving
-        self._last = now
+        if self._last is None:
+            self._last, self._moved_t_s = now, t_s
+            return
+        step = abs(now[0] - self._last[0]) + abs(now[1] - self._last[1])
+        if step > 1.5 * self.spec.resolution_deg:
+            self.travel_deg += step
+            if not self._moving:
+                self.starts += 1
+            self._moving, self._last, self._moved_t_s = True, now, t_s
+        elif t_s - self._moved_t_s > STILL_S:
+            self._moving = False
 
     def status(self, st: Status) -> None:
         """The live loop's cycle."""
         self.feed.status(st)
         if st.antenna_az_m_deg is not None:
-            self._seen(st.antenna_az_m_deg, st.antenna_el_deg)
+            self._seen(st.t_s, st.antenna_az_m_deg, st.antenna_el_deg)
 
     def reading(self, t_s: float, wire_az_deg: float, el_deg: float | None,
                 error_deg: float | None) -> None:
@@ -247,7 +255,7 @@ class _PassWatch:
         self.feed.position(float(frame.bearing_of(az_m)), el_deg, float(taz), float(tel),
                            error_deg)
         self._detail_state = "tracking"
-        self._seen(az_m, el_deg)
+        self._seen(t_s, az_m, el_deg)
 
     def progress(self, text: str) -> None:
         self.board.set_state(self._detail_state, f"{self.target}: {text}")
