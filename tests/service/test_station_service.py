@@ -406,3 +406,14 @@ def test_a_pass_skipped_for_a_rival_and_chosen_later_is_tracked(catalog, tmp_pat
     assert [(o.outcome, o.chosen) for o in report.outcomes if o.key == key] == [("done", True)]
     assert StationState.load(state)[0].passes[key]["state"] == "done"
     assert [e["state"] for e in st.board.schedule() if e["key"] == key] == ["done"]
+
+
+def test_a_table_pass_joined_under_way_resumes_from_the_point_due(catalog):
+    # the station starts 5 min after NOAA 20's AOS: the table steps from the point due then
+    st = Station_(catalog, mode="table", start=datetime(2026, 8, 22, 13, 10,
+                                                          tzinfo=timezone.utc))
+    report = st.run_until(datetime(2026, 8, 22, 13, 25, tzinfo=timezone.utc))
+    (o,) = _done(report)
+    assert o.reason.startswith("joined 3") and "acquisition" in o.reason
+    assert o.measured_max_error_deg is not None and o.measured_max_error_deg < 2.0
+    assert not st.said("resync")          # started on the point due, not caught up later

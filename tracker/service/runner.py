@@ -583,11 +583,15 @@ class StationService:
             raise _CutShort()
         res = results[0]
         outcome.commands, outcome.reconnects = res.commands, res.reconnects
-        errors = list(res.errors_deg)
+        self._measured(p, outcome, list(res.errors_deg), joined_s)
+
+    def _measured(self, p: PlannedPass, outcome: PassOutcome, errors: list[float],
+                  joined_s: float) -> None:
+        """The pass's measured max error. Joined under way (a restart, a controller back
+        late), the slew to catch the target is not the tracking's error: it is counted from
+        the first reading on target, and the reason says so."""
         late_s = joined_s - p.pass_.aos.timestamp()
         if late_s > 0 and errors:
-            # Joined a pass under way (a restart, a late controller): the slew to catch the
-            # target is not the tracking's error; count from the first reading on target.
             on = self.stream.deadband_deg + 1.0
             first = next((i for i, e in enumerate(errors) if e <= on), len(errors))
             errors = errors[first:]
@@ -601,7 +605,7 @@ class StationService:
         from tracker.planner import park_position
         from tracker.session import EffectiveLimits
         from tracker.steptable import compile_pass
-        from tracker.upload import TableRunner
+        from tracker.upload import TableRunner, resume_schedule
 
         driver = self._active = self.connect()
         try:
@@ -614,12 +618,16 @@ class StationService:
             program = compile_pass(track, spec, self.station, self.controller.step_tables,
                                    current=current, interval_s=self.table_interval_s)
             self.board.set_state("uploading", f"step table for {p.target.name}")
+            joined_s = self.clock.timestamp()
+            # A pass under way resumes from the point due when the upload lands (stepping
+            # from its first point would run the whole pass late).
+            tables = resume_schedule(list(program.tables), joined_s)
             runner = TableRunner(driver, self.clock, spec=spec, sky=track,
                                  log=lambda m: watch.event("info", text=m),
                                  progress=watch.progress, on_reading=watch.reading)
-            report = runner.run(program.tables)
-            outcome.commands = sum(len(t) for t in program.tables) + len(program.tables)
-            outcome.measured_max_error_deg = report.max_error_deg
+            report = runner.run(tables)
+            outcome.commands = sum(len(t) for t in tables) + len(tables)
+            self._measured(p, outcome, list(report.errors_deg), joined_s)
             if self._park_after(p):
                 park_m, park_el = park_position(spec, self.station)
                 park = (float(spec.frame.wire_of(park_m)),
