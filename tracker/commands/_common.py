@@ -27,6 +27,7 @@ if TYPE_CHECKING:  # pragma: no cover - typing only
     from tracker.config import Config
     from tracker.mount import RotatorSpec
     from tracker.station import Station
+    from tracker.stream import StreamSettings
     from tracker.targets import Target
 
 
@@ -347,3 +348,22 @@ def speed_arg(text: str) -> float:
     if not math.isfinite(speed):     # 'inf' is not 'max': a typo must not mean virtual time
         raise argparse.ArgumentTypeError(f"{text} is invalid; give a number or max")
     return speed
+
+
+def stream_settings(config: Config, spec: RotatorSpec, *, deadband_deg: float | None = None,
+                    cycle_s: float | None = None, park: bool | None = None) -> StreamSettings:
+    """The live loop's settings: the flags (``--deadband``, ``--cycle``, ``--park/--stay``)
+    where given, else the config's ``[tracking]``, else the rotator's deadband and 0.5 s."""
+    from tracker.stream import StreamSettings
+
+    tr = config.tracking
+    deadband = deadband_deg if deadband_deg is not None else tr.get(
+        "deadband_deg", spec.deadband_deg)
+    if not (0.0 <= deadband <= 30.0):
+        raise ConfigError(f"--deadband {deadband} is invalid; allowed: 0 to 30 degrees")
+    cycle = cycle_s if cycle_s is not None else tr.get("update_interval_s", 0.5)
+    if not (0.05 <= cycle <= 60.0):
+        raise ConfigError(f"--cycle {cycle} is invalid; allowed: 0.05 to 60 seconds")
+    park = park if park is not None else tr.get("park_after_pass", True)
+    return StreamSettings(deadband_deg=float(deadband), cycle_s=float(cycle),
+                          park_after_pass=bool(park))

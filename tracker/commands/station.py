@@ -32,6 +32,7 @@ from tracker.commands._common import (
     rotator_from_args,
     speed_arg,
     station_from_args,
+    stream_settings,
 )
 from tracker.errors import ConfigError
 
@@ -213,7 +214,7 @@ def run(args: argparse.Namespace) -> int:
     settings = _schedule_settings(args, config)
     entry, port, spec = _controller(args, config)
     station = station_from_args(args)
-    stream = _stream_settings(config, spec)
+    stream = stream_settings(config, spec)
     state_path, log_path = _state_paths(args)
     if args.plot:
         from tracker.plot import check_plot_path
@@ -313,7 +314,7 @@ def _serve(args: argparse.Namespace, service: Any, until_s: float | None,
         args._config = None
         fresh = config_from_args(args)
         service.settings = _schedule_settings(args, fresh)
-        service.stream = _stream_settings(fresh, service.spec)
+        service.stream = stream_settings(fresh, service.spec)
 
     def on_hup(_signum: int, _frame: object) -> None:
         service.request_reload(reload)
@@ -337,14 +338,6 @@ def _serve(args: argparse.Namespace, service: Any, until_s: float | None,
     finally:
         if hup is not None:
             signal.signal(hup, old_hup)
-
-
-def _stream_settings(config: Any, spec: Any) -> Any:
-    from tracker.stream import StreamSettings
-
-    tr = config.tracking
-    return StreamSettings(deadband_deg=float(tr.get("deadband_deg", spec.deadband_deg)),
-                          cycle_s=float(tr.get("update_interval_s", 0.5)))
 
 
 def _element_keeper(settings: Any, clock: Any) -> Any:

@@ -39,6 +39,7 @@ from tracker.commands._common import (
     protocol_help,
     speed_arg,
     station_from_args,
+    stream_settings,
     target_from_args,
     warn_element_age,
 )
@@ -125,22 +126,6 @@ def _first_pass(target, station, start: datetime):
         raise TargetError(f"{e} (check the station position, --min-el and the mask)") from e
 
 
-def _settings(args, config, spec) -> StreamSettings:
-    from tracker.stream import StreamSettings
-
-    tr = config.tracking
-    deadband = args.deadband if args.deadband is not None else tr.get(
-        "deadband_deg", spec.deadband_deg)
-    if not (0.0 <= deadband <= 30.0):
-        raise ConfigError(f"--deadband {deadband} is invalid; allowed: 0 to 30 degrees")
-    cycle = args.cycle if args.cycle is not None else tr.get("update_interval_s", 0.5)
-    if not (0.05 <= cycle <= 60.0):
-        raise ConfigError(f"--cycle {cycle} is invalid; allowed: 0.05 to 60 seconds")
-    park = args.park if args.park is not None else tr.get("park_after_pass", True)
-    return StreamSettings(deadband_deg=float(deadband), cycle_s=float(cycle),
-                          park_after_pass=bool(park))
-
-
 @dataclass
 class _Run:
     """What the flags name: the controller, the antennas' targets and rotators, and where the
@@ -223,7 +208,8 @@ def _resolve(args) -> _Run:
                               f"rotator {s.name} has elevation; pass "
                               f"{('--rotator', '--rotator2')[i]} with an azimuth-only one "
                               f"(e.g. G-400, or a [rotator.NAME] without el_max_deg)")
-    settings = [_settings(args, config, s) for s in specs]
+    settings = [stream_settings(config, s, deadband_deg=args.deadband, cycle_s=args.cycle,
+                                park=args.park) for s in specs]
     starts = [_start_time(args, t, demo) for t in targets]
     start = min(s for s, _note in starts)
     warn_element_age(targets, start)  # the demo moved to a stale epoch says so in its note
