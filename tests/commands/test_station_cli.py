@@ -9,10 +9,12 @@ reloading the config of a running simulation; and bad input (one line, exit 2).
 from __future__ import annotations
 
 import json
+import os
 import re
 import signal
 import subprocess
 import sys
+import threading
 import urllib.request
 
 import pytest
@@ -139,6 +141,10 @@ def test_a_state_path_that_is_a_folder_is_refused(isolated_home, capsys):
     assert "is not a regular file" in capsys.readouterr().err
 
 
+# Generous: a loaded machine is slow, never wrong.
+LINE_WAIT_S = 180.0
+
+
 class _StationProcess:
     """``tracker station run ARGS`` as a real process; :meth:`wait_for` reads its lines."""
 
@@ -149,15 +155,22 @@ class _StationProcess:
         self.lines: list[str] = []
 
     def wait_for(self, part: str) -> str:
-        """Read lines until one holds ``part`` (the process's own pace; EOF fails)."""
-        while True:
-            line = self.proc.stdout.readline()
-            if not line:
-                raise AssertionError(f"no line with {part!r}; got {self.lines[-20:]} "
-                                     f"{self.proc.stderr.read()[-2000:]}")
-            self.lines.append(line)
-            if part in line:
-                return line
+        """Read lines until one holds ``part`` (the process's own pace; EOF fails). A process
+        that says nothing of the kind for :data:`LINE_WAIT_S` is killed: a failure, never a
+        hang."""
+        watchdog = threading.Timer(LINE_WAIT_S, self.proc.kill)
+        watchdog.start()
+        try:
+            while True:
+                line = self.proc.stdout.readline()
+                if not line:
+                    raise AssertionError(f"no line with {part!r}; got {self.lines[-20:]} "
+                                         f"{self.proc.stderr.read()[-2000:]}")
+                self.lines.append(line)
+                if part in line:
+                    return line
+        finally:
+            watchdog.cancel()
 
     def stop(self, sig: int = signal.SIGTERM) -> tuple[int, str, str]:
         if self.proc.poll() is None:
@@ -176,7 +189,7 @@ def test_a_station_hands_the_rotator_to_rotctl_shows_its_page_and_stops_on_sigte
     pytest.importorskip("flask")
     rig = EmulatedRig("gs232b", "tcp")
     status_port, control_port = free_port(), free_port()
-    env = {**__import__("os").environ, "TRACKER_CELESTRAK_URL": "http://127.0.0.1:9/"}
+    env = {**os.environ, "TRACKER_CELESTRAK_URL": "http://127.0.0.1:9/"}
     # on the real clock a pass may be due any time: one that never comes keeps it idle
     config = _config(isolated_home, extra="min_max_el_deg = 89.9\n")
     station = _StationProcess(
