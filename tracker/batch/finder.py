@@ -34,6 +34,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from datetime import datetime, timedelta, timezone
+from functools import cached_property
 
 import numpy as np
 from sgp4.api import SGP4_ERRORS, SatrecArray, jday
@@ -112,6 +113,7 @@ class _Job:
     tol_s: float
     stats: dict
     errors: dict  # sat -> (tau_s, code)
+    memory_mb: float = 256.0
     _theta0: float | None = None
     _theta_rate: float = 0.0
 
@@ -141,13 +143,22 @@ class _Job:
             mask = self.stations[st].mask
             base = float(self.frames.min_el_deg[st])
             return base if mask is None else np.maximum(base, mask.min_el_at(az_deg))
-        thr = self.frames.min_el_deg[st].copy()
-        for k, station in enumerate(self.stations):
-            if station.mask is not None:
-                m = st == k
-                if m.any():
-                    thr[m] = np.maximum(thr[m], station.mask.min_el_at(az_deg[m]))
+        thr = self.frames.min_el_deg[st]
+        for k in self.masked:
+            m = st == k
+            if m.any():
+                thr[m] = np.maximum(thr[m], self.stations[k].mask.min_el_at(az_deg[m]))
         return thr
+
+    @cached_property
+    def masked(self) -> list[int]:
+        """The stations with a horizon mask."""
+        return [k for k, s in enumerate(self.stations) if s.mask is not None]
+
+    @cached_property
+    def sin_min_el(self) -> np.ndarray:
+        """sin(min elevation) per station (the AOS/LOS target without a mask)."""
+        return np.array([math.sin(math.radians(x)) for x in self.frames.min_el_deg.tolist()])
 
 
 def _sgp4_pairs(job: _Job, sat: np.ndarray, tau: np.ndarray, kind: str = "sgp4_refine"):
@@ -260,9 +271,13 @@ class _Topo:
     def el_deg(self):
         return np.degrees(np.arcsin(np.clip(self.s, -1.0, 1.0)))
 
-    def az_deg(self, job: _Job, st: int):
+    def take(self, i) -> _Topo:
+        return _Topo(self.s[i], self.s1[i], None if self.s2 is None else self.s2[i],
+                     tuple(x[i] for x in self.d), self.c[i], self.sn[i])
+
+    def az_deg(self, job: _Job, st):
         c, sn = self.c, self.sn
-        e, n = job.frames.east[st], job.frames.north[st]
+        e, n = job.frames.east[st].T, job.frames.north[st].T
         dx, dy, dz = self.d
         # The station's east/north axes rotated into TEME.
         de = dx * (c * e[0] - sn * e[1]) + dy * (sn * e[0] + c * e[1])
@@ -270,14 +285,15 @@ class _Topo:
         return np.degrees(np.arctan2(de, dn)) % 360.0
 
 
-def _topo(job: _Job, st: int, tau, r, v, a=None) -> _Topo:
-    """sin(el), d/dt and (given the acceleration ``a``) d2/dt2 of station ``st`` at TEME
-    states; the station turns with the Earth in TEME. sin(el) is smooth everywhere (even
-    through the zenith), so its derivative's root is the culmination and needs no arcsin."""
+def _topo(job: _Job, st, tau, r, v, a=None) -> _Topo:
+    """sin(el), d/dt and (given the acceleration ``a``) d2/dt2 of stations ``st`` (one per
+    state) at TEME states; the station turns with the Earth in TEME. sin(el) is smooth
+    everywhere (even through the zenith), so its derivative's root is the culmination and
+    needs no arcsin."""
     theta = job.theta(tau)
     c, sn = np.cos(theta), np.sin(theta)
     w = geo.EARTH_ROTATION_RAD_S
-    o, u = job.frames.ecef_km[st], job.frames.up[st]
+    o, u = job.frames.ecef_km[st].T, job.frames.up[st].T
     ox, oy = c * o[0] - sn * o[1], sn * o[0] + c * o[1]
     ux, uy, uz = c * u[0] - sn * u[1], sn * u[0] + c * u[1], u[2]
     dx, dy, dz = r[:, 0] - ox, r[:, 1] - oy, r[:, 2] - o[2]
@@ -299,22 +315,26 @@ def _topo(job: _Job, st: int, tau, r, v, a=None) -> _Topo:
     return _Topo(s, s1, s2, (dx, dy, dz), c, sn)
 
 
-def _newton_step(job: _Job, st: int, t: _Topo, tca: bool):
-    """(g, Newton step to g's root) at points ``t``, where g is d sin(el)/dt for a
-    culmination and, for AOS/LOS, sin(el) - sin(horizon) (second-order step: sin(el) is
-    curved on the scale of a grazing pass) or, with a horizon mask, el - mask(az) in deg."""
+def _newton_step(job: _Job, st, t: _Topo, tca: bool):
+    """(g, Newton step to g's root) at points ``t`` (of stations ``st``), where g is
+    d sin(el)/dt for a culmination and, for AOS/LOS, sin(el) - sin(horizon) (second-order
+    step: sin(el) is curved on the scale of a grazing pass) or, with a horizon mask,
+    el - mask(az) in deg."""
     with np.errstate(divide="ignore", invalid="ignore"):
         if tca:
             return t.s1, t.s1 / t.s2
-        mask = job.stations[st].mask
-        if mask is None:
-            g = t.s - math.sin(math.radians(job.frames.min_el_deg[st]))
-            step = g / t.s1
-            return g, step + 0.5 * t.s2 * step * step / t.s1
-        el = t.el_deg()
-        rate = np.degrees(t.s1 / np.sqrt(np.maximum(1.0 - t.s * t.s, 1e-12)))
-        g = el - job.threshold(st, t.az_deg(job, st))
-        return g, g / rate
+        g = t.s - job.sin_min_el[st]
+        step = g / t.s1
+        step = step + 0.5 * t.s2 * step * step / t.s1
+        masked = job.masked
+        if masked:
+            i = np.flatnonzero(np.isin(st, masked))
+            tm, sm = t.take(i), st[i]
+            el = tm.el_deg()
+            rate = np.degrees(tm.s1 / np.sqrt(np.maximum(1.0 - tm.s * tm.s, 1e-12)))
+            g[i] = el - job.threshold(sm, tm.az_deg(job, sm))
+            step[i] = g[i] / rate
+        return g, step
 
 
 def _bracketed(x, step, g, lo, hi, lo_neg):
@@ -349,8 +369,9 @@ def _solve(evaluate, lo, hi, lo_neg, guess, tol_s: float, max_it: int = 60):
     return tau
 
 
-def _refine(job: _Job, st: int, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
-    """AOS/LOS (``tca`` False) or culminations in brackets [lo, hi]: (tau, el, az, r_teme).
+def _refine(job: _Job, st, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
+    """AOS/LOS (``tca`` False) or culminations in brackets [lo, hi] of satellites ``sat``
+    seen from stations ``st``: (tau, el, az, r_teme).
 
     1. Newton steps on the cubic interpolant ``cubic`` (no SGP4; second order for AOS/LOS)
        until one is below ``SOLVE_TOL_S``; the point after it is then usually within a
@@ -375,10 +396,10 @@ def _refine(job: _Job, st: int, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
     def model(k, tau):
         r, v, a = cubic(k, tau)
         r = r + dr[k] + dv[k] * (tau - x_ref[k])[:, None]
-        return _topo(job, st, tau, r, v + dv[k], a), r
+        return _topo(job, st[k], tau, r, v + dv[k], a), r
 
     def on_cubic(k, tau):
-        return _newton_step(job, st, model(k, tau)[0], tca)
+        return _newton_step(job, st[k], model(k, tau)[0], tca)
 
     x = _solve(on_cubic, lo, hi, lo_neg, guess, tol_s=SOLVE_TOL_S)
     lo, hi = lo.copy(), hi.copy()
@@ -397,7 +418,8 @@ def _refine(job: _Job, st: int, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
         # Within CORRECT_SPAN_S of xa, SGP4's state is its Taylor series with two-body
         # acceleration (J2 and lunisolar terms change it by < 1e-3: millimetres).
         a_s = _gravity(r_s)
-        g, step = _newton_step(job, st, _topo(job, st, xa, r_s, v_s, a_s), tca)
+        st_a = st[active]
+        g, step = _newton_step(job, st_a, _topo(job, st_a, xa, r_s, v_s, a_s), tca)
         x1, lo[active], hi[active] = _bracketed(xa, step, g, lo[active], hi[active],
                                                 lo_neg[active])
         near = np.flatnonzero(np.abs(x1 - xa) <= CORRECT_SPAN_S)
@@ -409,10 +431,10 @@ def _refine(job: _Job, st: int, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
             dt = (x1[near] - xa[near])[:, None]
             a_n = a_s[near]
             r1 = r_s[near] + (v_s[near] + 0.5 * a_n * dt) * dt
-            t1 = _topo(job, st, x1[near], r1, v_s[near] + a_n * dt, a_n)
+            t1 = _topo(job, st[k], x1[near], r1, v_s[near] + a_n * dt, a_n)
             tau[k], r_out[k] = x1[near], r1
-            el[k], az[k] = t1.el_deg(), t1.az_deg(job, st)
-            g1, step1 = _newton_step(job, st, t1, tca)
+            el[k], az[k] = t1.el_deg(), t1.az_deg(job, st[k])
+            g1, step1 = _newton_step(job, st[k], t1, tca)
             x2, lo[k], hi[k] = _bracketed(x1[near], step1, g1, lo[k], hi[k], lo_neg[k])
             more = ~(np.abs(step1) <= job.tol_s) & (g1 != 0) & (hi[k] - lo[k] >= job.tol_s)
             x1[near] = x2
@@ -433,7 +455,7 @@ def _refine(job: _Job, st: int, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
     if active.size:  # still moving after CORRECT_ROUNDS: take the last corrected point
         t1, r1 = model(active, x[active])
         tau[active], r_out[active] = x[active], r1
-        el[active], az[active] = t1.el_deg(), t1.az_deg(job, st)
+        el[active], az[active] = t1.el_deg(), t1.az_deg(job, st[active])
     return tau, el, az, r_out
 
 
@@ -608,32 +630,56 @@ def _run_chunk(job: _Job, sat_ids: np.ndarray, n: int, fine_step_s: float, r_apo
     theta_f = job.theta(np.arange(nf + 1) * fine_s)
     r_ecef, v_ecef = geo.teme_to_ecef(P, V, theta_f[j])
 
-    brackets = []
     pos = np.cumsum(F.ravel()) - 1 if len(cands) > 1 else None
-    for st, sub in enumerate(subs):
-        sel = np.arange(len(flat)) if pos is None else pos[np.flatnonzero(_fine_mask(sub))]
+    picks = [np.arange(len(flat)) if pos is None else pos[np.flatnonzero(_fine_mask(sub))]
+             for sub in subs]
+    for group in _station_groups([len(p) for p in picks], job.memory_mb):
+        sel = np.concatenate([picks[st] for st in group])
         if sel.size == 0:
             continue
-        el, az, rate = geo.look_angles(tuple(c[sel] for c in r_ecef),
-                                       tuple(c[sel] for c in v_ecef), job.frames, st)
-        good = ok[sel]
-        f = np.where(good, el - job.threshold(st, az), -1e3)
-        rate = np.where(good, rate, 0.0)
-        ss, jj = s_loc[sel], j[sel]
-        tau = jj * fine_s
-        contig = (ss[1:] == ss[:-1]) & (jj[1:] == jj[:-1] + 1) & good[1:] & good[:-1]
-        up = f >= 0
-        # Up samples with no contiguous neighbour: the window edge (or decay) cuts the pass.
-        prev_c = np.concatenate([[False], contig])
-        next_c = np.concatenate([contig, [False]])
-        brackets.append(dict(
-            st=st, sat=sat_ids[ss], tau=tau, f=f, rate=rate, el=el, az=az, contig=contig,
-            up=up, cut_start=up & ~prev_c, cut_end=up & ~next_c, fine_s=fine_s, r=P[sel],
-            v=V[sel], r_apo=r_apo[ss]))
-    return brackets
+        st = np.repeat(np.asarray(group, np.int64), [len(picks[k]) for k in group])
+        yield _station_samples(job, st, sel, s_loc, j, ok, sat_ids, r_apo, fine_s, P, V,
+                               r_ecef, v_ecef)
 
 
-def _peak_bound_deg(job: _Job, st: int, tau0, r0, r1, r_apo, h: float) -> np.ndarray:
+def _station_groups(sizes: list[int], memory_mb: float) -> list[list[int]]:
+    """Consecutive stations whose samples together stay within the memory budget (about
+    1 kB per sample through bracketing and refinement); at least one station per group."""
+    limit = max(1, int(memory_mb * 2**20 / 1024))
+    groups: list[list[int]] = []
+    total = 0
+    for st, n in enumerate(sizes):
+        if not groups or (total + n > limit and groups[-1]):
+            groups.append([])
+            total = 0
+        groups[-1].append(st)
+        total += n
+    return groups
+
+
+def _station_samples(job: _Job, st, sel, s_loc, j, ok, sat_ids, r_apo, fine_s: float, P, V,
+                     r_ecef, v_ecef) -> dict:
+    """Look angles and bracketing flags of the shared fine samples ``sel`` as seen from
+    stations ``st`` (one per sample; each station's samples consecutive, in time order)."""
+    el, az, rate = geo.look_angles(tuple(c[sel] for c in r_ecef),
+                                   tuple(c[sel] for c in v_ecef), job.frames, st)
+    good = ok[sel]
+    f = np.where(good, el - job.threshold(st, az), -1e3)
+    rate = np.where(good, rate, 0.0)
+    ss, jj = s_loc[sel], j[sel]
+    tau = jj * fine_s
+    contig = ((ss[1:] == ss[:-1]) & (jj[1:] == jj[:-1] + 1) & good[1:] & good[:-1]
+              & (st[1:] == st[:-1]))
+    up = f >= 0
+    # Up samples with no contiguous neighbour: the window edge (or decay) cuts the pass.
+    prev_c = np.concatenate([[False], contig])
+    next_c = np.concatenate([contig, [False]])
+    return dict(st=st, sat=sat_ids[ss], tau=tau, f=f, rate=rate, el=el, az=az, contig=contig,
+                up=up, cut_start=up & ~prev_c, cut_end=up & ~next_c, fine_s=fine_s, r=P[sel],
+                v=V[sel], r_apo=r_apo[ss])
+
+
+def _peak_bound_deg(job: _Job, st, tau0, r0, r1, r_apo, h: float) -> np.ndarray:
     """Upper bound of the (geocentric) elevation between two samples ``h`` seconds apart.
 
     The satellite stays on the great-circle arc between its two directions (as in the
@@ -651,8 +697,8 @@ def _peak_bound_deg(job: _Job, st: int, tau0, r0, r1, r_apo, h: float) -> np.nda
     q = np.cross(h_hat, a)
     theta = job.theta(tau0 + 0.5 * h)
     c, s = np.cos(theta), np.sin(theta)
-    u = frames.unit[st]
-    p = np.stack([c * u[0] - s * u[1], s * u[0] + c * u[1], np.full_like(c, u[2])], -1)
+    u = frames.unit[st].T
+    p = np.stack([c * u[0] - s * u[1], s * u[0] + c * u[1], u[2] + 0.0 * c], -1)
     pa, pb = np.einsum("ij,ij->i", a, p), np.einsum("ij,ij->i", b, p)
     ph, pq = np.einsum("ij,ij->i", h_hat, p), np.einsum("ij,ij->i", q, p)
     alpha = np.arctan2(pq, pa)
@@ -666,7 +712,8 @@ def _peak_bound_deg(job: _Job, st: int, tau0, r0, r1, r_apo, h: float) -> np.nda
 
 
 def _refine_station_chunk(job: _Job, b: dict):
-    """Turn one station's samples into pass rows (refined AOS, TCA, LOS)."""
+    """Turn stations' samples (:func:`_station_samples`) into pass rows (refined AOS, TCA,
+    LOS), all stations' brackets at once."""
     st, sat, tau, f, rate, el, az, contig, r = (b[k] for k in (
         "st", "sat", "tau", "f", "rate", "el", "az", "contig", "r"))
     h = b["fine_s"]
@@ -676,21 +723,24 @@ def _refine_station_chunk(job: _Job, b: dict):
     los_i = i0[b["up"][i0] & ~b["up"][i1]]
     max_i = i0[(rate[i0] > 0) & (rate[i1] <= 0)]
     # Maxima: refine those that could reach the threshold (near misses inside one step too).
-    bound = _peak_bound_deg(job, st, tau[max_i], r[max_i], r[max_i + 1], b["r_apo"][max_i], h)
-    max_i = max_i[bound >= job.frames.min_el_deg[st] - ELLIPSOID_MARGIN_DEG]
+    bound = _peak_bound_deg(job, st[max_i], tau[max_i], r[max_i], r[max_i + 1],
+                            b["r_apo"][max_i], h)
+    max_i = max_i[bound >= job.frames.min_el_deg[st[max_i]] - ELLIPSOID_MARGIN_DEG]
     dp, s = _hermite_slope(el[max_i], rate[max_i], el[max_i + 1], rate[max_i + 1], h)
     guess = tau[max_i] + h * _first_root_guess(dp, s)
     rv = (b["r"], b["v"])
     cubic = _cubic(tau[max_i], h, *(x[max_i] for x in rv), *(x[max_i + 1] for x in rv))
-    m_tau, m_el, m_az, m_r = _refine(job, st, sat[max_i], tau[max_i], tau[max_i + 1],
+    m_st = st[max_i]
+    m_tau, m_el, m_az, m_r = _refine(job, m_st, sat[max_i], tau[max_i], tau[max_i + 1],
                                      np.zeros(len(max_i), bool), guess, cubic, tca=True)
-    m_f = m_el - job.threshold(st, m_az)
+    m_f = m_el - job.threshold(m_st, m_az)
     hidden = (m_f >= 0) & (f[max_i] < 0) & (f[max_i + 1] < 0)
 
     # Crossing brackets: grid sign changes plus both sides of each hidden pass.
     hi_idx = max_i[hidden]
     zeros = np.zeros(len(hi_idx))
     c_sat = np.concatenate([sat[aos_i], sat[los_i], sat[hi_idx], sat[hi_idx]])
+    c_st = np.concatenate([st[aos_i], st[los_i], st[hi_idx], st[hi_idx]])
     c_lo = np.concatenate([tau[aos_i], tau[los_i], tau[hi_idx], m_tau[hidden]])
     c_hi = np.concatenate([tau[aos_i + 1], tau[los_i + 1], m_tau[hidden], tau[hi_idx + 1]])
     c_glo = np.concatenate([f[aos_i], f[los_i], f[hi_idx], m_f[hidden]])
@@ -704,36 +754,47 @@ def _refine_station_chunk(job: _Job, b: dict):
     guess = c_lo + width * _first_root_guess(p, s)
     c_iv = np.concatenate([aos_i, los_i, hi_idx, hi_idx])
     cubic = _cubic(tau[c_iv], h, *(x[c_iv] for x in rv), *(x[c_iv + 1] for x in rv))
-    c_tau, c_el, c_az, c_r = _refine(job, st, c_sat, c_lo, c_hi, c_glo < 0, guess, cubic,
+    c_tau, c_el, c_az, c_r = _refine(job, c_st, c_sat, c_lo, c_hi, c_glo < 0, guess, cubic,
                                      tca=False)
 
     # Window-edge (or decay) cuts become clipped AOS/LOS at the sample itself.
     cs, ce = np.flatnonzero(b["cut_start"]), np.flatnonzero(b["cut_end"])
     ev = dict(
         sat=np.concatenate([c_sat, sat[cs], sat[ce]]),
+        st=np.concatenate([c_st, st[cs], st[ce]]),
         tau=np.concatenate([c_tau, tau[cs], tau[ce]]),
         kind=np.concatenate([c_kind, np.zeros(len(cs), int), np.ones(len(ce), int)]),
         az=np.concatenate([c_az, az[cs], az[ce]]),
         el=np.concatenate([c_el, el[cs], el[ce]]),
         r=np.concatenate([c_r, r[cs], r[ce]]),
         clip=np.concatenate([np.zeros(len(c_sat), bool), np.ones(len(cs) + len(ce), bool)]))
-    mx = dict(sat=sat[max_i], tau=m_tau, el=m_el, az=m_az, r=m_r)
-    return _assemble(job, st, ev, mx)
+    mx = dict(sat=sat[max_i], st=m_st, tau=m_tau, el=m_el, az=m_az, r=m_r)
+    return _assemble(job, ev, mx)
 
 
-def _assemble(job: _Job, st: int, ev: dict, mx: dict) -> np.ndarray:
-    """Pair AOS with the next LOS per satellite, attach the highest maximum, set Sun flags."""
-    # Integer keys (satellite, microsecond) keep the pairing independent of how satellites
-    # are numbered in this chunk, so every chunking gives the same passes.
-    comb = ev["sat"].astype(np.int64) * 10**13 + np.round(ev["tau"] * 1e6).astype(np.int64)
+def _pair_keys(job: _Job, ev: dict, mx: dict):
+    """Integer keys (satellite and station pair, microsecond) of the events and maxima: the
+    pairing is then independent of how satellites are numbered in this chunk, so every
+    chunking gives the same passes. Pairs are ranked densely so the keys fit in int64."""
+    pair = [x["st"].astype(np.int64) * len(job.satrecs) + x["sat"] for x in (ev, mx)]
+    rank = np.unique(np.concatenate(pair), return_inverse=True)[1].reshape(-1)
+    us = [np.round(x["tau"] * 1e6).astype(np.int64) for x in (ev, mx)]
+    n = len(pair[0])
+    return rank[:n] * 10**12 + us[0], rank[n:] * 10**12 + us[1], rank[:n], rank[n:]
+
+
+def _assemble(job: _Job, ev: dict, mx: dict) -> np.ndarray:
+    """Pair AOS with the next LOS per satellite and station, attach the highest maximum, set
+    Sun flags."""
+    comb, m_comb, pair, m_pair = _pair_keys(job, ev, mx)
     order = np.lexsort((ev["kind"], comb))
-    kind, sat_o = ev["kind"][order], ev["sat"][order]
-    is_pass = (kind[:-1] == 0) & (kind[1:] == 1) & (sat_o[:-1] == sat_o[1:])
+    kind, pair_o = ev["kind"][order], pair[order]
+    is_pass = (kind[:-1] == 0) & (kind[1:] == 1) & (pair_o[:-1] == pair_o[1:])
     a_idx, l_idx = order[:-1][is_pass], order[1:][is_pass]
     n = len(a_idx)
     rows = np.zeros(n, PASS_DTYPE)
     rows["sat"] = ev["sat"][a_idx]
-    rows["station"] = st
+    rows["station"] = ev["st"][a_idx]
     rows["aos_s"], rows["los_s"] = ev["tau"][a_idx], ev["tau"][l_idx]
     rows["aos_az_deg"], rows["los_az_deg"] = ev["az"][a_idx], ev["az"][l_idx]
     rows["aos_clipped"], rows["los_clipped"] = ev["clip"][a_idx], ev["clip"][l_idx]
@@ -744,14 +805,12 @@ def _assemble(job: _Job, st: int, ev: dict, mx: dict) -> np.ndarray:
     rows["tca_az_deg"] = ev["az"][t_idx]
     tca_r = ev["r"][t_idx]
     if n and len(mx["sat"]):
-        m_comb = (mx["sat"].astype(np.int64) * 10**13
-                  + np.round(mx["tau"] * 1e6).astype(np.int64))
         pa = comb[a_idx]
         order = np.argsort(pa, kind="stable")
         pi = np.searchsorted(pa[order], m_comb, "right") - 1
         inside = pi >= 0
         pi = order[np.maximum(pi, 0)]
-        inside &= (m_comb <= comb[l_idx][pi]) & (mx["sat"] == rows["sat"][pi])
+        inside &= (m_comb <= comb[l_idx][pi]) & (m_pair == pair[a_idx][pi])
         inside &= mx["el"] > rows["max_el_deg"][pi]
         sel = np.flatnonzero(inside)
         sel = sel[np.lexsort((mx["el"][sel], pi[sel]))]
@@ -766,7 +825,8 @@ def _assemble(job: _Job, st: int, ev: dict, mx: dict) -> np.ndarray:
     # instants the station is also in nautical twilight or darker. One call for all three.
     tau = np.concatenate([rows["aos_s"], rows["tca_s"], rows["los_s"]])
     lit, sun_el_sin = geo.sun_flags(np.concatenate([ev["r"][a_idx], tca_r, ev["r"][l_idx]]),
-                                    tau, job.jd0, job.fr0, job.theta(tau), job.frames, st)
+                                    tau, job.jd0, job.fr0, job.theta(tau), job.frames,
+                                    np.tile(rows["station"], 3))
     vis = lit & (sun_el_sin < math.sin(math.radians(TWILIGHT_DEG)))
     rows["sunlit"] = lit.reshape(3, n).any(0)
     rows["visible"] = vis.reshape(3, n).any(0)
@@ -797,7 +857,7 @@ def find_passes_block(satrecs, names, stations, start, end, min_el_deg=None, *,
                     start.second + start.microsecond * 1e-6)
     stats: dict = {}
     job = _Job(list(satrecs), frames, list(stations), jd0, fr0, window_s, geo.dut1_s(start),
-               step_s, tol_s, stats, {})
+               step_s, tol_s, stats, {}, memory_mb)
     n_sat = len(job.satrecs)
     r_apo = np.empty(n_sat)
     rate = np.empty(n_sat)

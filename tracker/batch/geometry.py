@@ -135,9 +135,10 @@ def sun_distance_km(jd_utc) -> np.ndarray:
 
 
 def sun_flags(r_teme_km, tau_s, jd0: float, fr0: float, theta_rad, frames: StationFrames,
-              station: int, grid_s: float = 3600.0):
+              station, grid_s: float = 3600.0):
     """(sunlit, sine of the Sun's elevation at ``station``) at times ``tau_s`` (seconds after
-    the Julian date ``jd0 + fr0``) for satellites at TEME positions ``r_teme_km`` (n, 3).
+    the Julian date ``jd0 + fr0``) for satellites at TEME positions ``r_teme_km`` (n, 3),
+    seen from ``station`` (an index, or one per position).
 
     The Sun's direction and distance are computed on a ``grid_s`` grid and interpolated
     linearly (the Sun moves 0.04 deg an hour: the chord error is ~1e-7 rad). Sunlit means
@@ -167,7 +168,7 @@ def sun_flags(r_teme_km, tau_s, jd0: float, fr0: float, theta_rad, frames: Stati
     lit = ~ahead | (r2 - rd * rd / (dx * dx + dy * dy + dz * dz) > WGS84_A_KM**2)
     lit &= r2 > WGS84_A_KM**2
     c, s = np.cos(theta_rad), np.sin(theta_rad)
-    u = frames.up[station]
+    u = frames.up[station].T
     sin_el = (c * sx + s * sy) * u[0] + (c * sy - s * sx) * u[1] + sz * u[2]
     return lit, sin_el
 
