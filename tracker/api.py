@@ -48,6 +48,7 @@ from tracker.batch import (
     PassTable,
     find_passes_batch,
     find_passes_dask,
+    iter_passes_batch,
     load_stations,
     plan_summaries,
     satrecs_of,
@@ -184,8 +185,8 @@ __all__ = [  # noqa: RUF022 (grouped by topic, the order the docs follow)
     "serve_pty", "serve_tcp",
     # batch, scheduling, export
     "CSV_FIELDS", "PASS_FIELDS", "PassRecords", "PassTable", "Schedule", "build_schedule",
-    "find_passes_batch", "find_passes_dask", "load_stations", "parse_priorities",
-    "pass_records", "plan_summaries", "satrecs_of", "schedule_passes",
+    "find_passes_batch", "find_passes_dask", "iter_passes_batch", "load_stations",
+    "parse_priorities", "pass_records", "plan_summaries", "satrecs_of", "schedule_passes",
     "render_chunks", "to_csv", "to_ics", "to_json", "to_table", "write_atomic",
     "write_parquet",
     # station mode: the [schedule] settings, the rolling schedule, fresh elements

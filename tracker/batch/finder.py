@@ -32,6 +32,7 @@ of at most ``block_days``; passes cut at a block edge are joined again).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from datetime import datetime, timedelta, timezone
 from functools import cached_property
@@ -851,13 +852,36 @@ def find_passes_block(satrecs, names, stations, start, end, min_el_deg=None, *,
                       ) -> PassTable:
     """One time block of :func:`find_passes_batch` (no joining across blocks)."""
     start, end = _to_utc(start), _to_utc(end)
+    job = _block_job(satrecs, stations, start, end, min_el_deg, step_s, tol_s, memory_mb)
+    rows = list(_block_rows(job, start))
+    passes = np.concatenate(rows) if rows else np.zeros(0, PASS_DTYPE)
+    passes = passes[np.lexsort((passes["station"], passes["sat"], passes["aos_s"]))]
+    return PassTable(passes, list(names), list(stations), start, end,
+                     _block_errors(job, names, start), job.stats)
+
+
+def _block_job(satrecs, stations, start: datetime, end: datetime, min_el_deg, step_s: float,
+               tol_s: float, memory_mb: float) -> _Job:
     window_s = (end - start).total_seconds()
     frames = geo.StationFrames.from_stations(stations, min_el_deg)
     jd0, fr0 = jday(start.year, start.month, start.day, start.hour, start.minute,
                     start.second + start.microsecond * 1e-6)
-    stats: dict = {}
-    job = _Job(list(satrecs), frames, list(stations), jd0, fr0, window_s, geo.dut1_s(start),
-               step_s, tol_s, stats, {}, memory_mb)
+    return _Job(list(satrecs), frames, list(stations), jd0, fr0, window_s, geo.dut1_s(start),
+                step_s, tol_s, {}, {}, memory_mb)
+
+
+def _block_errors(job: _Job, names, start: datetime) -> list[SatError]:
+    t0 = start.timestamp()
+    return [SatError(s, names[s], code, SGP4_ERRORS.get(code, "error"), t0 + tau)
+            for s, (tau, code) in sorted(job.errors.items())]
+
+
+def _block_rows(job: _Job, start: datetime) -> Iterator[np.ndarray]:
+    """The block's pass rows (POSIX times), in parts as the satellite chunks and station
+    groups are refined; in no particular order."""
+    stats, window_s, step_s, memory_mb = job.stats, job.window_s, job.step_s, job.memory_mb
+    n_stations = len(job.stations)
+    t0 = start.timestamp()
     n_sat = len(job.satrecs)
     r_apo = np.empty(n_sat)
     rate = np.empty(n_sat)
@@ -876,29 +900,21 @@ def find_passes_block(satrecs, names, stations, start, end, min_el_deg=None, *,
     n_fact = np.clip(np.floor(np.minimum(ARC_LIMIT_RAD / rate, MAX_COARSE_S) / fine_s), 1,
                      None).astype(int)
     screenable = rate * fine_s * n_fact <= ARC_LIMIT_RAD
-    rows = []
     groups = sorted(set(zip(fine_s.tolist(), n_fact.tolist(), strict=True)))
     for f_s, n in groups:
         ids = np.flatnonzero((fine_s == f_s) & (n_fact == n))
         k = max(1, math.ceil(window_s / (n * f_s)))
-        size = _chunk_size(k + 1, k * n + 1, len(stations), memory_mb)
+        size = _chunk_size(k + 1, k * n + 1, n_stations, memory_mb)
         for c0 in range(0, len(ids), size):
             chunk = ids[c0:c0 + size]
             stats["chunks"] = stats.get("chunks", 0) + 1
             for b in _run_chunk(job, chunk, n, f_s, r_apo[chunk], ecc[chunk],
                                 screenable[chunk]):
-                rows.append(_refine_station_chunk(job, b))
-    passes = np.concatenate(rows) if rows else np.zeros(0, PASS_DTYPE)
-    passes = passes[(passes["los_s"] > passes["aos_s"]) | passes["aos_clipped"]]
-    t0 = start.timestamp()
-    for key in ("aos_s", "tca_s", "los_s"):
-        passes[key] += t0
-    passes = passes[np.lexsort((passes["station"], passes["sat"], passes["aos_s"]))]
-    errors = []
-    for s, (tau, code) in sorted(job.errors.items()):
-        errors.append(SatError(s, names[s], code, SGP4_ERRORS.get(code, "error"),
-                               t0 + tau))
-    return PassTable(passes, list(names), list(stations), start, end, errors, stats)
+                rows = _refine_station_chunk(job, b)
+                rows = rows[(rows["los_s"] > rows["aos_s"]) | rows["aos_clipped"]]
+                for key in ("aos_s", "tca_s", "los_s"):
+                    rows[key] += t0
+                yield rows
 
 
 def merge_tables(tables: list[PassTable], names, stations, start, end) -> PassTable:
@@ -976,16 +992,6 @@ def remap(table: PassTable, ids, names, stations) -> PassTable:
                      table.stats)
 
 
-_FORKED: tuple | None = None
-
-
-def _forked_block(task):
-    ids, a, b, kwargs = task
-    satrecs, names, stations, min_el_deg = _FORKED  # type: ignore[misc]
-    return ids, find_passes_block([satrecs[i] for i in ids], [names[i] for i in ids],
-                                  stations, a, b, min_el_deg, **kwargs)
-
-
 def find_passes_batch(satrecs, names, stations, start: datetime, end: datetime,
                       min_el_deg: float | None = None, *, step_s: float = 480.0,
                       tol_s: float = 0.02, memory_mb: float = 256.0,
@@ -997,30 +1003,230 @@ def find_passes_batch(satrecs, names, stations, start: datetime, end: datetime,
     minimum elevation (the horizon mask still applies). ``step_s`` is the fine sampling step,
     ``tol_s`` the time tolerance of AOS/TCA/LOS, ``memory_mb`` the working-set budget per
     process. ``workers > 1`` splits the satellites over forked processes (POSIX); the result
-    is identical because every satellite is computed independently.
+    is identical because every satellite is computed independently. For results too large
+    to hold, :func:`iter_passes_batch` gives the same table in parts.
     """
-    global _FORKED
+    parts = list(_passes_in_parts(satrecs, names, stations, start, end, min_el_deg,
+                                  step_s=step_s, tol_s=tol_s, memory_mb=memory_mb,
+                                  block_days=block_days, workers=workers, spill=False))
+    passes = np.concatenate([p.passes for p in parts]) if parts else np.zeros(0, PASS_DTYPE)
+    first = parts[0]
+    return PassTable(passes, first.names, first.stations, first.start, first.end,
+                     first.errors, first.stats)
+
+
+def iter_passes_batch(satrecs, names, stations, start: datetime, end: datetime,
+                      min_el_deg: float | None = None, *, step_s: float = 480.0,
+                      tol_s: float = 0.02, memory_mb: float = 256.0,
+                      block_days: float = 7.0, workers: int = 1) -> Iterator[PassTable]:
+    """:func:`find_passes_batch`'s table in consecutive parts, for results too large to hold
+    (many stations, long windows): each part sorted like the whole, and concatenated they
+    are the whole table. Memory stays within about ``memory_mb`` whatever the number of
+    passes: while the search runs, passes beyond that budget wait in temporary files, one
+    per span of AOS times, and each span is sorted when its part is given. The search is
+    finished before the first part, so every part carries the run's ``errors`` and
+    ``stats``."""
+    yield from _passes_in_parts(satrecs, names, stations, start, end, min_el_deg,
+                                step_s=step_s, tol_s=tol_s, memory_mb=memory_mb,
+                                block_days=block_days, workers=workers, spill=True)
+
+
+# Passes of one satellite over one station per day, a generous figure (low orbits give 4-6
+# above 0 deg): the estimate that decides how a result is split for memory.
+PASSES_PER_DAY = 8.0
+
+
+def _passes_in_parts(satrecs, names, stations, start, end, min_el_deg, *, step_s, tol_s,
+                     memory_mb, block_days, workers, spill: bool) -> Iterator[PassTable]:
     if len(satrecs) != len(names):
         raise ConfigError(f"{len(satrecs)} satellites but {len(names)} names")
     if not stations:
         raise ConfigError("no stations given")
     if not (10.0 <= step_s <= 600.0):
         raise ConfigError(f"step_s = {step_s!r} is invalid; allowed: 10 to 600 seconds")
-    kwargs = dict(step_s=step_s, tol_s=tol_s, memory_mb=memory_mb)
     blocks = time_blocks(start, end, block_days)
-    if workers <= 1 or len(satrecs) < 2 * workers:
-        tables = [find_passes_block(satrecs, names, stations, a, b, min_el_deg, **kwargs)
-                  for a, b in blocks]
-    else:
-        import multiprocessing
+    start, end = _to_utc(start), _to_utc(end)
+    kwargs = dict(step_s=step_s, tol_s=tol_s, memory_mb=memory_mb)
+    days = (end - start).total_seconds() / geo.DAY_S
+    budget_rows = memory_mb * 2**20 / (4 * PASS_DTYPE.itemsize)
+    est_rows = len(satrecs) * len(stations) * days * PASSES_PER_DAY
+    errors: dict[int, SatError] = {}
+    stats: dict = {}
+    with _Spill(start.timestamp(), end.timestamp(),
+                math.ceil(est_rows / budget_rows) if spill else 1) as store:
+        if workers <= 1 or len(satrecs) < 2 * workers:
+            found = _local_rows(satrecs, names, stations, blocks, min_el_deg, kwargs, errors,
+                                stats)
+        else:
+            found = _forked_rows(satrecs, names, stations, blocks, min_el_deg, kwargs, workers,
+                                 max(1, math.ceil(est_rows / len(blocks) / budget_rows)),
+                                 errors, stats)
+        for rows in _joined(found, [b.timestamp() for _, b in blocks[:-1]],
+                            len(stations)):
+            store.add(rows)
+        errs = [errors[k] for k in sorted(errors)]
+        for passes in store.parts():
+            yield PassTable(passes, list(names), list(stations), start, end, errs, stats)
 
-        ids = np.arange(len(satrecs))
-        tasks = [(ids[w::workers], a, b, kwargs) for a, b in blocks for w in range(workers)]
-        _FORKED = (list(satrecs), list(names), list(stations), min_el_deg)
-        try:
-            with multiprocessing.get_context("fork").Pool(workers) as pool:
-                results = pool.map(_forked_block, tasks)
-        finally:
-            _FORKED = None
-        tables = [remap(t, i, names, stations) for i, t in results]
-    return merge_tables(tables, names, stations, _to_utc(start), _to_utc(end))
+
+def _note_block(errors: dict, stats: dict, block_errors, block_stats: dict) -> None:
+    """Keep the first error per satellite and add up the statistics of a finished block."""
+    for e in block_errors:
+        if e.sat not in errors or e.first_s < errors[e.sat].first_s:
+            errors[e.sat] = e
+    for k, val in block_stats.items():
+        stats[k] = stats.get(k, 0) + val
+
+
+def _local_rows(satrecs, names, stations, blocks, min_el_deg, kwargs, errors, stats):
+    """(block index, rows) as each satellite chunk of each block is refined, in this
+    process."""
+    for i, (a, b) in enumerate(blocks):
+        job = _block_job(satrecs, stations, a, b, min_el_deg, **kwargs)
+        for rows in _block_rows(job, a):
+            yield i, rows
+        _note_block(errors, stats, _block_errors(job, names, a), job.stats)
+
+
+_FORKED: tuple | None = None
+
+
+def _forked_block(task):
+    ids, a, b, kwargs = task
+    satrecs, names, stations, min_el_deg = _FORKED  # type: ignore[misc]
+    return ids, find_passes_block([satrecs[i] for i in ids], [names[i] for i in ids],
+                                  stations, a, b, min_el_deg, **kwargs)
+
+
+def _forked_rows(satrecs, names, stations, blocks, min_el_deg, kwargs, workers: int,
+                 pieces: int, errors, stats):
+    """(block index, rows) from ``workers`` forked processes, each block's satellites split
+    into at least ``pieces`` tasks per worker so that one task's result fits the budget."""
+    global _FORKED
+    import multiprocessing
+
+    ids = np.arange(len(satrecs))
+    n_tasks = workers * pieces
+    tasks = [(ids[w::n_tasks], a, b, kwargs) for a, b in blocks for w in range(n_tasks)]
+    _FORKED = (list(satrecs), list(names), list(stations), min_el_deg)
+    try:
+        with multiprocessing.get_context("fork").Pool(workers) as pool:
+            for k, (sub, table) in enumerate(pool.imap(_forked_block, tasks)):
+                table = remap(table, sub, names, stations)
+                _note_block(errors, stats, table.errors, table.stats)
+                yield k // n_tasks, table.passes
+    finally:
+        _FORKED = None
+
+
+def _joined(found, edges: list[float], n_stations: int) -> Iterator[np.ndarray]:
+    """The rows of consecutive time blocks with each pass cut at a block edge joined to its
+    continuation (AOS of the first part, LOS of the last, the first highest maximum); a
+    pass cut at an edge waits until the next block is finished."""
+    empty = np.zeros(0, PASS_DTYPE)
+    waiting, done = empty, np.zeros(0, bool)  # cut at the edge before the current block
+    cut: list[np.ndarray] = []  # the current block's passes cut at its end
+    block = 0
+    for i, rows in found:
+        while block < i:  # the block before is finished: what it did not continue is final
+            yield waiting[~done]
+            waiting = np.concatenate(cut) if cut else empty
+            done, cut = np.zeros(len(waiting), bool), []
+            block += 1
+        if len(waiting):
+            rows = _continue(waiting, done, rows, edges[i - 1], n_stations)
+        if i < len(edges):
+            at_end = rows["los_clipped"] & (rows["los_s"] == edges[i])
+            cut.append(rows[at_end])
+            rows = rows[~at_end]
+        yield rows
+    yield waiting[~done]
+    yield from cut
+
+
+def _continue(waiting, done, rows, edge_s: float, n_stations: int) -> np.ndarray:
+    """``rows`` with each pass that continues a ``waiting`` one (cut at ``edge_s``) replaced
+    by the joined pass; ``done`` marks the waiting passes so continued."""
+    start = np.flatnonzero(rows["aos_clipped"] & (rows["aos_s"] == edge_s))
+    wait = np.flatnonzero(~done)
+    if not (start.size and wait.size):
+        return rows
+
+    def key(x):
+        return x["sat"].astype(np.int64) * n_stations + x["station"]
+
+    w_key = key(waiting[wait])
+    order = np.argsort(w_key)
+    at = np.clip(np.searchsorted(w_key[order], key(rows[start])), 0, len(wait) - 1)
+    match = w_key[order][at] == key(rows[start])
+    j, k = start[match], wait[order[at[match]]]
+    a, b = waiting[k], rows[j]
+    for name in ("los_s", "los_az_deg", "los_clipped"):
+        a[name] = b[name]
+    higher = b["max_el_deg"] > a["max_el_deg"]
+    for name in ("tca_s", "max_el_deg", "tca_az_deg"):
+        a[name] = np.where(higher, b[name], a[name])
+    a["sunlit"] |= b["sunlit"]
+    a["visible"] |= b["visible"]
+    rows = rows.copy()
+    rows[j] = a
+    done[k] = True
+    return rows
+
+
+class _Spill:
+    """Pass rows gathered for output in AOS order: in memory with one span, else in one
+    temporary file per span of AOS times (``n`` spans of the window)."""
+
+    def __init__(self, t0_s: float, t1_s: float, n: int):
+        self.n = max(1, int(n))
+        self.inner = np.linspace(t0_s, t1_s, self.n + 1)[1:-1]
+        self.mem: list[np.ndarray] = []
+        self.dir = None
+
+    def __enter__(self) -> _Spill:
+        if self.n > 1:
+            import tempfile
+
+            self.dir = tempfile.TemporaryDirectory(prefix="tracker-passes-")
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.dir is not None:
+            self.dir.cleanup()
+
+    def _path(self, k: int) -> str:
+        return f"{self.dir.name}/{k}.bin"  # type: ignore[union-attr]
+
+    def add(self, rows: np.ndarray) -> None:
+        if self.dir is None:
+            self.mem.append(rows)
+            return
+        span = np.searchsorted(self.inner, rows["aos_s"], "right")
+        order = np.argsort(span, kind="stable")
+        cuts = np.searchsorted(span[order], np.arange(self.n + 1))
+        for k in np.flatnonzero(np.diff(cuts)).tolist():
+            with open(self._path(k), "ab") as f:
+                rows[order[cuts[k]:cuts[k + 1]]].tofile(f)
+
+    def parts(self) -> Iterator[np.ndarray]:
+        """Each span's rows sorted by AOS, satellite, station (empty spans skipped; one
+        empty part when there are no passes at all)."""
+        given = False
+        for k in range(self.n):
+            if self.dir is None:
+                rows = np.concatenate(self.mem) if self.mem else np.zeros(0, PASS_DTYPE)
+                self.mem = []
+            else:
+                import os
+
+                path = self._path(k)
+                if not os.path.exists(path):
+                    continue
+                rows = np.fromfile(path, dtype=PASS_DTYPE)
+                os.remove(path)
+            if len(rows) or (k == self.n - 1 and not given):
+                given = True
+                yield rows[np.lexsort((rows["station"], rows["sat"], rows["aos_s"]))]
+        if not given:
+            yield np.zeros(0, PASS_DTYPE)
