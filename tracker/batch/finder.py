@@ -100,6 +100,14 @@ class PassTable:
         return PassTable(self.passes[mask], self.names, self.stations, self.start, self.end,
                          self.errors, self.stats)
 
+    @classmethod
+    def concat(cls, parts: list[PassTable]) -> PassTable:
+        """Consecutive parts of one table (as :func:`iter_passes_batch` gives them) as one."""
+        first = parts[0]
+        passes = np.concatenate([p.passes for p in parts])
+        return cls(passes, first.names, first.stations, first.start, first.end, first.errors,
+                   first.stats)
+
 
 @dataclass
 class _Job:
@@ -1006,13 +1014,9 @@ def find_passes_batch(satrecs, names, stations, start: datetime, end: datetime,
     is identical because every satellite is computed independently. For results too large
     to hold, :func:`iter_passes_batch` gives the same table in parts.
     """
-    parts = list(_passes_in_parts(satrecs, names, stations, start, end, min_el_deg,
-                                  step_s=step_s, tol_s=tol_s, memory_mb=memory_mb,
-                                  block_days=block_days, workers=workers, spill=False))
-    passes = np.concatenate([p.passes for p in parts]) if parts else np.zeros(0, PASS_DTYPE)
-    first = parts[0]
-    return PassTable(passes, first.names, first.stations, first.start, first.end,
-                     first.errors, first.stats)
+    return PassTable.concat(list(_passes_in_parts(
+        satrecs, names, stations, start, end, min_el_deg, step_s=step_s, tol_s=tol_s,
+        memory_mb=memory_mb, block_days=block_days, workers=workers, spill=False)))
 
 
 def iter_passes_batch(satrecs, names, stations, start: datetime, end: datetime,

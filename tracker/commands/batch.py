@@ -17,6 +17,7 @@ import sys
 import time
 from collections.abc import Iterable, Iterator
 from datetime import timedelta
+from itertools import chain
 from pathlib import Path
 
 from tracker.commands._common import (
@@ -143,7 +144,16 @@ def find(args: argparse.Namespace, elements: list, stations: list):
     """Run the finder (local or Dask) for the parsed options; returns (table, start).
 
     Element sets too far from their epoch for the window are removed from ``elements``."""
-    from tracker.batch import find_passes_batch, find_passes_dask, satrecs_of
+    from tracker.batch import PassTable
+
+    parts, start = find_parts(args, elements, stations)
+    return PassTable.concat(list(parts)), start
+
+
+def find_parts(args: argparse.Namespace, elements: list, stations: list):
+    """:func:`find` with the table in parts (``iter_passes_batch``): returns (parts, start);
+    the search runs when the first part is taken, and every part carries its errors."""
+    from tracker.batch import find_passes_dask, iter_passes_batch, satrecs_of
     from tracker.commands._common import flag_first
     from tracker.errors import ConfigError
 
@@ -159,21 +169,26 @@ def find(args: argparse.Namespace, elements: list, stations: list):
     warn_element_age(elements, start)
     if args.dask is not None:
         try:
-            table = find_passes_dask(elements, stations, start, end, args.min_el,
-                                     address=args.dask or None, step_s=args.step)
+            parts = iter([find_passes_dask(elements, stations, start, end, args.min_el,
+                                           address=args.dask or None, step_s=args.step)])
         except ConfigError as e:
             raise flag_first(flag_first(e, "find_passes_dask", "--dask"), "address",
                              "--dask") from None
     else:
         satrecs, names = satrecs_of(elements)
-        table = find_passes_batch(satrecs, names, stations, start, end, args.min_el,
+        parts = iter_passes_batch(satrecs, names, stations, start, end, args.min_el,
                                   step_s=args.step, workers=args.workers)
+    return (_selected(args, table) for table in parts), start
+
+
+def _selected(args: argparse.Namespace, table):
+    """The passes the filter options keep."""
     keep = table.passes["max_el_deg"] >= args.min_max_el
     if args.sunlit:
         keep &= table.passes["sunlit"]
     if args.visible:
         keep &= table.passes["visible"]
-    return table.select(keep), start
+    return table.select(keep)
 
 
 def rotator_spec(args: argparse.Namespace):
@@ -262,12 +277,13 @@ def record_parts(table, plans, rows: int | None = None) -> Iterator:
         yield pass_records(table.select(part), None if plans is None else plans[part])
 
 
-def write_output(args: argparse.Namespace, table, plans, meta: dict, start) -> None:
-    """``--format``/``--out`` for a batch result, written part by part."""
+def write_output(args: argparse.Namespace, tables: Iterable[tuple], meta: dict, start,
+                 errors: list[dict]) -> None:
+    """``--format``/``--out`` for a batch result given as consecutive (table, plans) parts,
+    written part by part."""
     from tracker.export import render_chunks, write_parquet
 
-    parts = record_parts(table, plans)
-    errors = error_records(table)
+    parts = (records for table, plans in tables for records in record_parts(table, plans))
     if args.format == "parquet":
         emit(args, lambda f: write_parquet(parts, f, meta=meta, errors=errors))
         return
@@ -308,7 +324,13 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     elements = load_elements(args.source)
     stations = stations_from_args(args)
-    table, start = find(args, elements, stations)
+    parts, start = find_parts(args, elements, stations)
+    table = next(parts)  # the search runs here
+    whole = bool(args.rotator or args.plot or args.format == "ics")
+    if whole:
+        from tracker.batch import PassTable
+
+        table = PassTable.concat([table, *parts])
     plans = plans_for(args, table, elements)
     elapsed = time.perf_counter() - t0
     report_errors(table)
@@ -320,7 +342,20 @@ def run(args: argparse.Namespace) -> int:
                              table.end.timestamp(), title=f"{args.source}: {len(table)} passes",
                              force=args.force, label="--plot")
         print(f"tracker: wrote {path}", file=sys.stderr)
-    write_output(args, table, plans, meta_of(args, table, start, elapsed), start)
-    print(f"tracker: {len(table)} passes of {len(elements)} satellites over "
+    written = [0]
+
+    def tables():
+        # Without plans, plot or iCalendar the parts are written as the finder gives them
+        # (one held at a time); empty parts are left out unless the whole result is empty.
+        for part in [table] if whole else chain([table], parts):
+            if whole or len(part):
+                written[0] += len(part)
+                yield part, plans
+        if not written[0] and not whole:
+            yield table.select(slice(0, 0)), None
+
+    write_output(args, tables(), meta_of(args, table, start, elapsed), start,
+                 error_records(table))
+    print(f"tracker: {written[0]} passes of {len(elements)} satellites over "
           f"{len(stations)} station(s) in {elapsed:.1f} s", file=sys.stderr)
     return 0
