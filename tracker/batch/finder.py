@@ -286,7 +286,7 @@ class _Topo:
 
     def az_deg(self, job: _Job, st):
         c, sn = self.c, self.sn
-        e, n = job.frames.east[st].T, job.frames.north[st].T
+        e, n = geo.station_columns(job.frames.east, st), geo.station_columns(job.frames.north, st)
         dx, dy, dz = self.d
         # The station's east/north axes rotated into TEME.
         de = dx * (c * e[0] - sn * e[1]) + dy * (sn * e[0] + c * e[1])
@@ -302,7 +302,7 @@ def _topo(job: _Job, st, tau, r, v, a=None) -> _Topo:
     theta = job.theta(tau)
     c, sn = np.cos(theta), np.sin(theta)
     w = geo.EARTH_ROTATION_RAD_S
-    o, u = job.frames.ecef_km[st].T, job.frames.up[st].T
+    o, u = geo.station_columns(job.frames.ecef_km, st), geo.station_columns(job.frames.up, st)
     ox, oy = c * o[0] - sn * o[1], sn * o[0] + c * o[1]
     ux, uy, uz = c * u[0] - sn * u[1], sn * u[0] + c * u[1], u[2]
     dx, dy, dz = r[:, 0] - ox, r[:, 1] - oy, r[:, 2] - o[2]
@@ -401,11 +401,14 @@ def _refine(job: _Job, st, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
     job.stats[key] = job.stats.get(key, 0) + n
     x_ref = np.zeros(n)
     dr, dv = np.zeros((n, 3)), np.zeros((n, 3))  # SGP4 - cubic at x_ref
+    corrected = [False]  # any dr, dv set (until then adding them changes nothing)
 
     def model(k, tau):
         r, v, a = cubic(k, tau)
-        r = r + dr[k] + dv[k] * (tau - x_ref[k])[:, None]
-        return _topo(job, st[k], tau, r, v + dv[k], a), r
+        if corrected[0]:
+            r = r + dr[k] + dv[k] * (tau - x_ref[k])[:, None]
+            v = v + dv[k]
+        return _topo(job, st[k], tau, r, v, a), r
 
     def on_cubic(k, tau):
         return _newton_step(job, st[k], model(k, tau)[0], tca)
@@ -457,6 +460,7 @@ def _refine(job: _Job, st, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
             k = active[far]
             r_c, v_c, _ = cubic(k, xa[far])
             x_ref[k], dr[k], dv[k] = xa[far], r_s[far] - r_c, v_s[far] - v_c
+            corrected[0] = True
             x1[far] = _solve(lambda j, t, k=k: on_cubic(k[j], t), lo[k], hi[k], lo_neg[k],
                              x1[far], tol_s=0.1)
         x[active] = x1
@@ -528,25 +532,9 @@ def _coarse_candidates(job: _Job, arc, tau_c, coarse_s, r_apo, screenable):
     return out
 
 
-def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc,
-                     screenable):
-    """(S, K * n) booleans: fine steps of the candidate coarse intervals where a pass is still
-    possible.
-
-    Inside a coarse interval the direction moves monotonically along the arc; its angle from
-    A after time t is bracketed by the slowest and fastest angular rate, taken as the arc's
-    mean rate times the Kepler perigee/apogee rate ratio for the eccentricity (plus 1 % for
-    SGP4's short-period terms and drag). Each fine step then sweeps a sub-arc of known
-    bounds, tested against the horizon cone like the coarse interval. No SGP4 calls.
-    """
-    S, K = cand.shape
-    out = np.zeros((S, K * n), bool)
-    if n == 1:
-        out[:] = cand
-        return out
-    ss, kk = np.nonzero(cand)
-    if ss.size == 0:
-        return out
+def _sub_arcs(arc, ss, kk, n: int, coarse_s, ecc):
+    """Bounds [a1, a2] (rad from A, (len(ss), n)) of the sub-arc each fine step of the
+    coarse intervals (ss, kk) can sweep; the same for every station."""
     fine_s = coarse_s / n
     e_eff = np.minimum(ecc[ss] + 0.002, 0.9)
     ratio = ((1.0 + e_eff) / (1.0 - e_eff)) ** 2 * 1.01
@@ -558,7 +546,35 @@ def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc
     ph_ = phi[:, None]
     a1 = np.clip(np.maximum(w_lo * t_a, ph_ - w_hi * (coarse_s - t_a)), 0.0, ph_)
     a2 = np.clip(np.minimum(w_hi * t_b, ph_ - w_lo * (coarse_s - t_b)), 0.0, ph_)
-    a2 = np.maximum(a1, a2)
+    return a1, np.maximum(a1, a2)
+
+
+def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc,
+                     screenable, sub_arcs=None):
+    """(S, K * n) booleans: fine steps of the candidate coarse intervals where a pass is still
+    possible.
+
+    Inside a coarse interval the direction moves monotonically along the arc; its angle from
+    A after time t is bracketed by the slowest and fastest angular rate, taken as the arc's
+    mean rate times the Kepler perigee/apogee rate ratio for the eccentricity (plus 1 % for
+    SGP4's short-period terms and drag). Each fine step then sweeps a sub-arc of known
+    bounds, tested against the horizon cone like the coarse interval. No SGP4 calls.
+    ``sub_arcs``: :func:`_sub_arcs` of every coarse interval, (S, K, n) each, when many
+    stations share them.
+    """
+    S, K = cand.shape
+    out = np.zeros((S, K * n), bool)
+    if n == 1:
+        out[:] = cand
+        return out
+    ss, kk = np.nonzero(cand)
+    if ss.size == 0:
+        return out
+    fine_s = coarse_s / n
+    if sub_arcs is None:
+        a1, a2 = _sub_arcs(arc, ss, kk, n, coarse_s, ecc)
+    else:
+        a1, a2 = sub_arcs[0][ss, kk], sub_arcs[1][ss, kk]
     # The station (geocentric unit vector) in TEME at the middle of every fine step of the
     # window, gathered per candidate: rho (cos psi, sin psi), z with psi = GMST + longitude.
     u = job.frames.unit[st]
@@ -612,8 +628,15 @@ def _run_chunk(job: _Job, sat_ids: np.ndarray, n: int, fine_step_s: float, r_apo
     arc = _arc_geometry(r, v, valid)
     cands = _coarse_candidates(job, arc, tau_c, coarse_s, r_apo, screenable)
     cand_any = np.logical_or.reduce(cands) if len(cands) > 1 else cands[0]
-    subs = [_fine_candidates(job, st, cand, arc, n, coarse_s, r_apo, ecc, screenable)
-            for st, cand in enumerate(cands)]
+    sub_arcs = None
+    if len(cands) > 1 and n > 1:  # worth computing once for every interval
+        ss, kk = np.nonzero(cand_any)
+        a1, a2 = _sub_arcs(arc, ss, kk, n, coarse_s, ecc)
+        shape = (*cand_any.shape, n)
+        sub_arcs = (np.zeros(shape), np.zeros(shape))
+        sub_arcs[0][ss, kk], sub_arcs[1][ss, kk] = a1, a2
+    subs = [_fine_candidates(job, st, cand, arc, n, coarse_s, r_apo, ecc, screenable,
+                             sub_arcs) for st, cand in enumerate(cands)]
     sub_any = np.logical_or.reduce(subs) if len(subs) > 1 else subs[0]
     # "intervals": fine steps of the whole window; "candidate_intervals": those the two
     # screening levels kept (the only ones SGP4 samples).
@@ -670,8 +693,16 @@ def _station_samples(job: _Job, st, sel, s_loc, j, ok, sat_ids, r_apo, fine_s: f
                      r_ecef, v_ecef) -> dict:
     """Look angles and bracketing flags of the shared fine samples ``sel`` as seen from
     stations ``st`` (one per sample; each station's samples consecutive, in time order)."""
-    el, az, rate = geo.look_angles(tuple(c[sel] for c in r_ecef),
-                                   tuple(c[sel] for c in v_ecef), job.frames, st)
+    def azimuth(i):
+        return geo.look_angles(tuple(c[sel[i]] for c in r_ecef),
+                               tuple(c[sel[i]] for c in v_ecef), job.frames, st[i])[1]
+
+    el, _, rate = geo.look_angles(tuple(c[sel] for c in r_ecef),
+                                  tuple(c[sel] for c in v_ecef), job.frames, st, False)
+    # Azimuths only where used: under a horizon mask and at window-edge cuts.
+    az = np.full(len(sel), np.nan)
+    masked = np.flatnonzero(np.isin(st, job.masked))
+    az[masked] = azimuth(masked)
     good = ok[sel]
     f = np.where(good, el - job.threshold(st, az), -1e3)
     rate = np.where(good, rate, 0.0)
@@ -683,6 +714,8 @@ def _station_samples(job: _Job, st, sel, s_loc, j, ok, sat_ids, r_apo, fine_s: f
     # Up samples with no contiguous neighbour: the window edge (or decay) cuts the pass.
     prev_c = np.concatenate([[False], contig])
     next_c = np.concatenate([contig, [False]])
+    cut = np.flatnonzero(up & ~(prev_c & next_c) & np.isnan(az))
+    az[cut] = azimuth(cut)
     return dict(st=st, sat=sat_ids[ss], tau=tau, f=f, rate=rate, el=el, az=az, contig=contig,
                 up=up, cut_start=up & ~prev_c, cut_end=up & ~next_c, fine_s=fine_s, r=P[sel],
                 v=V[sel], r_apo=r_apo[ss])
@@ -706,7 +739,7 @@ def _peak_bound_deg(job: _Job, st, tau0, r0, r1, r_apo, h: float) -> np.ndarray:
     q = np.cross(h_hat, a)
     theta = job.theta(tau0 + 0.5 * h)
     c, s = np.cos(theta), np.sin(theta)
-    u = frames.unit[st].T
+    u = geo.station_columns(frames.unit, st)
     p = np.stack([c * u[0] - s * u[1], s * u[0] + c * u[1], u[2] + 0.0 * c], -1)
     pa, pb = np.einsum("ij,ij->i", a, p), np.einsum("ij,ij->i", b, p)
     ph, pq = np.einsum("ij,ij->i", h_hat, p), np.einsum("ij,ij->i", q, p)

@@ -67,6 +67,12 @@ class StationFrames:
         return len(self.radius_km)
 
 
+def station_columns(table: np.ndarray, station_idx) -> np.ndarray:
+    """Components (3, ...) of per-station vectors ``table`` (N, 3) at ``station_idx`` (an
+    int or an array of indices): one contiguous gather per component."""
+    return np.take(np.ascontiguousarray(table.T), station_idx, axis=1)
+
+
 def teme_to_ecef(r_teme, v_teme, theta_rad):
     """Rotate TEME position/velocity (..., 3) into ECEF at GMST angle(s) ``theta_rad`` (...).
 
@@ -82,25 +88,29 @@ def teme_to_ecef(r_teme, v_teme, theta_rad):
     return (x, y, r_teme[..., 2]), (vx, vy, v_teme[..., 2])
 
 
-def look_angles(r_ecef, v_ecef, frames: StationFrames, station_idx):
+def look_angles(r_ecef, v_ecef, frames: StationFrames, station_idx, with_az: bool = True):
     """Elevation, azimuth (deg) and elevation rate (deg/s) of satellites seen from stations.
 
     ``r_ecef``/``v_ecef`` are component tuples as returned by :func:`teme_to_ecef`;
     ``station_idx`` (an int or an array like the components) picks each sample's station.
+    ``with_az`` False leaves the azimuth out (None).
     """
-    o = frames.ecef_km[station_idx]
-    u, e, n = frames.up[station_idx], frames.east[station_idx], frames.north[station_idx]
-    dx, dy, dz = r_ecef[0] - o[..., 0], r_ecef[1] - o[..., 1], r_ecef[2] - o[..., 2]
-    ru = dx * u[..., 0] + dy * u[..., 1] + dz * u[..., 2]
-    re = dx * e[..., 0] + dy * e[..., 1]
-    rn = dx * n[..., 0] + dy * n[..., 1] + dz * n[..., 2]
+    o, u = station_columns(frames.ecef_km, station_idx), station_columns(frames.up, station_idx)
+    dx, dy, dz = r_ecef[0] - o[0], r_ecef[1] - o[1], r_ecef[2] - o[2]
+    ru = dx * u[0] + dy * u[1] + dz * u[2]
     dist2 = dx * dx + dy * dy + dz * dz
     inv = 1.0 / np.sqrt(dist2)
     sin_el = np.clip(ru * inv, -1.0, 1.0)
     el = np.degrees(np.arcsin(sin_el))
-    az = np.degrees(np.arctan2(re, rn)) % 360.0
+    az = None
+    if with_az:
+        e = station_columns(frames.east, station_idx)
+        n = station_columns(frames.north, station_idx)
+        re = dx * e[0] + dy * e[1]
+        rn = dx * n[0] + dy * n[1] + dz * n[2]
+        az = np.degrees(np.arctan2(re, rn)) % 360.0
     vx, vy, vz = v_ecef
-    vu = vx * u[..., 0] + vy * u[..., 1] + vz * u[..., 2]
+    vu = vx * u[0] + vy * u[1] + vz * u[2]
     rv = dx * vx + dy * vy + dz * vz
     d_sin = (vu - ru * rv / dist2) * inv
     rate = np.degrees(d_sin / np.sqrt(np.maximum(1.0 - sin_el * sin_el, 1e-12)))
@@ -168,7 +178,7 @@ def sun_flags(r_teme_km, tau_s, jd0: float, fr0: float, theta_rad, frames: Stati
     lit = ~ahead | (r2 - rd * rd / (dx * dx + dy * dy + dz * dz) > WGS84_A_KM**2)
     lit &= r2 > WGS84_A_KM**2
     c, s = np.cos(theta_rad), np.sin(theta_rad)
-    u = frames.up[station].T
+    u = station_columns(frames.up, station)
     sin_el = (c * sx + s * sy) * u[0] + (c * sy - s * sx) * u[1] + sz * u[2]
     return lit, sin_el
 
