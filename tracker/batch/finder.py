@@ -896,9 +896,25 @@ def find_passes_block(satrecs, names, stations, start, end, min_el_deg=None, *,
     job = _block_job(satrecs, stations, start, end, min_el_deg, step_s, tol_s, memory_mb)
     rows = list(_block_rows(job, start))
     passes = np.concatenate(rows) if rows else np.zeros(0, PASS_DTYPE)
-    passes = passes[np.lexsort((passes["station"], passes["sat"], passes["aos_s"]))]
+    passes = passes[table_order(passes)]
     return PassTable(passes, list(names), list(stations), start, end,
                      _block_errors(job, names, start), job.stats)
+
+
+def table_order(passes: np.ndarray) -> np.ndarray:
+    """Indices sorting pass rows into table order: by AOS, then satellite, then station.
+    One sort on AOS; only the rows sharing an AOS (passes clipped at the window start,
+    mostly) are ordered by the other keys."""
+    aos = passes["aos_s"]
+    order = np.argsort(aos, kind="stable")
+    ordered = aos[order]
+    tie = np.flatnonzero(ordered[1:] == ordered[:-1])
+    if tie.size:
+        at = np.union1d(tie, tie + 1)
+        rows = order[at]
+        order[at] = rows[np.lexsort((passes["station"][rows], passes["sat"][rows],
+                                     aos[rows]))]
+    return order
 
 
 def _block_job(satrecs, stations, start: datetime, end: datetime, min_el_deg, step_s: float,
@@ -964,7 +980,7 @@ def merge_tables(tables: list[PassTable], names, stations, start, end) -> PassTa
     if len(tables) == 1 and tables[0].start == start and tables[0].end == end:
         t = tables[0]  # one error per satellite and no block edge: only the order to check
         passes = t.passes
-        order = np.lexsort((passes["station"], passes["sat"], passes["aos_s"]))
+        order = table_order(passes)
         if np.any(order[1:] < order[:-1]):
             passes = passes[order]
         return PassTable(passes, list(names), list(stations), start, end,
@@ -991,7 +1007,7 @@ def merge_tables(tables: list[PassTable], names, stations, start, end) -> PassTa
         keep = np.ones(len(passes), bool)
         keep[np.flatnonzero(join) + 1] = False
         passes = passes[keep]
-    passes = passes[np.lexsort((passes["station"], passes["sat"], passes["aos_s"]))]
+    passes = passes[table_order(passes)]
     first: dict[int, SatError] = {}
     stats: dict = {}
     for t in tables:
@@ -1264,6 +1280,6 @@ class _Spill:
                 os.remove(path)
             if len(rows) or (k == self.n - 1 and not given):
                 given = True
-                yield rows[np.lexsort((rows["station"], rows["sat"], rows["aos_s"]))]
+                yield rows[table_order(rows)]
         if not given:
             yield np.zeros(0, PASS_DTYPE)
