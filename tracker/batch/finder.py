@@ -42,6 +42,7 @@ from sgp4.api import SGP4_ERRORS, SatrecArray, jday
 
 from tracker.batch import geometry as geo
 from tracker.errors import ConfigError
+from tracker.spill import RowSpill
 from tracker.station import Station
 
 PASS_DTYPE = np.dtype([
@@ -1105,8 +1106,8 @@ def _passes_in_parts(satrecs, names, stations, start, end, min_el_deg, *, step_s
     est_rows = len(satrecs) * len(stations) * days * PASSES_PER_DAY
     errors: dict[int, SatError] = {}
     stats: dict = {}
-    with _Spill(start.timestamp(), end.timestamp(),
-                math.ceil(est_rows / budget_rows) if spill else 1) as store:
+    with RowSpill(PASS_DTYPE, "aos_s", start.timestamp(), end.timestamp(),
+                  math.ceil(est_rows / budget_rows) if spill else 1) as store:
         if workers <= 1 or len(satrecs) < 2 * workers:
             found = _local_rows(satrecs, names, stations, blocks, min_el_deg, kwargs, errors,
                                 stats)
@@ -1118,8 +1119,14 @@ def _passes_in_parts(satrecs, names, stations, start, end, min_el_deg, *, step_s
                             len(stations)):
             store.add(rows)
         errs = [errors[k] for k in sorted(errors)]
-        for passes in store.parts():
-            yield PassTable(passes, list(names), list(stations), start, end, errs, stats)
+        given = False
+        for passes in store.spans():
+            given = True
+            yield PassTable(passes[table_order(passes)], list(names), list(stations), start,
+                            end, errs, stats)
+        if not given:
+            yield PassTable(np.zeros(0, PASS_DTYPE), list(names), list(stations), start, end,
+                            errs, stats)
 
 
 def _note_block(errors: dict, stats: dict, block_errors, block_stats: dict) -> None:
@@ -1225,61 +1232,3 @@ def _continue(waiting, done, rows, edge_s: float, n_stations: int) -> np.ndarray
     rows[j] = a
     done[k] = True
     return rows
-
-
-class _Spill:
-    """Pass rows gathered for output in AOS order: in memory with one span, else in one
-    temporary file per span of AOS times (``n`` spans of the window)."""
-
-    def __init__(self, t0_s: float, t1_s: float, n: int):
-        self.n = max(1, int(n))
-        self.inner = np.linspace(t0_s, t1_s, self.n + 1)[1:-1]
-        self.mem: list[np.ndarray] = []
-        self.dir = None
-
-    def __enter__(self) -> _Spill:
-        if self.n > 1:
-            import tempfile
-
-            self.dir = tempfile.TemporaryDirectory(prefix="tracker-passes-")
-        return self
-
-    def __exit__(self, *exc) -> None:
-        if self.dir is not None:
-            self.dir.cleanup()
-
-    def _path(self, k: int) -> str:
-        return f"{self.dir.name}/{k}.bin"  # type: ignore[union-attr]
-
-    def add(self, rows: np.ndarray) -> None:
-        if self.dir is None:
-            self.mem.append(rows)
-            return
-        span = np.searchsorted(self.inner, rows["aos_s"], "right")
-        order = np.argsort(span, kind="stable")
-        cuts = np.searchsorted(span[order], np.arange(self.n + 1))
-        for k in np.flatnonzero(np.diff(cuts)).tolist():
-            with open(self._path(k), "ab") as f:
-                rows[order[cuts[k]:cuts[k + 1]]].tofile(f)
-
-    def parts(self) -> Iterator[np.ndarray]:
-        """Each span's rows sorted by AOS, satellite, station (empty spans skipped; one
-        empty part when there are no passes at all)."""
-        given = False
-        for k in range(self.n):
-            if self.dir is None:
-                rows = np.concatenate(self.mem) if self.mem else np.zeros(0, PASS_DTYPE)
-                self.mem = []
-            else:
-                import os
-
-                path = self._path(k)
-                if not os.path.exists(path):
-                    continue
-                rows = np.fromfile(path, dtype=PASS_DTYPE)
-                os.remove(path)
-            if len(rows) or (k == self.n - 1 and not given):
-                given = True
-                yield rows[table_order(rows)]
-        if not given:
-            yield np.zeros(0, PASS_DTYPE)
