@@ -33,6 +33,7 @@ to let the controller track by itself, give :attr:`StepProgram.tables` to a
 
 from __future__ import annotations
 
+from tle.cachedir import default_cache_dir
 from tle.catalog import Catalog, age_warning, age_warnings
 from tle.elements import ElementSet, load_file, parse_text
 from tle.errors import (
@@ -43,7 +44,7 @@ from tle.errors import (
     TleWarning,
     UnknownSatelliteError,
 )
-from tle.store import TleStore, default_cache_dir
+from tle.store import TleStore
 from tracker.batch import (
     PassTable,
     find_passes_batch,
