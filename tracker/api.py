@@ -46,12 +46,15 @@ from tle.errors import (
 )
 from tle.store import TleStore
 from tracker.batch import (
+    PartitionedResult,
     PassTable,
     find_passes_batch,
     find_passes_dask,
     load_stations,
     plan_summaries,
     satrecs_of,
+    select_passes,
+    write_passes_dask,
 )
 from tracker.celestial import (
     RADIO_SOURCES,
@@ -186,9 +189,9 @@ __all__ = [  # noqa: RUF022 (grouped by topic, the order the docs follow)
     # batch, scheduling, export
     "CSV_FIELDS", "PASS_FIELDS", "PassRecords", "PassTable", "Schedule", "build_schedule",
     "find_passes_batch", "find_passes_dask", "load_stations", "parse_priorities",
-    "pass_records", "plan_summaries", "satrecs_of", "schedule_passes",
+    "pass_records", "plan_summaries", "satrecs_of", "schedule_passes", "select_passes",
     "render_chunks", "to_csv", "to_ics", "to_json", "to_table", "write_atomic",
-    "write_parquet",
+    "write_parquet", "write_passes_dask", "PartitionedResult",
     # station mode: the [schedule] settings, the rolling schedule, fresh elements
     "ScheduleSettings", "PlannedPass", "RollingSchedule", "build_rolling_schedule",
     "wanted_targets", "ElementKeeper",
