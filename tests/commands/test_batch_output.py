@@ -141,7 +141,7 @@ def test_dask_writes_a_partitioned_folder_equal_to_the_file(capsys, tmp_path, in
     assert main(batch_args(tmp_path, "parquet", *common, "--out", f"{folder}/",
                            "--dask", inproc_cluster)) == 0
     err = capsys.readouterr().err
-    assert f"tracker: wrote {folder} (1 files)" in err
+    assert f"tracker: wrote {folder} (1 part)" in err
     assert sorted(p.name for p in folder.iterdir()) == ["_common_metadata",
                                                         "part-00000.parquet"]
     whole, parts = pq.read_table(single), ds.dataset(folder).to_table()

@@ -296,7 +296,9 @@ def run_partitioned(args: argparse.Namespace) -> int:
                          "--dask") from None
     elapsed = time.perf_counter() - t0
     report_errors(result.errors)
-    print(f"tracker: wrote {result.folder} ({len(result.files)} files)", file=sys.stderr)
+    parts = len(result.files)
+    print(f"tracker: wrote {result.folder} ({parts} part{'s' if parts != 1 else ''})",
+          file=sys.stderr)
     print(f"tracker: {result.n_passes} passes of {len(elements)} satellites over "
           f"{len(stations)} station(s) in {elapsed:.1f} s", file=sys.stderr)
     return 0
