@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from bisect import bisect_left
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from enum import Enum
 
@@ -766,6 +766,36 @@ class PassResult:
     completed: bool = True
     error_t_s: list[float] = field(default_factory=list)   # when each of errors_deg was seen
     cause: str = ""          # why the maximum error is large, if it is ("" otherwise)
+    joined_late_s: float = 0.0   # started this long after AOS (0: from the pre-position)
+    acquired_at: int = 0     # errors_deg before this index are the slew to catch the target
+
+    def count_from_acquisition(self, joined_late_s: float, deadband_deg: float) -> None:
+        """A pass joined under way: the slew to catch the target is not the tracking's
+        error, so :attr:`max_error_deg` counts from the first reading on target."""
+        if joined_late_s <= 0.0:
+            return
+        self.joined_late_s = joined_late_s
+        self.acquired_at = acquisition_index(self.errors_deg, deadband_deg)
+        tail = self.errors_deg[self.acquired_at:]
+        self.max_error_deg = max(tail) if tail else float("nan")
+
+    def joined_note(self) -> str:
+        """``joined 300 s after AOS; on target 38 s later, error counted from then``."""
+        if self.joined_late_s <= 0.0:
+            return ""
+        head = f"joined {self.joined_late_s:.0f} s after AOS"
+        if self.acquired_at >= len(self.errors_deg):
+            return f"{head}; never on target"
+        caught_s = (self.error_t_s[self.acquired_at] - self.error_t_s[0]
+                    if len(self.error_t_s) == len(self.errors_deg) else 0.0)
+        return f"{head}; on target {caught_s:.0f} s later, error counted from then"
+
+
+def acquisition_index(errors_deg: Sequence[float], deadband_deg: float) -> int:
+    """Index of the first error within ``deadband_deg`` + 1 deg (the length when none is):
+    where a pass joined under way has caught its target."""
+    on_deg = deadband_deg + 1.0
+    return next((i for i, e in enumerate(errors_deg) if e <= on_deg), len(errors_deg))
 
 
 # The streaming loop with its recovery paths (timeouts, garbled replies,

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tracker.station import Station
+from tracker.sun import in_sunlight, sun_distance_km, sun_sin_elevation, sun_teme_unit
 
 WGS84_A_KM = 6378.137
 WGS84_F = 1.0 / 298.257223563
@@ -125,34 +126,15 @@ def horizon_angle_rad(r_km, station_radius_km, el_deg) -> np.ndarray:
     return np.arccos(ratio) - el
 
 
-def sun_teme_unit(jd_utc) -> np.ndarray:
-    """Sun direction (unit vectors, equator and equinox of date, ~0.01 deg) at Julian dates.
-
-    The low-precision formula of the Astronomical Almanac; plenty for shadow and twilight tests.
-    """
-    n = np.asarray(jd_utc, dtype=float) - 2451545.0
-    g = np.radians(np.mod(357.528 + 0.9856003 * n, 360.0))
-    lam = np.radians(np.mod(280.460 + 0.9856474 * n, 360.0)) + np.radians(
-        1.915 * np.sin(g) + 0.020 * np.sin(2 * g))
-    eps = np.radians(23.439 - 0.0000004 * n)
-    return np.stack([np.cos(lam), np.cos(eps) * np.sin(lam), np.sin(eps) * np.sin(lam)], -1)
-
-
-def sun_distance_km(jd_utc) -> np.ndarray:
-    n = np.asarray(jd_utc, dtype=float) - 2451545.0
-    g = np.radians(np.mod(357.528 + 0.9856003 * n, 360.0))
-    return (1.00014 - 0.01671 * np.cos(g) - 0.00014 * np.cos(2 * g)) * 149597870.7
-
-
 def sun_flags(r_teme_km, tau_s, jd0: float, fr0: float, theta_rad, frames: StationFrames,
               station, grid_s: float = 3600.0):
     """(sunlit, sine of the Sun's elevation at ``station``) at times ``tau_s`` (seconds after
     the Julian date ``jd0 + fr0``) for satellites at TEME positions ``r_teme_km`` (n, 3),
     seen from ``station`` (an index, or one per position).
 
-    The Sun's direction and distance are computed on a ``grid_s`` grid and interpolated
-    linearly (the Sun moves 0.04 deg an hour: the chord error is ~1e-7 rad). Sunlit means
-    the Sun-ward ray misses a spherical Earth.
+    The Sun's direction and distance (:mod:`tracker.sun`) are computed on a ``grid_s`` grid
+    and interpolated linearly (the Sun moves 0.04 deg an hour: the chord error is ~1e-7
+    rad). Sunlit means the Sun-ward ray misses a spherical Earth.
     """
     tau_s = np.asarray(tau_s, dtype=float)
     if tau_s.size == 0:
@@ -167,20 +149,9 @@ def sun_flags(r_teme_km, tau_s, jd0: float, fr0: float, theta_rad, frames: Stati
     row = table[i]
     dt = tau_s - t_grid[i]
     sx, sy, sz, dist = (row[:, k] + row[:, k + 4] * dt for k in range(4))
-    rx, ry, rz = r_teme_km[:, 0], r_teme_km[:, 1], r_teme_km[:, 2]
-    # Ray from the satellite towards the Sun: d = S - r; its closest approach to the
-    # Earth's centre lies ahead of the satellite when r . d < 0, at distance^2
-    # |r|^2 - (r . d_hat)^2.
-    dx, dy, dz = sx * dist - rx, sy * dist - ry, sz * dist - rz
-    rd = rx * dx + ry * dy + rz * dz
-    r2 = rx * rx + ry * ry + rz * rz
-    ahead = rd < 0
-    lit = ~ahead | (r2 - rd * rd / (dx * dx + dy * dy + dz * dz) > WGS84_A_KM**2)
-    lit &= r2 > WGS84_A_KM**2
-    c, s = np.cos(theta_rad), np.sin(theta_rad)
-    u = station_columns(frames.up, station)
-    sin_el = (c * sx + s * sy) * u[0] + (c * sy - s * sx) * u[1] + sz * u[2]
-    return lit, sin_el
+    lit = in_sunlight((r_teme_km[:, 0], r_teme_km[:, 1], r_teme_km[:, 2]),
+                      (sx * dist, sy * dist, sz * dist))
+    return lit, sun_sin_elevation((sx, sy, sz), theta_rad, station_columns(frames.up, station))
 
 
 def orbit_bounds(satrec) -> tuple[float, float]:
