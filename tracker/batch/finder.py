@@ -24,9 +24,15 @@ How one job runs (every step is numpy over all satellites of a chunk at once):
    series (a second SGP4 call only for the rare root that moved by more than a second):
    about one SGP4 call per event, to ``tol_s``.
 
+Steps 3 and 4 run for all stations of a chunk at once (a station index per sample and
+bracket), in groups of stations sized by the memory budget; a pass does not depend on the
+other stations.
+
 SGP4 errors (decayed elements) are collected per satellite and reported, never raised.
 Memory is bounded by chunking over satellites (sized from ``memory_mb``) and over time (blocks
-of at most ``block_days``; passes cut at a block edge are joined again).
+of at most ``block_days``; passes cut at a block edge are joined again). The result itself is
+held whole by :func:`find_passes_batch`; :func:`iter_passes_batch` gives it in parts and keeps
+rows beyond the budget in temporary files meanwhile (:class:`tracker.spill.RowSpill`).
 """
 
 from __future__ import annotations
