@@ -60,6 +60,26 @@ def _satrecs(lines):
     return [Satrec.twoline2rv(a, b) for _, a, b in lines]
 
 
+def _not_an_address(address: str, e: Exception) -> ConfigError:
+    return ConfigError(f"address {address}: not a scheduler address ({e}); give e.g. "
+                       f"tcp://host:8786, or no address for a local cluster")
+
+
+def _check_address(address: str) -> None:
+    """A malformed address is refused before any connection attempt: left to the client,
+    a slow start of its event loop could time out first and blame the network."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+    from distributed.comm.registry import get_backend
+
+    try:
+        scheme, location = parse_address(address)
+        get_backend(scheme)
+        if scheme in ("tcp", "tls", "ws", "wss"):
+            parse_host_port(location, 8786)
+    except (ValueError, TypeError) as e:
+        raise _not_an_address(address, e) from None
+
+
 def _client(address: str | None, n_workers: int, processes: bool, timeout_s: float,
             caller: str = "find_passes_dask"):
     try:
@@ -68,6 +88,7 @@ def _client(address: str | None, n_workers: int, processes: bool, timeout_s: flo
         raise ConfigError(f"{caller} needs dask.distributed: pip install "
                           "'rotator-tracker[dask]'") from None
     if address:
+        _check_address(address)
         try:
             return Client(address, timeout=f"{timeout_s}s"), None
         except OSError as e:
@@ -75,9 +96,7 @@ def _client(address: str | None, n_workers: int, processes: bool, timeout_s: flo
         except (ValueError, TypeError) as e:
             # distributed parses the address itself; a typo (bad port, unknown scheme)
             # surfaces as ValueError/TypeError rather than a connection error.
-            raise ConfigError(f"address {address}: not a scheduler address ({e}); give "
-                              f"e.g. tcp://host:8786, or no address for a local "
-                              f"cluster") from None
+            raise _not_an_address(address, e) from None
     cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=processes,
                            dashboard_address=None)
     return Client(cluster), cluster
