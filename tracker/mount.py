@@ -432,6 +432,13 @@ class AxisMotor:
         self._t0, self._p0, self._target, self._delay = float(t_s), float(p), target, delay
         return target
 
+    def rest_at(self, position_deg: float, t_s: float) -> None:
+        """Stand still on ``position_deg`` from ``t_s`` on, as a new axis does (not jammed)."""
+        self.jammed = False
+        self._t0 = float(t_s)
+        self._p0 = self._target = float(position_deg)
+        self._delay = 0.0
+
     def stop(self, t_s: float) -> None:
         p = self.position(t_s)
         self._t0, self._p0, self._target, self._delay = float(t_s), float(p), float(p), 0.0

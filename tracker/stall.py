@@ -73,11 +73,15 @@ class AxisWatch:
         self.ref_pos_deg = 0.0
         self.expect: AxisMotor | None = None
         self.seg_t_s = 0.0
+        self._seg_pos_deg = 0.0      # the expectation's position at seg_t_s (asked every cycle)
         self.carried_deg = 0.0
         self.still_since_s: float | None = None   # first read-back showing no motion
         # Commands (copies included) sent since motion was last seen, whether each asked
         # this axis to move, and which were copies of the same command.
-        self._new_series()
+        self.send_times: list[float] = []
+        self.asked: list[bool] = []
+        self.copy_times: list[float] = []
+        self._told_t_s: float | None = None
         # Sends one of which the controller acted on: the axis stood still when the first
         # went out and moved after. Another axis still since then got that command too.
         self.ack_sends: tuple[float, ...] = ()
@@ -89,7 +93,13 @@ class AxisWatch:
     def _segment_deg(self, t_s: float) -> float:
         if self.expect is None:
             return 0.0
-        return abs(float(self.expect.position(t_s)) - float(self.expect.position(self.seg_t_s)))
+        return abs(self.expect.position(float(t_s)) - self._seg_pos_deg)
+
+    def _new_segment(self, t_s: float) -> None:
+        """The expectation changed at ``t_s``: travel counts from its position then."""
+        assert self.expect is not None, "only called while an expectation runs"
+        self.seg_t_s = t_s
+        self._seg_pos_deg = self.expect.position(float(t_s))
 
     def start(self, axis: AxisMotor, t_s: float, readback_deg: float) -> None:
         """A command went out: expect motion from the read-back position, from rest (the
@@ -115,17 +125,17 @@ class AxisWatch:
         self.expect = AxisMotor(axis.min_deg, axis.max_deg, axis.rate_deg_s, axis.start_delay_s,
                                 axis.resolution_deg, readback_deg, t_s)
         self.expect.command(axis.target_deg, t_s)
-        self.seg_t_s = t_s
+        self._new_segment(t_s)
         if not self.send_times:
             self._series_at_rest = at_rest
         self._sent(t_s, abs(float(self.expect.target_deg) - readback_deg)
                    >= axis.resolution_deg - 1e-9)
 
     def _new_series(self) -> None:
-        self.send_times: list[float] = []
-        self.asked: list[bool] = []
-        self.copy_times: list[float] = []
         self._told_t_s: float | None = None
+        # Most cycles find the series empty already (motion seen, or on target, each cycle).
+        if self.send_times or self.copy_times:
+            self.send_times, self.asked, self.copy_times = [], [], []
 
     def _sent(self, t_s: float, asked_travel: bool) -> None:
         self.send_times.append(t_s)
@@ -153,10 +163,11 @@ class AxisWatch:
         come back unseen): restart the expectation from here."""
         expect = self.expect
         assert expect is not None, "only called while an expectation runs"
-        self.expect = moving_axis(expect, readback_deg, expect.target_deg, t_s,
-                                  expect.moving(t_s))
+        # In place: on a healthy pass this runs every cycle (motion seen, or on target).
+        restart_axis(expect, readback_deg, expect.target_deg, t_s, expect.moving(t_s))
         self.ref_t_s, self.ref_pos_deg = t_s, readback_deg
-        self.seg_t_s, self.carried_deg = t_s, 0.0
+        self._new_segment(t_s)
+        self.carried_deg = 0.0
         self.still_since_s = None
         if seen and self.send_times:
             self.acted_on = self._series_at_rest
@@ -207,9 +218,9 @@ class AxisWatch:
         after it is still worth its time; more cannot help."""
         if self.sends == self.copies and self.acted_on:
             return -math.inf
-        if self._told_t_s is None:     # the first known arrival counts, not each later one
+        if self._told_t_s is None and other_ack_sends:   # the first known arrival counts
             moving = {t for t, a in zip(self.send_times, self.asked, strict=True) if a}
-            if other_ack_sends and set(other_ack_sends) <= moving:
+            if set(other_ack_sends) <= moving:
                 self._told_t_s = max(other_ack_sends)
         return self._told_t_s
 
@@ -256,12 +267,19 @@ def moving_axis(template: AxisMotor, position_deg: float, target_deg: float, t_s
                 moving: bool) -> AxisMotor:
     """An axis like ``template`` standing at ``position_deg`` at ``t_s``; when ``moving`` it is
     already running toward ``target_deg`` at ``t_s`` (its start delay is behind it)."""
-    delay = template.start_delay_s
-    a = AxisMotor(template.min_deg, template.max_deg, template.rate_deg_s, delay,
-                  template.resolution_deg, position_deg, t_s - delay)
-    if moving and abs(target_deg - position_deg) > 1e-9:
-        a.command(target_deg, t_s - delay)  # the start delay ends exactly at t_s
+    a = AxisMotor(template.min_deg, template.max_deg, template.rate_deg_s,
+                  template.start_delay_s, template.resolution_deg)
+    restart_axis(a, position_deg, target_deg, t_s, moving)
     return a
+
+
+def restart_axis(axis: AxisMotor, position_deg: float, target_deg: float, t_s: float,
+                 moving: bool) -> None:
+    """:func:`moving_axis` on ``axis`` itself (its own rates and limits, not jammed)."""
+    delay = axis.start_delay_s
+    axis.rest_at(position_deg, t_s - delay)
+    if moving and abs(target_deg - position_deg) > 1e-9:
+        axis.command(target_deg, t_s - delay)  # the start delay ends exactly at t_s
 
 
 # Tables running on the controller ------------------------------------------------------

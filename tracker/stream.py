@@ -357,16 +357,23 @@ class TrackCore:
         s = self.settings
         res = self.spec.resolution_deg
         quota = 1 + s.stall_resends
+        w_az, w_el = self._watch["az"], self._watch["el"]
         checked = []
-        for name, pos in zip(("azimuth", "elevation"), self.antenna, strict=True):
+        for name, watch, other, pos in (("azimuth", w_az, w_el, self.antenna[0]),
+                                        ("elevation", w_el, w_az, self.antenna[1])):
             if pos is not None:
-                watch = self._watch["az" if name == "azimuth" else "el"]
-                checked.append((name, watch, watch.check(t_s, pos, res, s.stall_travel_deg)))
+                checked.append((name, watch, other,
+                                watch.check(t_s, pos, res, s.stall_travel_deg)))
         overdue = []
-        for name, watch, stuck_s in checked:
+        for name, watch, other, stuck_s in checked:
+            if not watch.send_times:
+                # Nothing sent since motion was last seen: no chance had, none to judge by;
+                # a copy is due when a stall or overdue motion shows (most cycles: neither).
+                if stuck_s is not None or watch.motion_overdue(t_s, res):
+                    overdue.append(watch)
+                continue
             # One line carries both axes: another axis starting on it shows that it arrived.
-            others = tuple(t for w in self._watch.values() if w is not watch
-                           for t in w.ack_sends)
+            others = other.ack_sends
             # Any of three ways shows the controller had its chance; the first one counts.
             done = watch.sends_had_their_chance(t_s, quota)
             can_copy = watch.sends < quota
