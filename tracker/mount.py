@@ -432,6 +432,11 @@ class AxisMotor:
         self._t0, self._p0, self._target, self._delay = float(t_s), float(p), target, delay
         return target
 
+    def segment(self) -> tuple[float, float, float, float, float, bool]:
+        """What its positions follow from (start time, position then, target, start delay,
+        rate, jammed): two axes with equal segments are at the same place at every time."""
+        return self._t0, self._p0, self._target, self._delay, self.rate_deg_s, self.jammed
+
     def rest_at(self, position_deg: float, t_s: float) -> None:
         """Stand still on ``position_deg`` from ``t_s`` on, as a new axis does (not jammed)."""
         self.jammed = False

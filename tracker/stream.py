@@ -19,14 +19,14 @@ Works with any :class:`~tracker.protocols.base.RotatorDriver` (``position``/``go
 from __future__ import annotations
 
 import math
-from bisect import bisect_left
+from bisect import bisect_left, bisect_right
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from enum import Enum
 
 import numpy as np
 
-from tracker.aim import COMMAND_COST_STARTS, Aim, choose_aim, needs_command
+from tracker.aim import COMMAND_COST_STARTS, Aim, choose_aim, needs_command, quiet_until_s
 from tracker.clock import Clock
 from tracker.errors import (
     PortLostError,
@@ -101,9 +101,10 @@ class Command:
     resend: int = 0                  # > 0: the n-th copy of the last command (no motion seen)
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class Status:
-    """Everything a UI shows for one cycle."""
+    """Everything a UI shows for one cycle (built anew each cycle, so kept cheap: slots, no
+    frozen-instance checks; read it, do not change it)."""
 
     t_s: float
     phase: Phase
@@ -162,6 +163,7 @@ class TrackCore:
                  sky: Callable[[float], tuple[float, float]] | None = None):
         self.plan = plan
         self.track = track
+        self._track_from_s, self._track_to_s = float(track.t_s[0]), float(track.t_s[-1])
         # Where the target is outside the track's span (waiting for the pass): shown, not
         # planned with; without it the track's first or last point stands in.
         self.sky = sky
@@ -178,8 +180,18 @@ class TrackCore:
         dt = np.gradient(self.path.t_s)
         self._path_t = self.path.t_s.tolist()
         path_el = self.path.el_deg if self.path.el_deg is not None else np.zeros_like(dt)
-        self._rates = np.stack([np.abs(np.gradient(self.path.az_m_deg) / dt),
-                                np.abs(np.gradient(path_el) / dt)], axis=1).tolist()
+        rates = np.stack([np.abs(np.gradient(self.path.az_m_deg) / dt),
+                          np.abs(np.gradient(path_el) / dt)], axis=1)
+        self._rates = rates.tolist()
+        # Where both ends of a sample interval are well below the follow thresholds, so is
+        # every rate interpolated in it: :meth:`_fast` needs no interpolation there. Entry
+        # j + 1 covers the interval starting at sample j (entry 0: before the first sample,
+        # the last: after the last).
+        f = self.settings.follow_fraction
+        el_thr = f * spec.el_rate if spec.has_elevation else math.inf
+        slow = ((rates[:, 0] < f * spec.az_rate_deg_s * (1.0 - 1e-9))
+                & (rates[:, 1] < el_thr * (1.0 - 1e-9)))
+        self._slow_from = [bool(slow[0]), *(slow[:-1] & slow[1:]).tolist(), bool(slow[-1])]
         plan_az = np.asarray(plan.cmd_az_deg, dtype=float)
         self._plan_az = plan_az.tolist()
         self._plan_el = np.asarray(getattr(plan, "cmd_el_deg", np.zeros_like(plan_az)),
@@ -218,6 +230,8 @@ class TrackCore:
         self._resume: tuple[Phase, int] | None = None
         self._hold_until_s = -math.inf
         self._hold_level_deg = self.settings.deadband_deg
+        # (from, until, level, motor segments): needs_command is False all along (_quiet).
+        self._quiet_span: tuple[float, float, float, tuple] | None = None
         self._park_sent_s: float | None = None
         self._last_wire_az: float | None = None
         self._wire_still_since_s = -math.inf
@@ -469,8 +483,7 @@ class TrackCore:
             settled = self._phase_commanded is Phase.TRACK or (
                 self._phase_commanded is Phase.PREPOSITION
                 and self._move_i >= len(self.pre_moves))
-            if settled and not needs_command(self.path, self.motor.az, self.motor.el, t_s,
-                                             level, lookahead):
+            if settled and self._quiet(t_s, level, lookahead):
                 return None
             aim = choose_aim(self.path, self.motor.az, self.motor.el, t_s, band,
                              step_s=s.aim_step_s)
@@ -489,6 +502,25 @@ class TrackCore:
                     cmd.el_deg is None or abs(cmd.el_deg - last.el_deg) < 1e-9):
                 return None
         return cmd
+
+    def _quiet(self, t_s: float, level_deg: float, lookahead_s: float) -> bool:
+        """``not needs_command(...)``: the antenna, left alone, stays within ``level_deg``
+        for the look-ahead. Proved by a bound for a while ahead (:func:`quiet_until_s`), the
+        answer is kept until then, as long as the belief of the motors does not change."""
+        motor = self.motor
+        assert motor is not None, "only asked with a belief"
+        key = (motor.az.segment(), None if motor.el is None else motor.el.segment())
+        q = self._quiet_span
+        if q is not None and q[0] <= t_s <= q[1] and level_deg >= q[2] and key == q[3]:
+            return True
+        until = quiet_until_s(self.path, motor.az, motor.el, t_s, level_deg, lookahead_s,
+                              first_s=self.settings.cycle_s)
+        if until is None:
+            if needs_command(self.path, motor.az, motor.el, t_s, level_deg, lookahead_s):
+                return False
+            until = t_s
+        self._quiet_span = (t_s, until, level_deg, key)
+        return True
 
     def _band(self) -> float:
         s = self.settings
@@ -534,6 +566,10 @@ class TrackCore:
     def _fast(self, t_s: float, lookahead_s: float) -> bool:
         """True where the path runs the az or el motor more than ``follow_fraction`` of
         the time (near the zenith, keyhole sweeps)."""
+        path_t, slow_from = self._path_t, self._slow_from
+        if (slow_from[bisect_right(path_t, t_s)]
+                and slow_from[bisect_right(path_t, t_s + lookahead_s)]):
+            return False
         f = self.settings.follow_fraction
         az0, el0 = interp1_rows(t_s, self._path_t, self._rates)
         az1, el1 = interp1_rows(t_s + lookahead_s, self._path_t, self._rates)
@@ -634,11 +670,12 @@ class TrackCore:
     # Reporting ---------------------------------------------------------------------------
 
     def status(self, t_s: float) -> Status:
-        t = self.track.t_s
-        if self.sky is not None and not (t[0] <= t_s <= t[-1]):
+        # Once a cycle: floats throughout (the track's span and the scalar paths).
+        if self.sky is not None and not (self._track_from_s <= t_s <= self._track_to_s):
             taz, tel = self.sky(t_s)
         else:
-            taz, tel = self.track.direction_at(t_s)
+            taz, tel = self.track.direction_at(float(t_s))
+        taz, tel = float(taz), float(tel)
         ant = self.antenna
         err = bearing = None
         if ant is not None:
@@ -646,22 +683,17 @@ class TrackCore:
             bearing = float(self.spec.bearing_of(ant[0]))
             # an azimuth-only beam's elevation is set by hand: only azimuth is ours to get
             # right, as in the planner's prediction
-            if self.phase not in (Phase.PARK, Phase.DONE):
+            if self.phase is not Phase.PARK and self.phase is not Phase.DONE:
                 # after LOS the antenna leaves the target on purpose: no pointing error
-                err = float(pointing_error_deg(self.spec, ant[0], el,
-                                               (float(taz), float(tel))))
+                err = float(pointing_error_deg(self.spec, ant[0], el, (taz, tel)))
         span = max(self.los_s - self.aos_s, 1e-9)
         cmd = self.last_command
-        return Status(t_s=t_s, phase=self.phase, mode=self.mode, target_az_deg=float(taz),
-                      target_el_deg=float(tel),
-                      antenna_az_m_deg=None if ant is None else ant[0],
-                      antenna_el_deg=None if ant is None else ant[1],
-                      antenna_bearing_deg=bearing,
-                      command_az_m_deg=None if cmd is None else cmd.az_m_deg,
-                      command_el_deg=None if cmd is None else cmd.el_deg,
-                      error_deg=err, aos_s=self.aos_s, los_s=self.los_s,
-                      progress=float(min(max((t_s - self.aos_s) / span, 0.0), 1.0)),
-                      commands=self.commands, note=self.note)
+        return Status(t_s, self.phase, self.mode, taz, tel,
+                      None if ant is None else ant[0], None if ant is None else ant[1],
+                      bearing, None if cmd is None else cmd.az_m_deg,
+                      None if cmd is None else cmd.el_deg, err, self.aos_s, self.los_s,
+                      min(max((t_s - self.aos_s) / span, 0.0), 1.0), self.commands,
+                      self.note)
 
 
 def safe_target(spec: RotatorSpec, station: Station, az_m_deg: float, el_deg: float | None
