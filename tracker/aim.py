@@ -168,11 +168,16 @@ def quiet_until_s(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None
     az0 = az_axis.position(t0_s)
     el0 = el_axis.position(t0_s) if el_axis is not None else 0.0
     room = deadband_deg - _BOUND_SLACK_DEG - path.error_deg(t0_s, az0, el0)
+    # An axis on its target stays there: no need to ask where it will be.
+    az_runs = az_axis.target_deg != az0
+    el_runs = el_axis is not None and el_axis.target_deg != el0
     until, ahead_s = None, 0.0
     while ahead_s <= horizon_s:
         t = t0_s + ahead_s + window_s
-        growth = path.target_travel_bound_deg(t0_s, t) + abs(az_axis.position(t) - az0)
-        if el_axis is not None:
+        growth = path.target_travel_bound_deg(t0_s, t)
+        if az_runs:
+            growth += abs(az_axis.position(t) - az0)
+        if el_runs and el_axis is not None:
             growth += abs(el_axis.position(t) - el0)
         if growth >= room:
             break

@@ -91,7 +91,7 @@ class AxisWatch:
         self.acted_on = False
 
     def _segment_deg(self, t_s: float) -> float:
-        if self.expect is None:
+        if self.expect is None or t_s == self.seg_t_s:   # none yet since the segment began
             return 0.0
         return abs(self.expect.position(float(t_s)) - self._seg_pos_deg)
 
@@ -178,18 +178,19 @@ class AxisWatch:
     def check(self, t_s: float, readback_deg: float, resolution_deg: float,
               stall_travel_deg: float) -> float | None:
         """Seconds without motion when the axis counts as stalled, else None."""
-        if self.expect is None or self.ref_t_s is None:
+        expect = self.expect
+        if expect is None or self.ref_t_s is None:
             return None
-        moved = abs(readback_deg - self.ref_pos_deg)
-        at_target = abs(readback_deg - self.expect.target_deg) < resolution_deg - 1e-9
-        if moved >= resolution_deg - 1e-9 or at_target:
+        ref_deg, target_deg = self.ref_pos_deg, expect.target_deg
+        step_deg = resolution_deg - 1e-9
+        moved = abs(readback_deg - ref_deg)
+        if moved >= step_deg or abs(readback_deg - target_deg) < step_deg:
             # At the target is never a stall: a command asking for no travel, or a rotator
             # faster than its model that went out and came back between two read-backs.
             # Motion counts as the controller acting on a command only toward the target: a
             # reading with a digit garbled into another valid one may jump anywhere.
-            toward = (readback_deg - self.ref_pos_deg) * (self.expect.target_deg
-                                                          - self.ref_pos_deg) > 0
-            self._moved(t_s, readback_deg, seen=moved >= resolution_deg - 1e-9 and toward)
+            toward = (readback_deg - ref_deg) * (target_deg - ref_deg) > 0
+            self._moved(t_s, readback_deg, seen=moved >= step_deg and toward)
             return None
         if self.still_since_s is None:
             self.still_since_s = t_s

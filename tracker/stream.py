@@ -281,7 +281,6 @@ class TrackCore:
         expected_az = float(self.motor.az.position(t_s)) if self.motor is not None else None
         belief = expected_az if expected_az is not None else (
             self.antenna[0] if self.antenna else None)
-        cands = spec.frame.mechs_of_wire(wire_az_deg)
         m_az = spec.frame.nearest_mech_of_wire(wire_az_deg, belief)
         early = False
         if self._last_wire_az is None or abs(wire_az_deg - self._last_wire_az) >= 0.5:
@@ -301,7 +300,8 @@ class TrackCore:
             # names the commanded target: it arrived sooner than believed (the start was
             # guessed on the wrong side of the overlap; the controller knew better). Take it,
             # instead of distrusting a good rotator.
-            at_target = [m for m in cands if abs(m - self.motor.az.target_deg) < 0.5
+            at_target = [m for m in spec.frame.mechs_of_wire(wire_az_deg)
+                         if abs(m - self.motor.az.target_deg) < 0.5
                          and abs(m - m_az) > 180.0]
             if at_target:
                 m_az, early = at_target[0], True
@@ -542,12 +542,15 @@ class TrackCore:
         q_el = (np.array([self.motor.el.quantise(e) for e in cand_el])
                 if self.motor.el is not None and last.el_deg is not None and cand_el is not None
                 else np.zeros_like(q_az))
-        err = angle_between_deg(pointing_enu(q_az, q_el, self.path.stop_bearing_deg)[:, None],
-                                self.path.target_enu(ts)[None, :])          # (candidate, t)
+        # Neighbouring path points quantise to the same few positions: each distinct one once.
+        _u, first, inv = np.unique(q_az + 1j * q_el, return_index=True, return_inverse=True)
+        err = angle_between_deg(pointing_enu(q_az[first], q_el[first],
+                                             self.path.stop_bearing_deg)[:, None],
+                                self.path.target_enu(ts)[None, :])    # (distinct position, t)
         off = err > self._band()
         # Held from the start of tracking: a candidate counts until the error first leaves
         # the deadband, and only if it is inside at the start.
-        hold = np.where(off.any(axis=1), np.argmax(off, axis=1), len(ts))
+        hold = np.where(off.any(axis=1), np.argmax(off, axis=1), len(ts))[inv.ravel()]
         if not (hold > 0).any():
             return last
         # Hold per motor start, as within the pass (an axis already on target costs none).
