@@ -137,6 +137,24 @@ def _plausible_step(spec: RotatorSpec, before: tuple[float, float | None],
     return abs(after[1] - before[1]) <= spec.el_rate_deg_s * dt_s + slack_deg
 
 
+# Plan modes whose path is the plan's own quantised commands (MountPath.exact_from_plan):
+# a staircase, whose rate from one sample to the next jumps between 0 (a step held) and twice
+# the mean. Near a keyhole's zenith the mean sits close to the follow threshold, so the loop
+# would switch between following the plan and aiming on it every few seconds - and an aim
+# taken on a held step lies behind the antenna (a reversal each time). There each sample's
+# rate is the highest within this many seconds either side.
+STAIRCASE_MODES = ("keyhole", "unwind")
+STAIRCASE_RATE_WINDOW_S = 3.0
+
+
+def _window_max(t_s: np.ndarray, values: np.ndarray, half_width_s: float) -> np.ndarray:
+    """Per row of ``values``, the column-wise maximum over the rows within
+    ``half_width_s`` of its time (``t_s`` ascending)."""
+    lo = np.searchsorted(t_s, t_s - half_width_s, side="left")
+    hi = np.searchsorted(t_s, t_s + half_width_s, side="right")
+    return np.array([values[a:b].max(axis=0) for a, b in zip(lo, hi, strict=True)])
+
+
 def pass_window(track: SkyTrack, station: Station) -> tuple[float, float]:
     """AOS and LOS (UTC POSIX s) of ``track`` against the station's horizon and mask."""
     up = track.el_deg >= station.horizon_at(track.az_deg)
@@ -182,6 +200,8 @@ class TrackCore:
         path_el = self.path.el_deg if self.path.el_deg is not None else np.zeros_like(dt)
         rates = np.stack([np.abs(np.gradient(self.path.az_m_deg) / dt),
                           np.abs(np.gradient(path_el) / dt)], axis=1)
+        if str(getattr(plan, "mode", "normal")) in STAIRCASE_MODES:
+            rates = _window_max(self.path.t_s, rates, STAIRCASE_RATE_WINDOW_S)
         self._rates = rates.tolist()
         # Where both ends of a sample interval are well below the follow thresholds, so is
         # every rate interpolated in it: :meth:`_fast` needs no interpolation there. Entry
@@ -473,7 +493,7 @@ class TrackCore:
         # the wait until it starts has to be foreseen: one cycle and the start delay.
         lookahead = s.cycle_s + self.spec.start_delay_s
         if self._fast(t_s, lookahead):
-            i = min(bisect_left(self._plan_t, t_s), len(self._plan_t) - 1)
+            i = self._plan_index_near(t_s)
             el = self._plan_el[i] if self.spec.has_elevation else None
             cmd = self._safe(self._plan_az[i], el, "track")
             self._hold_until_s = -math.inf
@@ -521,6 +541,18 @@ class TrackCore:
             until = t_s
         self._quiet_span = (t_s, until, level_deg, key)
         return True
+
+    def _plan_index_near(self, t_s: float) -> int:
+        """Index of the plan's command whose time is nearest ``t_s`` (the later one on a
+        tie): each goes out within half a plan step of the time the planner gave it, the
+        timing its prediction assumes, and never late."""
+        pt = self._plan_t
+        j = bisect_left(pt, t_s)
+        if j >= len(pt):
+            return len(pt) - 1
+        if j > 0 and t_s - pt[j - 1] < pt[j] - t_s:
+            return j - 1
+        return j
 
     def _band(self) -> float:
         s = self.settings
