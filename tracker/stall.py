@@ -132,7 +132,7 @@ class AxisWatch:
                    >= axis.resolution_deg - 1e-9)
 
     def _new_series(self) -> None:
-        self._told_t_s: float | None = None
+        self._told_t_s = None
         # Most cycles find the series empty already (motion seen, or on target, each cycle).
         if self.send_times or self.copy_times:
             self.send_times, self.asked, self.copy_times = [], [], []
@@ -200,7 +200,7 @@ class AxisWatch:
         # that long. A W has no acknowledgement: if the controller acted on it late (a busy
         # host, a time-compressed simulation), the first read-backs after it show no motion
         # yet although the belief's clock says the motor ran long ago.
-        settle_s = self.expect.start_delay_s + 1.0
+        settle_s = expect.start_delay_s + 1.0
         if (expected >= stall_travel_deg and t_s - self.ref_t_s >= settle_s
                 and t_s - self.still_since_s >= settle_s):
             return t_s - self.ref_t_s
