@@ -142,7 +142,8 @@ def _plausible_step(spec: RotatorSpec, before: tuple[float, float | None],
 # the mean. Near a keyhole's zenith the mean sits close to the follow threshold, so the loop
 # would switch between following the plan and aiming on it every few seconds - and an aim
 # taken on a held step lies behind the antenna (a reversal each time). There each sample's
-# rate is the highest within this many seconds either side.
+# rate is the highest within this many seconds either side, and the plan's commands go out
+# at the cycle nearest their planned time: the planner's prediction is the only one there.
 STAIRCASE_MODES = ("keyhole", "unwind")
 STAIRCASE_RATE_WINDOW_S = 3.0
 
@@ -200,7 +201,8 @@ class TrackCore:
         path_el = self.path.el_deg if self.path.el_deg is not None else np.zeros_like(dt)
         rates = np.stack([np.abs(np.gradient(self.path.az_m_deg) / dt),
                           np.abs(np.gradient(path_el) / dt)], axis=1)
-        if str(getattr(plan, "mode", "normal")) in STAIRCASE_MODES:
+        self._staircase = str(getattr(plan, "mode", "normal")) in STAIRCASE_MODES
+        if self._staircase:
             rates = _window_max(self.path.t_s, rates, STAIRCASE_RATE_WINDOW_S)
         self._rates = rates.tolist()
         # Where both ends of a sample interval are well below the follow thresholds, so is
@@ -493,7 +495,8 @@ class TrackCore:
         # the wait until it starts has to be foreseen: one cycle and the start delay.
         lookahead = s.cycle_s + self.spec.start_delay_s
         if self._fast(t_s, lookahead):
-            i = self._plan_index_near(t_s)
+            i = (self._plan_index_near(t_s) if self._staircase
+                 else min(bisect_left(self._plan_t, t_s), len(self._plan_t) - 1))
             el = self._plan_el[i] if self.spec.has_elevation else None
             cmd = self._safe(self._plan_az[i], el, "track")
             self._hold_until_s = -math.inf
