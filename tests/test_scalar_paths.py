@@ -11,7 +11,6 @@ import pytest
 from tracker.aim import _predict, _predict_all, needs_command, quiet_until_s
 from tracker.geometry import MountPath, pointing_enu, pointing_error_deg
 from tracker.mount import AxisMotor, MotorModel, preset
-from tracker.stall import moving_axis, restart_axis
 from tracker.skytrack import (
     SkyTrack,
     angle_between_deg,
@@ -21,6 +20,7 @@ from tracker.skytrack import (
     interp1,
     interp1_rows,
 )
+from tracker.stall import moving_axis, restart_axis
 
 SPEC = preset("G-5500", 50)
 AZ_ONLY = preset("G-400")
