@@ -38,3 +38,24 @@ def test_one_span_stays_in_memory():
         assert [list(p["t"]) for p in spill.spans()] == [[5.0, 1.0, 3.0]]
     with RowSpill(DTYPE, "t", 0.0, 100.0, 1) as spill:
         assert list(spill.spans()) == []
+
+
+def test_a_temporary_folder_that_cannot_take_the_rows_is_one_clear_error(tmp_path, monkeypatch):
+    import shutil
+    import tempfile
+
+    import pytest
+
+    from tracker.errors import ConfigError
+
+    not_a_folder = tmp_path / "file"
+    not_a_folder.write_text("")
+    monkeypatch.setattr(tempfile, "tempdir", str(not_a_folder))
+    with pytest.raises(ConfigError, match=r"temporary folder .*file .*set TMPDIR"):
+        RowSpill(DTYPE, "t", 0.0, 100.0, 4).__enter__()
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    with RowSpill(DTYPE, "t", 0.0, 100.0, 4) as spill:
+        shutil.rmtree(spill.dir.name)            # the folder gone (or full) under the run
+        with pytest.raises(ConfigError, match="cannot keep rows of a large result"):
+            spill.add(rows([10.0]))
+        os.mkdir(spill.dir.name)                 # for the clean-up

@@ -14,6 +14,8 @@ from collections.abc import Iterator
 
 import numpy as np
 
+from tracker.errors import ConfigError
+
 
 class RowSpill:
     """Rows of ``dtype`` collected by the value of ``field``: ``n`` equal spans of
@@ -28,7 +30,10 @@ class RowSpill:
 
     def __enter__(self) -> RowSpill:
         if self.n > 1:
-            self.dir = tempfile.TemporaryDirectory(prefix="tracker-rows-")
+            try:
+                self.dir = tempfile.TemporaryDirectory(prefix="tracker-rows-")
+            except OSError as e:
+                raise _no_room(tempfile.gettempdir(), e) from None
         return self
 
     def __exit__(self, *exc) -> None:
@@ -46,9 +51,12 @@ class RowSpill:
         span = np.searchsorted(self.inner, rows[self.field], "right")
         order = np.argsort(span, kind="stable")
         cuts = np.searchsorted(span[order], np.arange(self.n + 1))
-        for k in np.flatnonzero(np.diff(cuts)).tolist():
-            with open(self._path(k), "ab") as f:
-                rows[order[cuts[k]:cuts[k + 1]]].tofile(f)
+        try:
+            for k in np.flatnonzero(np.diff(cuts)).tolist():
+                with open(self._path(k), "ab") as f:
+                    rows[order[cuts[k]:cuts[k + 1]]].tofile(f)
+        except OSError as e:
+            raise _no_room(self.dir.name, e) from None
 
     def spans(self) -> Iterator[np.ndarray]:
         """Each non-empty span's rows, first span first (in the order they were added)."""
@@ -65,3 +73,8 @@ class RowSpill:
                 rows = np.fromfile(path, dtype=self.dtype)
                 os.remove(path)
                 yield rows
+
+
+def _no_room(folder: str, e: OSError) -> ConfigError:
+    return ConfigError(f"cannot keep rows of a large result in the temporary folder {folder} "
+                       f"({e.strerror}); free space there or set TMPDIR to a folder with room")
