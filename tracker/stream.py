@@ -500,6 +500,15 @@ class TrackCore:
             el = self._plan_el[i] if self.spec.has_elevation else None
             cmd = self._safe(self._plan_az[i], el, "track")
             self._hold_until_s = -math.inf
+            last = self.last_command
+            if self._staircase and last is not None and last.aim is None and abs(
+                    cmd.az_m_deg - last.az_m_deg) < 1e-9 and (cmd.el_deg is None or (
+                    last.el_deg is not None and abs(cmd.el_deg - last.el_deg) < 1e-9)):
+                # The step nearest now (or the limit a guard holds it to) has gone out
+                # already, and the antenna may have reached it and stopped: sending it again
+                # would only restart the motor. A command that did not move it is the stall
+                # watch's to re-send.
+                return None
         else:
             # After the whole pre-position (which already leads into the pass) the antenna
             # may hold where it is, as within the pass.

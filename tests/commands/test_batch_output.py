@@ -125,8 +125,8 @@ def inproc_cluster():
     from main() in this process, quickly and without spawning processes."""
     distributed = pytest.importorskip("dask.distributed")
     pytest.importorskip("pyarrow")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
-                                  dashboard_address=None) as cluster:
+    with distributed.LocalCluster(protocol="inproc://", n_workers=2, threads_per_worker=1,
+                                  processes=False, dashboard_address=None) as cluster:
         yield cluster.scheduler_address
 
 
