@@ -158,8 +158,11 @@ def _sgp4_pairs(job: _Job, sat: np.ndarray, tau: np.ndarray, kind: str = "sgp4_r
     v = np.empty((m, 3))
     if m == 0:
         return err, r, v
-    presorted = bool(np.all(sat[1:] >= sat[:-1]))
-    order = np.arange(m) if presorted else np.argsort(sat, kind="stable")
+    # Each satellite's times in increasing order: SDP4's resonance integrator restarts from
+    # the epoch whenever time goes backwards (deep-space objects run 30 % slower shuffled).
+    step = sat[1:] - sat[:-1]
+    presorted = bool(np.all((step > 0) | ((step == 0) & (tau[1:] >= tau[:-1]))))
+    order = np.arange(m) if presorted else np.lexsort((tau, sat))
     s_sorted = sat if presorted else sat[order]
     jd = np.full(m, job.jd0)
     fr = job.fr(tau if presorted else tau[order])
@@ -516,39 +519,59 @@ def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc
     ss, kk = np.nonzero(cand)
     if ss.size == 0:
         return out
+    # float32 throughout: the cone has degrees of margin, float32 rounds at 1e-7 rad.
+    f32 = np.float32
     fine_s = coarse_s / n
     e_eff = np.minimum(ecc[ss] + 0.002, 0.9)
     ratio = ((1.0 + e_eff) / (1.0 - e_eff)) ** 2 * 1.01
     phi = arc["phi"][ss, kk]
     w_mean = phi / coarse_s
-    w_lo, w_hi = (w_mean / ratio)[:, None], (w_mean * ratio)[:, None]
-    t_a = np.arange(n) * fine_s
-    t_b = t_a + fine_s
-    ph_ = phi[:, None]
-    a1 = np.clip(np.maximum(w_lo * t_a, ph_ - w_hi * (coarse_s - t_a)), 0.0, ph_)
-    a2 = np.clip(np.minimum(w_hi * t_b, ph_ - w_lo * (coarse_s - t_b)), 0.0, ph_)
-    a2 = np.maximum(a1, a2)
+    w_lo, w_hi = (w_mean / ratio).astype(f32)[:, None], (w_mean * ratio).astype(f32)[:, None]
+    t_a = (np.arange(n) * fine_s).astype(f32)
+    t_b = (np.arange(1, n + 1) * fine_s).astype(f32)
+    ph_ = phi.astype(f32)[:, None]
+    a1 = np.maximum(w_lo * t_a, ph_ - w_hi * (f32(coarse_s) - t_a))
+    np.clip(a1, f32(0.0), ph_, out=a1)
+    a2 = np.minimum(w_hi * t_b, ph_ - w_lo * (f32(coarse_s) - t_b))
+    np.clip(a2, a1, ph_, out=a2)
     # The station (geocentric unit vector) in TEME at the middle of every fine step of the
     # window, gathered per candidate: rho (cos psi, sin psi), z with psi = GMST + longitude.
     u = job.frames.unit[st]
     psi = job.theta((np.arange(K * n) + 0.5) * fine_s) + math.atan2(u[1], u[0])
     rho, z = math.hypot(u[0], u[1]), u[2]
     idx = (kk * n)[:, None] + np.arange(n)
-    cp, sp = (np.cos(psi) * rho)[idx], (np.sin(psi) * rho)[idx]
-    A, q = arc["A"][ss, kk], arc["q"][ss, kk]
-    pa = A[:, 0, None] * cp + A[:, 1, None] * sp + A[:, 2, None] * z
-    pq = q[:, 0, None] * cp + q[:, 1, None] * sp + q[:, 2, None] * z
-    cos_lim = _cone_limits(job, st, r_apo, fine_s)[0][ss][:, None]
-    # The sub-arc [a1, a2] comes within the cone iff its nearest point to the station's
-    # in-plane direction beta is within it: R cos(distance to [a1, a2]) >= cos(limit),
-    # R = |projection of the station on the plane| (R >= cos(limit) inside the arc).
-    # With e1 = a1 - beta, e2 = beta - a2 (beta in [0, 2 pi)): inside the sub-arc both are
-    # <= 0; below it the distance is min(e1, e2 + 2 pi), above it min(e2, e1 + 2 pi).
-    beta = np.arctan2(pq, pa)
-    beta += np.where(beta < 0, 2 * math.pi, 0.0)
-    e1, e2 = a1 - beta, beta - a2
-    dist = np.minimum(np.maximum(e1, e2), np.minimum(e1, e2) + 2 * math.pi)
-    sub = np.hypot(pa, pq) * np.cos(np.maximum(dist, 0.0)) >= cos_lim
+    cp, sp = (np.cos(psi) * rho).astype(f32)[idx], (np.sin(psi) * rho).astype(f32)[idx]
+    A = arc["A"][ss, kk].astype(f32)
+    q = arc["q"][ss, kk].astype(f32)
+    pa = A[:, 0, None] * cp
+    pa += A[:, 1, None] * sp
+    pa += A[:, 2, None] * f32(z)
+    pq = q[:, 0, None] * cp
+    pq += q[:, 1, None] * sp
+    pq += q[:, 2, None] * f32(z)
+    cos_lim = _cone_limits(job, st, r_apo, fine_s)[0][ss].astype(f32)[:, None]
+    # The sub-arc [a1, a2] comes within the cone iff the largest projection of the station
+    # on it reaches cos(limit). The station's in-plane part is R (cos beta, sin beta); on the
+    # arc's mid-direction m (half-width w) it projects to pm = R cos(beta - m), across it to
+    # |pp| = R |sin(beta - m)|. Inside the arc (|beta - m| <= w, i.e. pm >= R cos w) the
+    # largest projection is R; outside it is at the nearer end, R cos(|beta - m| - w)
+    # = pm cos w + |pp| sin w. No arctangent needed.
+    r_in = np.sqrt(pa * pa + pq * pq)
+    mid = a1 + a2
+    mid *= f32(0.5)
+    half = a2 - a1
+    half *= f32(0.5)
+    cm, sm, ch, sh = np.cos(mid), np.sin(mid), np.cos(half), np.sin(half)
+    pm = pa * cm
+    pm += pq * sm
+    pq *= cm
+    pa *= sm
+    pp = np.abs(pq - pa, out=pq)
+    pp *= sh
+    pp += pm * ch
+    sub = pp >= cos_lim
+    ch *= r_in
+    sub |= (pm >= ch) & (r_in >= cos_lim)
     sub |= ~screenable[ss][:, None]
     out.reshape(S, K, n)[ss, kk] = sub
     return out
@@ -786,6 +809,42 @@ def _to_utc(t: datetime) -> datetime:
     return t.astimezone(timezone.utc)
 
 
+@dataclass(frozen=True)
+class _GridClasses:
+    """Per satellite: the fine step, the coarse factor (fine steps per coarse interval) and the
+    screening bounds. Satellites with the same (fine step, coarse factor) share one time grid
+    and are screened together."""
+
+    fine_s: np.ndarray
+    n_fact: np.ndarray
+    r_apo: np.ndarray  # apogee radius (km) with a margin for SGP4's short-period terms
+    ecc: np.ndarray
+    screenable: np.ndarray
+
+    @classmethod
+    def of(cls, satrecs, step_s: float) -> _GridClasses:
+        r_apo, rate = geo.orbit_bounds(satrecs)
+        ecc = np.clip(np.array([sr.ecco for sr in satrecs], dtype=float), 0.0, 0.999)
+        r_apo += 100.0  # SGP4 vs Kepler radius, drag and J2 short-period terms
+        # Fine step: step_s for low orbits, an integer multiple of it for slower ones (so
+        # satellites group into few chunks), in proportion to the period and at most
+        # MAX_FINE_S: what matters for the interpolation between samples is the arc swept per
+        # step (GEO: two hours, a 30 degree arc, like a low orbit in 480 s).
+        slow = np.floor(np.maximum(LEO_RATE_RAD_S / rate, 1.0))
+        fine_s = np.minimum(step_s * slow, max(step_s, step_s * (MAX_FINE_S // step_s)))
+        # Coarse factor: as many fine steps per coarse interval as keep the arc within
+        # ARC_LIMIT_RAD, at most MAX_COARSE_S.
+        n_fact = np.clip(np.floor(np.minimum(ARC_LIMIT_RAD / rate, MAX_COARSE_S) / fine_s), 1,
+                         None).astype(int)
+        screenable = rate * fine_s * n_fact <= ARC_LIMIT_RAD
+        return cls(fine_s, n_fact, r_apo, ecc, screenable)
+
+    def groups(self) -> list[np.ndarray]:
+        """Satellite indices per (fine step, coarse factor), in a fixed order."""
+        keys = sorted(set(zip(self.fine_s.tolist(), self.n_fact.tolist(), strict=True)))
+        return [np.flatnonzero((self.fine_s == f_s) & (self.n_fact == n)) for f_s, n in keys]
+
+
 def find_passes_block(satrecs, names, stations, start, end, min_el_deg=None, *,
                       step_s: float = 480.0, tol_s: float = 0.02, memory_mb: float = 256.0,
                       ) -> PassTable:
@@ -798,28 +857,11 @@ def find_passes_block(satrecs, names, stations, start, end, min_el_deg=None, *,
     stats: dict = {}
     job = _Job(list(satrecs), frames, list(stations), jd0, fr0, window_s, geo.dut1_s(start),
                step_s, tol_s, stats, {})
-    n_sat = len(job.satrecs)
-    r_apo = np.empty(n_sat)
-    rate = np.empty(n_sat)
-    for i, sr in enumerate(job.satrecs):
-        r_apo[i], rate[i] = geo.orbit_bounds(sr)
-    ecc = np.array([min(max(sr.ecco, 0.0), 0.999) for sr in job.satrecs])
-    r_apo += 100.0  # SGP4 vs Kepler radius, drag and J2 short-period terms
-    # Fine step: step_s for low orbits, an integer multiple of it for slower ones (so
-    # satellites group into few chunks), in proportion to the period and at most
-    # MAX_FINE_S: what matters for the interpolation between samples is the arc swept per
-    # step (GEO: two hours, a 30 degree arc, like a low orbit in 480 s).
-    slow = np.floor(np.maximum(LEO_RATE_RAD_S / rate, 1.0))
-    fine_s = np.minimum(step_s * slow, max(step_s, step_s * (MAX_FINE_S // step_s)))
-    # Coarse factor: as many fine steps per coarse interval as keep the arc within
-    # ARC_LIMIT_RAD, at most MAX_COARSE_S.
-    n_fact = np.clip(np.floor(np.minimum(ARC_LIMIT_RAD / rate, MAX_COARSE_S) / fine_s), 1,
-                     None).astype(int)
-    screenable = rate * fine_s * n_fact <= ARC_LIMIT_RAD
+    grid = _GridClasses.of(job.satrecs, step_s)
+    r_apo, ecc, screenable = grid.r_apo, grid.ecc, grid.screenable
     rows = []
-    groups = sorted(set(zip(fine_s.tolist(), n_fact.tolist(), strict=True)))
-    for f_s, n in groups:
-        ids = np.flatnonzero((fine_s == f_s) & (n_fact == n))
+    for ids in grid.groups():
+        f_s, n = grid.fine_s[ids[0]].item(), grid.n_fact[ids[0]].item()
         k = max(1, math.ceil(window_s / (n * f_s)))
         size = _chunk_size(k + 1, k * n + 1, len(stations), memory_mb)
         for c0 in range(0, len(ids), size):
@@ -853,9 +895,9 @@ def merge_tables(tables: list[PassTable], names, stations, start, end) -> PassTa
         return PassTable(passes, list(names), list(stations), start, end,
                          sorted(t.errors, key=lambda e: e.sat), dict(t.stats))
     passes = np.concatenate([t.passes for t in tables]) if tables else np.zeros(0, PASS_DTYPE)
-    passes = passes[np.lexsort((passes["aos_s"], passes["station"], passes["sat"]))]
     edges = {t.end.timestamp() for t in tables} - {end.timestamp()}
     if len(passes) > 1 and edges:
+        passes = passes[np.lexsort((passes["aos_s"], passes["station"], passes["sat"]))]
         edge = np.isin(passes["los_s"], list(edges)) & passes["los_clipped"]
         join = (edge[:-1] & passes["aos_clipped"][1:]
                 & (passes["aos_s"][1:] == passes["los_s"][:-1])
@@ -916,6 +958,34 @@ def remap(table: PassTable, ids, names, stations) -> PassTable:
                      table.stats)
 
 
+# A grid class (see _GridClasses) is split over the workers only from this many satellites
+# per worker on: every chunk costs a few milliseconds however small, so small classes go
+# whole to one worker.
+MIN_SPLIT_SATS = 32
+
+
+def _worker_shares(grid: _GridClasses, workers: int) -> list[np.ndarray]:
+    """Satellite indices per worker: each large grid class dealt out evenly (so the large
+    classes balance by construction), the small ones whole to the least-loaded worker. Load
+    is counted in fine steps per satellite (slower orbits have fewer and cost less)."""
+    shares: list[list[np.ndarray]] = [[] for _ in range(workers)]
+    load = np.zeros(workers)
+    small = []
+    for ids in grid.groups():
+        weight = 1.0 / float(grid.fine_s[ids[0]])
+        if len(ids) >= workers * MIN_SPLIT_SATS:
+            for w in range(workers):
+                shares[w].append(ids[w::workers])
+                load[w] += len(ids[w::workers]) * weight
+        else:
+            small.append((len(ids) * weight, ids))
+    for cost, ids in sorted(small, key=lambda x: -x[0]):
+        w = int(np.argmin(load))
+        shares[w].append(ids)
+        load[w] += cost
+    return [np.sort(np.concatenate(s)) for s in shares if s]
+
+
 _FORKED: tuple | None = None
 
 
@@ -954,8 +1024,10 @@ def find_passes_batch(satrecs, names, stations, start: datetime, end: datetime,
     else:
         import multiprocessing
 
-        ids = np.arange(len(satrecs))
-        tasks = [(ids[w::workers], a, b, kwargs) for a, b in blocks for w in range(workers)]
+        shares = _worker_shares(_GridClasses.of(satrecs, step_s), workers)
+        for a, _ in blocks:
+            geo.dut1_s(a)  # computed once here, inherited by the forked workers
+        tasks = [(ids, a, b, kwargs) for a, b in blocks for ids in shares]
         _FORKED = (list(satrecs), list(names), list(stations), min_el_deg)
         try:
             with multiprocessing.get_context("fork").Pool(workers) as pool:
