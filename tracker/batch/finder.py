@@ -442,25 +442,42 @@ def _refine(job: _Job, st: int, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
 
 def _arc_geometry(r, v, valid):
     """The orbit arcs between consecutive coarse samples: start direction A, in-plane normal
-    q, pole h (unit vectors, (S, K, 3)) and the swept angle phi in [0, 2 pi) (S, K).
+    q, pole h (unit vectors, (S, K, 3)), the swept angle phi in [0, 2 pi) (S, K) and the
+    cosine and sine of phi / 2.
 
     The plane's pole is the mean of the two ends' orbit normals (r x v), so the plane is
     well defined for any arc length and follows the slow nodal drift to first order.
     """
     def unit(x):
-        n = np.sqrt(np.einsum("...c,...c->...", x, x))[..., None]
+        n = np.sqrt(_dot3(x, x))[..., None]
         return x / np.where(n > 0, n, 1.0)
 
-    w = unit(np.cross(r, v))
+    w = unit(_cross3(r, v))
     h_hat = unit(w[:, :-1] + w[:, 1:])
     r_hat = unit(r)
     a_hat, b_hat = r_hat[:, :-1], r_hat[:, 1:]
     # A and B projected into the plane (they lie within perturbations of it).
-    A = unit(a_hat - np.einsum("skc,skc->sk", a_hat, h_hat)[..., None] * h_hat)
-    q = np.cross(h_hat, A)
-    phi = np.mod(np.arctan2(np.einsum("skc,skc->sk", b_hat, q),
-                            np.einsum("skc,skc->sk", b_hat, A)), 2 * math.pi)
-    return dict(A=A, B=b_hat, q=q, h=h_hat, phi=phi, ok=valid[:, :-1] & valid[:, 1:])
+    A = unit(a_hat - _dot3(a_hat, h_hat)[..., None] * h_hat)
+    q = _cross3(h_hat, A)
+    phi = np.mod(np.arctan2(_dot3(b_hat, q), _dot3(b_hat, A)), 2 * math.pi)
+    return dict(A=A, B=b_hat, q=q, h=h_hat, phi=phi, cos_half=np.cos(0.5 * phi),
+                sin_half=np.sin(0.5 * phi), ok=valid[:, :-1] & valid[:, 1:])
+
+
+def _dot3(a, b):
+    """Dot products of (..., 3) vectors (no einsum parsing on the hot path)."""
+    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
+
+
+def _cross3(a, b):
+    """Cross products of (..., 3) vectors, component by component (np.cross moves axes)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    np.subtract(a1 * b2, a2 * b1, out=out[..., 0])
+    np.subtract(a2 * b0, a0 * b2, out=out[..., 1])
+    np.subtract(a0 * b1, a1 * b0, out=out[..., 2])
+    return out
 
 
 def _station_teme(job: _Job, st: int, tau) -> np.ndarray:
@@ -484,7 +501,7 @@ def _cone_limits(job: _Job, st: int, r_apo, dt_s: float):
 
 def _coarse_candidates(job: _Job, arc, tau_c, coarse_s, r_apo, screenable):
     """Per station, (S, K) booleans: coarse intervals where a pass is geometrically possible."""
-    A, B, q, h_hat, phi_ab = arc["A"], arc["B"], arc["q"], arc["h"], arc["phi"]
+    A, B, q, h_hat = arc["A"], arc["B"], arc["q"], arc["h"]
     out = []
     for k in range(len(job.frames)):
         p = _station_teme(job, k, 0.5 * (tau_c[:-1] + tau_c[1:]))
@@ -493,7 +510,10 @@ def _coarse_candidates(job: _Job, arc, tau_c, coarse_s, r_apo, screenable):
         pb = np.einsum("skc,kc->sk", B, p)
         ph = np.einsum("skc,kc->sk", h_hat, p)
         pq = np.einsum("skc,kc->sk", q, p)
-        in_arc = np.mod(np.arctan2(pq, pa), 2 * math.pi) <= phi_ab
+        # The station's in-plane direction lies within the arc iff it is within phi / 2 of
+        # the arc's middle: its projection there is >= R cos(phi / 2).
+        in_arc = (pa * arc["cos_half"] + pq * arc["sin_half"]
+                  >= np.sqrt(pa * pa + pq * pq) * arc["cos_half"])
         cand = (pa >= cos_lim) | (pb >= cos_lim) | (in_arc & (np.abs(ph) <= sin_lim))
         cand |= ~screenable[:, None]
         out.append(cand & arc["ok"])
@@ -539,8 +559,8 @@ def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc
     u = job.frames.unit[st]
     psi = job.theta((np.arange(K * n) + 0.5) * fine_s) + math.atan2(u[1], u[0])
     rho, z = math.hypot(u[0], u[1]), u[2]
-    idx = (kk * n)[:, None] + np.arange(n)
-    cp, sp = (np.cos(psi) * rho).astype(f32)[idx], (np.sin(psi) * rho).astype(f32)[idx]
+    cp = (np.cos(psi) * rho).astype(f32).reshape(K, n)[kk]
+    sp = (np.sin(psi) * rho).astype(f32).reshape(K, n)[kk]
     A = arc["A"][ss, kk].astype(f32)
     q = arc["q"][ss, kk].astype(f32)
     pa = A[:, 0, None] * cp
@@ -550,17 +570,27 @@ def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc
     pq += q[:, 1, None] * sp
     pq += q[:, 2, None] * f32(z)
     cos_lim = _cone_limits(job, st, r_apo, fine_s)[0][ss].astype(f32)[:, None]
-    # The sub-arc [a1, a2] comes within the cone iff the largest projection of the station
-    # on it reaches cos(limit). The station's in-plane part is R (cos beta, sin beta); on the
-    # arc's mid-direction m (half-width w) it projects to pm = R cos(beta - m), across it to
-    # |pp| = R |sin(beta - m)|. Inside the arc (|beta - m| <= w, i.e. pm >= R cos w) the
-    # largest projection is R; outside it is at the nearer end, R cos(|beta - m| - w)
-    # = pm cos w + |pp| sin w. No arctangent needed.
+    sub = _subarc_within(pa, pq, a1, a2, cos_lim)
+    sub |= ~screenable[ss][:, None]
+    out.reshape(S, K, n)[ss, kk] = sub
+    return out
+
+
+def _subarc_within(pa, pq, a1, a2, cos_lim):
+    """Does the sub-arc [a1, a2] (angles from A in the orbit plane, 0 <= a2 - a1 < 2 pi) come
+    within the cone around the station, i.e. does the station's largest projection on it,
+    max over a of pa cos a + pq sin a, reach ``cos_lim``? (Inputs are overwritten.)
+
+    The station's in-plane part is R (cos beta, sin beta). On the arc's middle direction m
+    (half-width w) it projects to pm = R cos(beta - m), across it to |pp| = R |sin(beta - m)|.
+    Inside the arc (|beta - m| <= w, i.e. pm >= R cos w) the largest projection is R; outside
+    it is at the nearer end, R cos(|beta - m| - w) = pm cos w + |pp| sin w. No arctangent.
+    """
     r_in = np.sqrt(pa * pa + pq * pq)
     mid = a1 + a2
-    mid *= f32(0.5)
+    mid *= 0.5
     half = a2 - a1
-    half *= f32(0.5)
+    half *= 0.5
     cm, sm, ch, sh = np.cos(mid), np.sin(mid), np.cos(half), np.sin(half)
     pm = pa * cm
     pm += pq * sm
@@ -572,9 +602,7 @@ def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc
     sub = pp >= cos_lim
     ch *= r_in
     sub |= (pm >= ch) & (r_in >= cos_lim)
-    sub |= ~screenable[ss][:, None]
-    out.reshape(S, K, n)[ss, kk] = sub
-    return out
+    return sub
 
 
 def _fine_mask(sub):
