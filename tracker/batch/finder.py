@@ -903,12 +903,29 @@ def find_passes_block(satrecs, names, stations, start, end, min_el_deg=None, *,
     t0 = start.timestamp()
     for key in ("aos_s", "tca_s", "los_s"):
         passes[key] += t0
-    passes = passes[np.lexsort((passes["station"], passes["sat"], passes["aos_s"]))]
+    passes = passes[_aos_order(passes)]
     errors = []
     for s, (tau, code) in sorted(job.errors.items()):
         errors.append(SatError(s, names[s], code, SGP4_ERRORS.get(code, "error"),
                                t0 + tau))
     return PassTable(passes, list(names), list(stations), start, end, errors, stats)
+
+
+def _aos_order(passes: np.ndarray) -> np.ndarray:
+    """The order of pass rows by AOS, then satellite, then station: a stable sort on AOS, then
+    a three-key sort of only the rows that share an AOS (passes in progress at the window
+    start, mostly); a three-key sort of every row costs several times more."""
+    aos = np.ascontiguousarray(passes["aos_s"])
+    order = np.argsort(aos, kind="stable")
+    a = aos[order]
+    tied = np.zeros(len(order), bool)
+    tied[1:] = a[1:] == a[:-1]
+    tied[:-1] |= tied[1:]
+    if tied.any():
+        rows = order[tied]
+        order[tied] = rows[np.lexsort((passes["station"][rows], passes["sat"][rows],
+                                       aos[rows]))]
+    return order
 
 
 def _in_aos_order(passes: np.ndarray) -> bool:
@@ -928,7 +945,7 @@ def merge_tables(tables: list[PassTable], names, stations, start, end) -> PassTa
         t = tables[0]  # one error per satellite and no block edge: only the order to check
         passes = t.passes
         if not _in_aos_order(passes):
-            passes = passes[np.lexsort((passes["station"], passes["sat"], passes["aos_s"]))]
+            passes = passes[_aos_order(passes)]
         return PassTable(passes, list(names), list(stations), start, end,
                          sorted(t.errors, key=lambda e: e.sat), dict(t.stats))
     passes = np.concatenate([t.passes for t in tables]) if tables else np.zeros(0, PASS_DTYPE)
@@ -953,7 +970,7 @@ def merge_tables(tables: list[PassTable], names, stations, start, end) -> PassTa
         keep = np.ones(len(passes), bool)
         keep[np.flatnonzero(join) + 1] = False
         passes = passes[keep]
-    passes = passes[np.lexsort((passes["station"], passes["sat"], passes["aos_s"]))]
+    passes = passes[_aos_order(passes)]
     first: dict[int, SatError] = {}
     stats: dict = {}
     for t in tables:
@@ -995,32 +1012,39 @@ def remap(table: PassTable, ids, names, stations) -> PassTable:
                      table.stats)
 
 
-# A grid class (see _GridClasses) is split over the workers only from this many satellites
-# per worker on: every chunk costs a few milliseconds however small, so small classes go
-# whole to one worker.
-MIN_SPLIT_SATS = 32
+# Load model of the worker split, measured on the active catalogue: a satellite costs about
+# sqrt(its fine step / the shortest fine step) of one with the shortest step (slower orbits
+# have fewer samples and passes), every chunk about PIECE_COST of those however small it is,
+# and this process, which also merges the results, is given PARENT_ALLOWANCE of the total
+# less. A grid class is dealt out over the workers from MIN_SPLIT_SATS per worker on.
+PIECE_COST = 5.0
+PARENT_ALLOWANCE = 0.025
+MIN_SPLIT_SATS = 16
 
 
 def _worker_shares(grid: _GridClasses, workers: int) -> list[np.ndarray]:
-    """Satellite indices per worker: each large grid class dealt out evenly (so the large
-    classes balance by construction), the small ones whole to the least-loaded worker. Load
-    is counted in fine steps per satellite (slower orbits have fewer and cost less)."""
+    """Satellite indices per worker (this process first): each large grid class dealt out
+    evenly, the small ones whole to the least-loaded worker (every chunk has a fixed cost, so
+    small classes are not duplicated)."""
+    weight = np.sqrt(grid.fine_s.min() / grid.fine_s)
+    classes = grid.groups()
+    costs = [float(weight[ids].sum()) + PIECE_COST for ids in classes]
     shares: list[list[np.ndarray]] = [[] for _ in range(workers)]
     load = np.zeros(workers)
+    load[0] = PARENT_ALLOWANCE * sum(costs)
     small = []
-    for ids in grid.groups():
-        weight = 1.0 / float(grid.fine_s[ids[0]])
+    for ids, cost in zip(classes, costs, strict=True):
         if len(ids) >= workers * MIN_SPLIT_SATS:
             for w in range(workers):
                 shares[w].append(ids[w::workers])
-                load[w] += len(ids[w::workers]) * weight
+                load[w] += cost / workers
         else:
-            small.append((len(ids) * weight, ids))
+            small.append((cost, ids))
     for cost, ids in sorted(small, key=lambda x: -x[0]):
         w = int(np.argmin(load))
         shares[w].append(ids)
         load[w] += cost
-    return [np.sort(np.concatenate(s)) for s in shares if s]
+    return [np.sort(np.concatenate(s)) if s else np.zeros(0, np.int64) for s in shares]
 
 
 _FORKED: tuple | None = None
@@ -1056,13 +1080,14 @@ def find_passes_batch(satrecs, names, stations, start: datetime, end: datetime,
         raise ConfigError(f"step_s = {step_s!r} is invalid; allowed: 10 to 600 seconds")
     kwargs = dict(step_s=step_s, tol_s=tol_s, memory_mb=memory_mb)
     blocks = time_blocks(start, end, block_days)
-    if workers <= 1 or len(satrecs) < 2 * workers:
+    shares = [] if workers <= 1 or len(satrecs) < 2 * workers else [
+        s for s in _worker_shares(_GridClasses.of(satrecs, step_s), workers) if len(s)]
+    if len(shares) < 2:
         tables = [find_passes_block(satrecs, names, stations, a, b, min_el_deg, **kwargs)
                   for a, b in blocks]
     else:
         import multiprocessing
 
-        shares = _worker_shares(_GridClasses.of(satrecs, step_s), workers)
         for a, _ in blocks:
             geo.dut1_s(a)  # computed once here, inherited by the forked workers
         # This process computes the first share itself while the forked workers do the
@@ -1071,7 +1096,7 @@ def find_passes_batch(satrecs, names, stations, start: datetime, end: datetime,
         tasks = [(ids, a, b, kwargs) for a, b in blocks for ids in shares[1:]]
         _FORKED = (list(satrecs), list(names), list(stations), min_el_deg)
         try:
-            with multiprocessing.get_context("fork").Pool(max(1, len(shares) - 1)) as pool:
+            with multiprocessing.get_context("fork").Pool(len(shares) - 1) as pool:
                 pending = pool.map_async(_forked_block, tasks)
                 results = [_forked_block(task) for task in own] + pending.get()
         finally:
