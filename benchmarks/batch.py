@@ -20,17 +20,22 @@ processes): on a machine shared with other jobs the CPU figures are the steadier
    (``--check-sample``): no pass with max elevation >= 0.1 deg missed, AOS/LOS within 0.5 s;
 3. the whole catalogue x 7 days from one station (1 process, then 2 worker processes), with
    the SGP4 evaluations/s achieved and the peak memory (tracemalloc, ru_maxrss);
-4. 100 stations against 1 station on the first 1000 objects.
+4. 100 stations against 1 station on the 1000 objects: CPU per pass (goal <= 4 us), the
+   ratio of the CPU times (goal <= 15x) and the peak RSS of the 100-station run (goal
+   <= 512 MB), which streams its result (``iter_passes_batch``, parts dropped as they come).
+   Each run is a fresh process, so its peak RSS is its own.
 
 Usage: python benchmarks/batch.py [--tle PATH] [--sky-sample N] [--predict-sample N]
-       [--check-sample N] [--seed N] [--repeat N] [--quick]
+       [--check-sample N] [--seed N] [--repeat N] [--quick] [--network-only]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import random
 import resource
+import subprocess
 import sys
 import time
 import tracemalloc
@@ -40,7 +45,7 @@ from pathlib import Path
 import numpy as np
 from sgp4.api import Satrec, SatrecArray, jday
 
-from tracker.batch import find_passes_batch
+from tracker.batch import find_passes_batch, iter_passes_batch
 from tracker.batch import finder as finder_mod
 from tracker.batch import geometry as geo
 from tracker.station import Station
@@ -202,7 +207,7 @@ def compare_set(label: str, sets, satrecs, names, args) -> dict:
     two = [per_process(lambda: find_passes_batch(satrecs, names, [STATION], START, end,
                                                  workers=2)) for _ in range(rep)]
     t_two, c_two = min(x[0] for x in two), min(x[1] + x[2] for x in two)
-    busiest = min(max(x[1], x[2]) for x in two)
+    c_main, c_workers = min(x[1] for x in two), min(x[2] for x in two)
     c_all, c_sgp4 = sgp4_seconds(lambda: find_passes_batch(satrecs, names, [STATION], START,
                                                            end))
     step = max(1, len(sets) // args.sky_sample)
@@ -215,13 +220,12 @@ def compare_set(label: str, sets, satrecs, names, args) -> dict:
           f"{evals(one) / 1e6:.2f} M SGP4 evaluations)")
     print(f"    batch finder, 2 processes: {wc(t_two, c_two)} -> {t_one / t_two:.2f}x wall "
           f"(target >= 1.8x; only as good as the free cores), CPU {c_two / c_one:.2f}x of 1 "
-          f"process; the busier process took {busiest:.2f} s CPU -> {c_one / busiest:.2f}x on "
-          f"two idle cores")
+          f"process (this process {c_main:.2f} s, the workers {c_workers:.2f} s)")
     print(f"    finder's SGP4 share: {c_sgp4:.2f} s of {c_all:.2f} s CPU = {c_sgp4 / c_all:.0%} "
           f"of the raw SGP4 rate for its own evaluations (target >= 70%)")
     print(f"    skyfield find_events loop: {wc(t_sky, c_sky)} for {len(sample)} objects "
           f"(every {step}th) -> {t_sky * scale:.1f} s wall / {c_sky * scale:.1f} s CPU scaled")
-    out = dict(label=label, cpu=c_one, sky=c_sky * scale / c_one, two=c_one / busiest,
+    out = dict(label=label, cpu=c_one, sky=c_sky * scale / c_one, two=t_one / t_two,
                share=c_sgp4 / c_all, predict=None)
     print(f"    speed-up over skyfield, 1 process: {t_sky * scale / t_one:.1f}x wall, "
           f"{out['sky']:.1f}x CPU (target >= 40x; the finder's SGP4 evaluations alone, at "
@@ -267,9 +271,7 @@ def timed_best(fn, repeat: int):
 
 
 def per_process(fn) -> tuple[float, float, float]:
-    """(wall, CPU of this process, CPU of its finished worker processes) of ``fn``. With two
-    workers the batch finder runs one share here and one in a forked worker, so the larger of
-    the two CPU figures is what the run takes on two idle cores."""
+    """(wall, CPU of this process, CPU of its finished worker processes) of ``fn``."""
     kids = resource.getrusage(resource.RUSAGE_CHILDREN)
     k0 = kids.ru_utime + kids.ru_stime
     c, t = time.process_time(), time.perf_counter()
@@ -297,6 +299,42 @@ def network(n: int) -> list[Station]:
             enumerate(zip(lat, lon, strict=True))]
 
 
+def network_run(path: Path, n_stations: int) -> dict:
+    """One network run on the first 1000 objects in this process: passes, CPU, wall, RSS."""
+    sets = read_sets(path)[:1000]
+    satrecs = [Satrec.twoline2rv(a, b) for _, a, b in sets]
+    names = [n for n, _, _ in sets]
+    net = network(n_stations)
+    end = START + timedelta(days=DAYS)
+    find_passes_batch(satrecs[:3], names[:3], net[:1], START, end)  # load skyfield data first
+    c, t = cpu_s(), time.perf_counter()
+    n = 0
+    for part in iter_passes_batch(satrecs, names, net, START, end):
+        n += len(part)  # a consumer would write the part out here
+    return {"passes": n, "wall_s": time.perf_counter() - t, "cpu_s": cpu_s() - c,
+            "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
+
+
+def network_child(path: Path, n_stations: int) -> dict:
+    """:func:`network_run` in a fresh Python process (its own peak RSS)."""
+    out = subprocess.run([sys.executable, __file__, "--tle", str(path), "--network-run",
+                          str(n_stations)], capture_output=True, text=True, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def network_report(path: Path) -> None:
+    one, hundred = network_child(path, 1), network_child(path, 100)
+    us = [r["cpu_s"] / max(r["passes"], 1) * 1e6 for r in (one, hundred)]
+    print(f"\n[4] 100 stations (global spiral, |lat| <= 70) vs 1 station, 1000 objects x "
+          f"{DAYS:g} days (each a fresh process, result streamed by iter_passes_batch):")
+    for label, r, u in (("1 station:   ", one, us[0]), ("100 stations:", hundred, us[1])):
+        print(f"    {label} {r['passes']:8d} passes  {wc(r['wall_s'], r['cpu_s'])}  "
+              f"{u:5.2f} us/pass CPU  peak RSS {r['rss_mb']:.0f} MB")
+    print(f"    100 stations cost {hundred['cpu_s'] / one['cpu_s']:.1f}x one station in CPU "
+          f"(goal <= 15x); {us[1]:.2f} us/pass (goal <= 4); peak RSS "
+          f"{hundred['rss_mb']:.0f} MB (goal <= 512)")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tle", default=str(Path(__file__).resolve().parents[2] / "shared" / "tle"
@@ -311,11 +349,19 @@ def main() -> int:
     ap.add_argument("--quick", action="store_true", help="skip the full-catalogue runs")
     ap.add_argument("--repeat", type=int, default=3,
                     help="runs of each timing in [2]; the fastest counts (default 3)")
+    ap.add_argument("--network-only", action="store_true", help="only [4]")
+    ap.add_argument("--network-run", type=int, metavar="N", help=argparse.SUPPRESS)
     args = ap.parse_args()
     path = Path(args.tle)
     if not path.is_file():
         print(f"benchmark needs {path} (see ../shared/tle/SOURCES.md)", file=sys.stderr)
         return 2
+    if args.network_run:
+        print(json.dumps(network_run(path, args.network_run)))
+        return 0
+    if args.network_only:
+        network_report(path)
+        return 0
     sets = read_sets(path)
     satrecs = [Satrec.twoline2rv(a, b) for _, a, b in sets]
     names = [n for n, _, _ in sets]
@@ -378,18 +424,10 @@ def main() -> int:
         pred = "-" if f["predict"] is None else f"{f['predict']:.1f}x"
         c = f["complete"]
         print(f"    {f['label']:24s} finder {f['cpu']:.2f} s CPU; skyfield {f['sky']:.1f}x; "
-              f"sgp4-predict {pred}; 2 processes {f['two']:.2f}x (idle cores); SGP4 share "
+              f"sgp4-predict {pred}; 2 processes {f['two']:.2f}x wall; SGP4 share "
               f"{f['share']:.0%}; missed {c['missed']}, worst {c['worst_s']:.3f} s")
 
-    sat1k, names1k = satrecs[first], names[first]
-    net = network(100)
-    hundred, t_100, c_100 = timed(lambda: find_passes_batch(sat1k, names1k, net, START, end))
-    single, t_1, c_1 = timed(lambda: find_passes_batch(sat1k, names1k, net[:1], START, end))
-    print(f"\n[4] 100 stations (global spiral) vs 1 station, 1000 objects x {DAYS:g} days:")
-    print(f"    1 station: {t_1:.2f} s ({len(single)} passes); 100 stations: {t_100:.2f} s "
-          f"({len(hundred)} passes) -> {t_100 / t_1:.1f}x the time for 100x the stations "
-          f"(CPU: {c_1:.2f} s vs {c_100:.2f} s -> {c_100 / c_1:.1f}x)")
-    print(f"    SGP4 evaluations: {evals(single) / 1e6:.2f} M vs {evals(hundred) / 1e6:.2f} M")
+    network_report(path)
     return 0
 
 

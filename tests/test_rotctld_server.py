@@ -182,13 +182,18 @@ def test_moves_outside_the_limits_or_below_the_mask_are_refused_and_nothing_is_s
         assert c.ask("P 460 30") == ["RPRT -1"]          # beyond the 450 deg span
         assert c.ask("P 100 -3") == ["RPRT -1"]          # below the elevation range
         assert c.ask("P abc 30") == ["RPRT -1"]
+        assert c.ask("P 1_0 30") == ["RPRT -1"]         # float() would read this as 10
+        assert c.ask("P nan 30") == ["RPRT -1"]
+        assert c.ask("P 100 inf") == ["RPRT -1"]
+        assert c.ask("P 1e999 30") == ["RPRT -1"]
+        assert c.ask("P 100") == ["RPRT -1"]
     finally:
         c.close()
     r = s.rotctl("P", "90", "10", ok=False)             # the mask is 25 deg at bearing 90
     assert r.returncode != 0 and "Invalid parameter" in r.stdout + r.stderr
     assert _moves(s.written()) == []
     refusals = [t for k, t in s.events if k == "refused"]
-    assert len(refusals) == 4 and "horizon mask" in refusals[-1]
+    assert len(refusals) == 9 and "horizon mask" in refusals[-1]
     s.rotctl("P", "90", "30")                           # above it: goes
     assert _moves(s.written()) == [b"W090 030"]
 

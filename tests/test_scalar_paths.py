@@ -8,7 +8,7 @@ import copy
 import numpy as np
 import pytest
 
-from tracker.aim import _predict, _predict_all, needs_command
+from tracker.aim import _predict, _predict_all, needs_command, quiet_until_s
 from tracker.geometry import MountPath, pointing_enu, pointing_error_deg
 from tracker.mount import AxisMotor, MotorModel, preset
 from tracker.skytrack import (
@@ -20,6 +20,7 @@ from tracker.skytrack import (
     interp1,
     interp1_rows,
 )
+from tracker.stall import moving_axis, restart_axis
 
 SPEC = preset("G-5500", 50)
 AZ_ONLY = preset("G-400")
@@ -142,6 +143,53 @@ def test_needs_command_decides_as_the_array_version(path):
         assert new == _old_needs_command(path, motor.az, motor.el, t0, band, look)
         decided.append(new)
     assert 0 < sum(decided) < len(decided)     # both answers were exercised
+
+
+@pytest.mark.parametrize("path", _paths())
+def test_quiet_until_keeps_its_promise(path):
+    """Up to the time quiet_until_s gives, needs_command says no at every cycle (and at any
+    deadband from the one asked up); where it gives None, needs_command alone decides."""
+    rng = np.random.default_rng(16)
+    spans = []
+    for _ in range(300):
+        t0 = float(rng.uniform(path.start_s, path.end_s + 2.0))
+        az0, el0 = path.mount_at(t0)
+        motor = MotorModel(SPEC, float(az0 + rng.normal(0, 2)),
+                           float(np.clip(el0 + rng.normal(0, 2), 0, 180)), t0 - 2.0)
+        if rng.random() < 0.5:
+            motor.command(float(az0 + rng.normal(0, 3)), float(np.clip(el0 + rng.normal(0, 3),
+                                                                       0, 180)),
+                          t0 - rng.uniform(0, 2))
+        band = float(rng.uniform(1.0, 6.0))
+        until = quiet_until_s(path, motor.az, motor.el, t0, band, 1.0)
+        if until is None:
+            continue
+        assert until >= t0
+        spans.append(until - t0)
+        for t in np.arange(t0, until + 1e-9, 0.1):
+            for level in (band, band + 1.0):
+                assert not needs_command(path, motor.az, motor.el, float(t), level, 1.0)
+    assert len(spans) >= 10 and max(spans) >= 1.0    # promises were made, beyond one cycle
+
+
+def test_axis_at_rest_and_restarted_in_place_answer_as_before():
+    rng = np.random.default_rng(17)
+    for _ in range(500):
+        a = AxisMotor(0.0, 450.0, 5.0, 0.5, 1.0, float(rng.uniform(0, 450)), 0.0)
+        if rng.random() < 0.6:
+            a.command(float(rng.uniform(0, 450)), float(rng.uniform(0, 3)))
+        t = float(rng.uniform(0, 120))
+        # moving/position of an axis on its target take a shortcut: same answers
+        assert a.moving(t) == (a.direction(t) != 0)
+        pos, target = float(rng.uniform(0, 450)), float(rng.uniform(0, 450))
+        moving = bool(rng.random() < 0.5)
+        fresh = moving_axis(a, pos, target, t, moving)
+        same = copy.copy(a)
+        restart_axis(same, pos, target, t, moving)
+        assert same.segment() == fresh.segment()
+        for dt in (0.0, 0.3, 1.0, 40.0):
+            assert same.position(t + dt) == fresh.position(t + dt)
+            assert same.moving(t + dt) == fresh.moving(t + dt)
 
 
 @pytest.mark.parametrize("moving", [False, True])

@@ -320,3 +320,7 @@ def test_a_pass_joined_under_way_is_caught_up_and_then_followed(catalog):
     caught = [e for t, e in zip(res.error_t_s, res.errors_deg, strict=True)
               if t >= joined_s + 60.0]                    # 210 deg at 6 deg/s, with margin
     assert caught and max(caught) <= SETTINGS.deadband_deg + 1.0, max(caught)
+    # The result counts the error from acquisition and says how late and how long it took.
+    assert res.max_error_deg <= SETTINGS.deadband_deg + 1.0, res.max_error_deg
+    assert max(res.errors_deg) > 90.0                     # the catch-up is still recorded
+    assert res.cause.startswith("joined 300 s after AOS; on target "), res.cause

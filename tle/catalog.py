@@ -11,10 +11,8 @@ matches at one step raise :class:`AmbiguousSatelliteError`; none raise
 
 from __future__ import annotations
 
-import difflib
 import functools
 import re
-import statistics
 import warnings
 from collections.abc import Iterable, Iterator
 from datetime import datetime, timezone
@@ -108,7 +106,7 @@ class Catalog:
     def __init__(self, sets: Iterable[ElementSet] = (), bundled: bool = False,
                  note: str | None = None):
         self.bundled = bundled
-        self.note = note
+        self._note = note
         self._by_id: dict[int, ElementSet] = {}
         self._groups: dict[str, set[int]] = {}
         self._origins: dict[str, set[str]] = {}  # group -> "cache" / "bundled" / ...
@@ -137,6 +135,19 @@ class Catalog:
             self._groups.setdefault(group, set()).update(ids)
         for group, origins in other._origins.items():
             self._origins.setdefault(group, set()).update(origins)
+
+    @property
+    def note(self) -> str | None:
+        """What to tell a user about these elements: for the bundled snapshot, that they are
+        old and from when (worked out on first use: most commands never show it)."""
+        if self._note is None and self.bundled and self._by_id:
+            import statistics
+
+            median = statistics.median(es.epoch.timestamp() for es in self)
+            day = datetime.fromtimestamp(median, tz=timezone.utc).strftime("%Y-%m-%d")
+            self._note = (f"using the bundled element snapshot (epochs around {day}); these "
+                          "elements are old, run `tracker tle update` for fresh ones")
+        return self._note
 
     def group_origins(self, name: str) -> tuple[str, ...]:
         """Where group ``name`` came from: "cache", "bundled", or both (sorted)."""
@@ -189,11 +200,6 @@ class Catalog:
                 for es in parse_text(text, source=str(entry), skip_bad=True,
                                      on_warning=on_warning):
                     catalog.add(es, "bundled")
-        if catalog._by_id:
-            median = statistics.median(es.epoch.timestamp() for es in catalog)
-            day = datetime.fromtimestamp(median, tz=timezone.utc).strftime("%Y-%m-%d")
-            catalog.note = (f"using the bundled element snapshot (epochs around {day}); these "
-                            "elements are old, run `tracker tle update` for fresh ones")
         return catalog
 
     @classmethod
@@ -202,11 +208,12 @@ class Catalog:
         object winning: updating one group never hides the others. Without a cache this is
         the bundled snapshot alone (``bundled=True``, with its note)."""
         if store is None:
-            from tle.store import TleStore
+            from tle.cachedir import default_cache_dir, element_paths
 
-            store = TleStore()
+            paths = element_paths(default_cache_dir())
+        else:
+            paths = store.paths()
         snapshot = cls.bundled_snapshot(on_warning=on_warning)
-        paths = store.paths()
         if not paths:
             return snapshot
         catalog = cls.load(paths, skip_bad=True, on_warning=on_warning, empty_is_error=False,
@@ -237,6 +244,8 @@ class Catalog:
         """
         ids = self._groups.get(name)
         if ids is None:
+            import difflib
+
             known = ", ".join(self.groups) or "none loaded"
             close = tuple(difflib.get_close_matches(name, self.groups))
             hint = f"; did you mean {', '.join(close)}?" if close else ""
@@ -325,6 +334,8 @@ class Catalog:
         raise self._unknown(text)
 
     def _unknown(self, text: str) -> UnknownSatelliteError:
+        import difflib
+
         # Compare with the full names and their parts, so "ISSS" still finds "ISS (ZARYA)".
         keys: dict[str, str] = {}
         for es in sorted(self, key=lambda es: es.norad_id):

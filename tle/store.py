@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from tle.cachedir import META_NAME, default_cache_dir, element_paths
 from tle.elements import parse_text, sniff_format
 from tle.errors import TleError, TleFetchError, with_advice
 
@@ -41,8 +42,6 @@ MAX_BODY_BYTES = 64 * 2**20
 # A new download with fewer than this share of the cached sets is most likely cut short at a
 # set boundary (it still parses); it replaces the cache only when forced.
 MIN_KEPT_SHARE = 2 / 3
-META_NAME = "sources.json"
-ELEMENT_SUFFIXES = (".txt", ".tle", ".json", ".csv", ".xml")
 USER_AGENT = "rotator-tracker (+https://github.com/; tle store)"
 _GROUP_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 _SUFFIX = {"tle": ".txt", "json": ".json", "csv": ".csv", "xml": ".xml"}
@@ -279,16 +278,6 @@ def _check_url(url: str, what: str) -> None:
                           "give a CelesTrak-style URL", " (a local file is read with Catalog.load)")
 
 
-def default_cache_dir() -> Path:
-    """``$TRACKER_CACHE_DIR/tle`` if set (tests, CI), else the platformdirs user cache."""
-    env = os.environ.get("TRACKER_CACHE_DIR")
-    if env:
-        return Path(env) / "tle"
-    import platformdirs
-
-    return Path(platformdirs.user_cache_dir("tracker")) / "tle"
-
-
 def _atomic_write(path: Path, data: bytes) -> None:
     # Temp file in the same directory, then os.replace: readers see the old or the new file,
     # never half of one, and a crash leaves the old copy in place.
@@ -377,11 +366,7 @@ class TleStore:
     # -- queries -------------------------------------------------------------------------
     def paths(self) -> list[Path]:
         """Cached element files (the downloads plus any element file dropped in the dir)."""
-        if not self.cache_dir.is_dir():
-            return []
-        return sorted(p for p in self.cache_dir.iterdir()
-                      if p.suffix in ELEMENT_SUFFIXES and p.name != META_NAME
-                      and not p.name.startswith(".") and p.is_file())
+        return element_paths(self.cache_dir)
 
     def list(self) -> list[SourceInfo]:
         """Each cached source with its count, time since the last check, and element age."""

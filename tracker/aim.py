@@ -149,6 +149,43 @@ def needs_command(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None
     return False
 
 
+def quiet_until_s(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t0_s: float,
+                  deadband_deg: float, lookahead_s: float, step_s: float = 0.25,
+                  first_s: float = 0.5, horizon_s: float = 64.0) -> float | None:
+    """The latest time ``T`` found such that :func:`needs_command` is False at every ``t`` in
+    ``[t0_s, T]`` (with the same look-ahead and step, any deadband from ``deadband_deg`` up)
+    while the axes keep their current commands, so the live loop need not ask it again before
+    ``T``; None when not even ``t0_s`` is shown so (then only :func:`needs_command` can tell).
+
+    :func:`needs_command`'s bound, from ``t0_s``: the error now plus what the target
+    (:meth:`MountPath.target_travel_bound_deg`) and each axis (one way, toward its target) can
+    move by then keeps every later error inside. Tried ``0, first_s, 2 first_s, 4 first_s,
+    ...`` ahead, up to ``horizon_s``."""
+    n = math.ceil((max(lookahead_s, step_s) + 1e-9) / step_s)
+    window_s = (n - 1) * step_s            # needs_command samples t .. t + window_s
+    if t0_s > path.end_s:
+        return None
+    az0 = az_axis.position(t0_s)
+    el0 = el_axis.position(t0_s) if el_axis is not None else 0.0
+    room = deadband_deg - _BOUND_SLACK_DEG - path.error_deg(t0_s, az0, el0)
+    # An axis on its target stays there: no need to ask where it will be.
+    az_runs = az_axis.target_deg != az0
+    el_runs = el_axis is not None and el_axis.target_deg != el0
+    until, ahead_s = None, 0.0
+    while ahead_s <= horizon_s:
+        t = t0_s + ahead_s + window_s
+        growth = path.target_travel_bound_deg(t0_s, t)
+        if az_runs:
+            growth += abs(az_axis.position(t) - az0)
+        if el_runs and el_axis is not None:
+            growth += abs(el_axis.position(t) - el0)
+        if growth >= room:
+            break
+        until = t0_s + ahead_s
+        ahead_s = 2.0 * ahead_s if ahead_s else first_s
+    return until
+
+
 def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t0_s: float,
                deadband_deg: float, step_s: float = 0.5, horizon_s: float = 180.0,
                min_window_s: float | None = None, peak_slack_deg: float = 0.25,

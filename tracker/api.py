@@ -33,6 +33,7 @@ to let the controller track by itself, give :attr:`StepProgram.tables` to a
 
 from __future__ import annotations
 
+from tle.cachedir import default_cache_dir
 from tle.catalog import Catalog, age_warning, age_warnings
 from tle.elements import ElementSet, load_file, parse_text
 from tle.errors import (
@@ -43,14 +44,18 @@ from tle.errors import (
     TleWarning,
     UnknownSatelliteError,
 )
-from tle.store import TleStore, default_cache_dir
+from tle.store import TleStore
 from tracker.batch import (
+    PartitionedResult,
     PassTable,
     find_passes_batch,
     find_passes_dask,
+    iter_passes_batch,
     load_stations,
     plan_summaries,
     satrecs_of,
+    select_passes,
+    write_passes_dask,
 )
 from tracker.celestial import (
     RADIO_SOURCES,
@@ -184,10 +189,11 @@ __all__ = [  # noqa: RUF022 (grouped by topic, the order the docs follow)
     "serve_pty", "serve_tcp",
     # batch, scheduling, export
     "CSV_FIELDS", "PASS_FIELDS", "PassRecords", "PassTable", "Schedule", "build_schedule",
-    "find_passes_batch", "find_passes_dask", "load_stations", "parse_priorities",
-    "pass_records", "plan_summaries", "satrecs_of", "schedule_passes",
+    "find_passes_batch", "find_passes_dask", "iter_passes_batch", "load_stations",
+    "parse_priorities", "pass_records", "plan_summaries", "satrecs_of", "schedule_passes",
+    "select_passes",
     "render_chunks", "to_csv", "to_ics", "to_json", "to_table", "write_atomic",
-    "write_parquet",
+    "write_parquet", "write_passes_dask", "PartitionedResult",
     # station mode: the [schedule] settings, the rolling schedule, fresh elements
     "ScheduleSettings", "PlannedPass", "RollingSchedule", "build_rolling_schedule",
     "wanted_targets", "ElementKeeper",

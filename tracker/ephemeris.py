@@ -1,8 +1,8 @@
 """The planetary ephemeris (JPL DE421), loaded offline; times via :mod:`tracker.timescale`.
 
 DE421 comes from the ``skyfield-data`` package (a runtime dependency in pyproject.toml; about
-17 MB). Satellite tracking works without it (sunlit/visible flags are then off), so a missing
-copy is reported, not fatal, except for Sun/Moon/planet targets.
+17 MB). Only Sun/Moon/planet targets need it: a satellite's sunlit/visible flags come from
+the low-precision Sun of :mod:`tracker.sun`.
 ``TRACKER_EPHEMERIS=/path/to/file.bsp`` points at another JPL kernel (e.g. de440s.bsp)
 instead. Nothing here ever downloads: a missing file is a :class:`~tracker.errors.ConfigError`
 that says how to install it.

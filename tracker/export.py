@@ -162,6 +162,13 @@ def pass_records(passes, plans: Sequence[dict | None] | None = None) -> PassReco
         plans)
 
 
+def error_records(errors: Iterable) -> list[dict]:
+    """The ``errors`` entries of the JSON document (and Parquet metadata) for a batch
+    table's :class:`~tracker.batch.SatError` list."""
+    return [{"target": e.name, "code": e.code, "message": e.message,
+             "from": iso_utc(e.first_s)} for e in errors]
+
+
 def station_meta(station) -> dict:
     """A station as the ``meta.stations`` entries of the JSON document."""
     return {"name": station.name, "lat_deg": station.lat_deg, "lon_deg": station.lon_deg,
@@ -410,7 +417,9 @@ def require_pyarrow():
     return pyarrow
 
 
-def _arrow_schema(pa, meta: dict | None, errors: Sequence[dict]):
+def arrow_schema(pa, meta: dict | None, errors: Sequence[dict]):
+    """The Parquet schema of the pass record, with ``{"schema", "meta", "errors"}`` as
+    key-value metadata under ``rotator-tracker``."""
     types = {"aos_s": pa.float64(), "tca_s": pa.float64(), "los_s": pa.float64(),
              "plan_max_error_deg": pa.float64(), "priority": pa.int64(),
              "chosen": pa.bool_()}
@@ -433,7 +442,7 @@ def write_parquet(chunks: Iterable[PassRecords], sink, *, meta: dict | None = No
     pa = require_pyarrow()
     import pyarrow.parquet as pq
 
-    schema = _arrow_schema(pa, meta, errors)
+    schema = arrow_schema(pa, meta, errors)
     n = 0
     with pq.ParquetWriter(sink, schema) as writer:
         for records in chunks:

@@ -112,6 +112,8 @@ class MountFrame:
         believed to be). Without a belief: the controller's own scale is trusted (a 450 deg
         controller reports 0-450), and of a bearing the lowest mechanical azimuth."""
         cands = self.mechs_of_wire(wire_az_deg)
+        if len(cands) == 1:
+            return cands[0]
         if belief_m_deg is None:
             if self.wire_takes_bearing:
                 return cands[0]
@@ -390,6 +392,8 @@ class AxisMotor:
             if self.jammed:
                 return float(self._p0)
             dist = self._target - self._p0
+            if dist == 0.0 and t_s == t_s:   # at rest on its target (most live-loop asks)
+                return self._p0 + 0.0
             travelled = min(max((t_s - self._t0 - self._delay) * self.rate_deg_s, 0.0),
                             abs(dist))
             return self._p0 + math.copysign(travelled, dist)
@@ -411,7 +415,9 @@ class AxisMotor:
         return 1 if self._target > p else -1
 
     def moving(self, t_s: float) -> bool:
-        return self.direction(t_s) != 0
+        if self.jammed or self._p0 == self._target:
+            return False
+        return not abs(self._target - self.position(t_s)) < 1e-9
 
     def arrival_s(self) -> float:
         """Time at which the current target is (or was) reached."""
@@ -431,6 +437,18 @@ class AxisMotor:
             delay = self.start_delay_s if new != 0 else 0.0
         self._t0, self._p0, self._target, self._delay = float(t_s), float(p), target, delay
         return target
+
+    def segment(self) -> tuple[float, float, float, float, float, bool]:
+        """What its positions follow from (start time, position then, target, start delay,
+        rate, jammed): two axes with equal segments are at the same place at every time."""
+        return self._t0, self._p0, self._target, self._delay, self.rate_deg_s, self.jammed
+
+    def rest_at(self, position_deg: float, t_s: float) -> None:
+        """Stand still on ``position_deg`` from ``t_s`` on, as a new axis does (not jammed)."""
+        self.jammed = False
+        self._t0 = float(t_s)
+        self._p0 = self._target = float(position_deg)
+        self._delay = 0.0
 
     def stop(self, t_s: float) -> None:
         p = self.position(t_s)

@@ -35,7 +35,8 @@ import numpy as np
 
 from tracker.skytrack import SkyTrack
 from tracker.station import Station
-from tracker.targets import SatelliteTarget, Target, _ephemeris_or_none
+from tracker.sun import satellite_sun_flags
+from tracker.targets import SatelliteTarget, Target
 from tracker.timescale import DAY_S, to_datetime, to_posix
 
 TIME_TOL_S = 0.01          # rise/set/TCA refinement tolerance
@@ -538,26 +539,17 @@ def _at_transit(azel, tca: np.ndarray, tca_az: np.ndarray, transit: np.ndarray):
 
 
 def _sunlit_visible(target, station: Station, aos: np.ndarray, los: np.ndarray):
-    """Per pass: sunlit at any sample, and visible (sunlit, up, Sun below -6 deg)."""
+    """Per pass: sunlit at any sample, and visible (sunlit, up, Sun below -6 deg), from the
+    low-precision Sun (:mod:`tracker.sun`)."""
     k = len(aos)
     no = np.zeros(k, dtype=bool)
-    if target.kind != "satellite" or _ephemeris_or_none() is None:
+    if not isinstance(target, SatelliteTarget):
         return no, no.copy()
     n = 40
     frac = np.linspace(0.0, 1.0, n)
     t = (aos[:, None] + (los - aos)[:, None] * frac[None, :]).ravel()
-    track, inverse = _observe_any_order(target, station, t)
-    lit = np.asarray(track.sunlit, dtype=bool)[inverse].reshape(k, n)
-    sun_el = _sun_elevation(station, t).reshape(k, n)
-    dark = sun_el < VISIBLE_SUN_EL_DEG
+    lit, sun_sin_el = satellite_sun_flags(target.satellite.model, t, station.lat_deg,
+                                          station.lon_deg)
+    lit = lit.reshape(k, n)
+    dark = sun_sin_el.reshape(k, n) < math.sin(math.radians(VISIBLE_SUN_EL_DEG))
     return lit.any(axis=1), (lit & dark).any(axis=1)
-
-
-def _sun_elevation(station: Station, t_s: np.ndarray) -> np.ndarray:
-    from tracker.timescale import time_from_posix
-
-    eph = _ephemeris_or_none()
-    t = time_from_posix(t_s)
-    observer = eph["earth"] + station.topos()
-    alt, _, _ = observer.at(t).observe(eph["sun"]).apparent().altaz()
-    return np.atleast_1d(alt.degrees)

@@ -126,7 +126,11 @@ def interp1_rows(x: float, xp: Sequence[float], rows: Sequence[Sequence[float]]
     if j >= len(xp) - 1 or xp[j] == x:
         return list(rows[j])
     dx, u = xp[j + 1] - xp[j], x - xp[j]
-    return [(b - a) / dx * u + a for a, b in zip(rows[j], rows[j + 1], strict=True)]
+    r0, r1 = rows[j], rows[j + 1]
+    if len(r0) == 3:    # unit vectors, once or more a cycle: no generator
+        return [(r1[0] - r0[0]) / dx * u + r0[0], (r1[1] - r0[1]) / dx * u + r0[1],
+                (r1[2] - r0[2]) / dx * u + r0[2]]
+    return [(b - a) / dx * u + a for a, b in zip(r0, r1, strict=True)]
 
 
 def azel_to_enu_scalar(az_deg: float, el_deg: float) -> tuple[float, float, float]:

@@ -73,11 +73,15 @@ class AxisWatch:
         self.ref_pos_deg = 0.0
         self.expect: AxisMotor | None = None
         self.seg_t_s = 0.0
+        self._seg_pos_deg = 0.0      # the expectation's position at seg_t_s (asked every cycle)
         self.carried_deg = 0.0
         self.still_since_s: float | None = None   # first read-back showing no motion
         # Commands (copies included) sent since motion was last seen, whether each asked
         # this axis to move, and which were copies of the same command.
-        self._new_series()
+        self.send_times: list[float] = []
+        self.asked: list[bool] = []
+        self.copy_times: list[float] = []
+        self._told_t_s: float | None = None
         # Sends one of which the controller acted on: the axis stood still when the first
         # went out and moved after. Another axis still since then got that command too.
         self.ack_sends: tuple[float, ...] = ()
@@ -87,9 +91,15 @@ class AxisWatch:
         self.acted_on = False
 
     def _segment_deg(self, t_s: float) -> float:
-        if self.expect is None:
+        if self.expect is None or t_s == self.seg_t_s:   # none yet since the segment began
             return 0.0
-        return abs(float(self.expect.position(t_s)) - float(self.expect.position(self.seg_t_s)))
+        return abs(self.expect.position(float(t_s)) - self._seg_pos_deg)
+
+    def _new_segment(self, t_s: float) -> None:
+        """The expectation changed at ``t_s``: travel counts from its position then."""
+        assert self.expect is not None, "only called while an expectation runs"
+        self.seg_t_s = t_s
+        self._seg_pos_deg = self.expect.position(float(t_s))
 
     def start(self, axis: AxisMotor, t_s: float, readback_deg: float) -> None:
         """A command went out: expect motion from the read-back position, from rest (the
@@ -115,17 +125,17 @@ class AxisWatch:
         self.expect = AxisMotor(axis.min_deg, axis.max_deg, axis.rate_deg_s, axis.start_delay_s,
                                 axis.resolution_deg, readback_deg, t_s)
         self.expect.command(axis.target_deg, t_s)
-        self.seg_t_s = t_s
+        self._new_segment(t_s)
         if not self.send_times:
             self._series_at_rest = at_rest
         self._sent(t_s, abs(float(self.expect.target_deg) - readback_deg)
                    >= axis.resolution_deg - 1e-9)
 
     def _new_series(self) -> None:
-        self.send_times: list[float] = []
-        self.asked: list[bool] = []
-        self.copy_times: list[float] = []
-        self._told_t_s: float | None = None
+        self._told_t_s = None
+        # Most cycles find the series empty already (motion seen, or on target, each cycle).
+        if self.send_times or self.copy_times:
+            self.send_times, self.asked, self.copy_times = [], [], []
 
     def _sent(self, t_s: float, asked_travel: bool) -> None:
         self.send_times.append(t_s)
@@ -153,10 +163,11 @@ class AxisWatch:
         come back unseen): restart the expectation from here."""
         expect = self.expect
         assert expect is not None, "only called while an expectation runs"
-        self.expect = moving_axis(expect, readback_deg, expect.target_deg, t_s,
-                                  expect.moving(t_s))
+        # In place: on a healthy pass this runs every cycle (motion seen, or on target).
+        restart_axis(expect, readback_deg, expect.target_deg, t_s, expect.moving(t_s))
         self.ref_t_s, self.ref_pos_deg = t_s, readback_deg
-        self.seg_t_s, self.carried_deg = t_s, 0.0
+        self._new_segment(t_s)
+        self.carried_deg = 0.0
         self.still_since_s = None
         if seen and self.send_times:
             self.acted_on = self._series_at_rest
@@ -167,18 +178,19 @@ class AxisWatch:
     def check(self, t_s: float, readback_deg: float, resolution_deg: float,
               stall_travel_deg: float) -> float | None:
         """Seconds without motion when the axis counts as stalled, else None."""
-        if self.expect is None or self.ref_t_s is None:
+        expect = self.expect
+        if expect is None or self.ref_t_s is None:
             return None
-        moved = abs(readback_deg - self.ref_pos_deg)
-        at_target = abs(readback_deg - self.expect.target_deg) < resolution_deg - 1e-9
-        if moved >= resolution_deg - 1e-9 or at_target:
+        ref_deg, target_deg = self.ref_pos_deg, expect.target_deg
+        step_deg = resolution_deg - 1e-9
+        moved = abs(readback_deg - ref_deg)
+        if moved >= step_deg or abs(readback_deg - target_deg) < step_deg:
             # At the target is never a stall: a command asking for no travel, or a rotator
             # faster than its model that went out and came back between two read-backs.
             # Motion counts as the controller acting on a command only toward the target: a
             # reading with a digit garbled into another valid one may jump anywhere.
-            toward = (readback_deg - self.ref_pos_deg) * (self.expect.target_deg
-                                                          - self.ref_pos_deg) > 0
-            self._moved(t_s, readback_deg, seen=moved >= resolution_deg - 1e-9 and toward)
+            toward = (readback_deg - ref_deg) * (target_deg - ref_deg) > 0
+            self._moved(t_s, readback_deg, seen=moved >= step_deg and toward)
             return None
         if self.still_since_s is None:
             self.still_since_s = t_s
@@ -188,7 +200,7 @@ class AxisWatch:
         # that long. A W has no acknowledgement: if the controller acted on it late (a busy
         # host, a time-compressed simulation), the first read-backs after it show no motion
         # yet although the belief's clock says the motor ran long ago.
-        settle_s = self.expect.start_delay_s + 1.0
+        settle_s = expect.start_delay_s + 1.0
         if (expected >= stall_travel_deg and t_s - self.ref_t_s >= settle_s
                 and t_s - self.still_since_s >= settle_s):
             return t_s - self.ref_t_s
@@ -207,9 +219,9 @@ class AxisWatch:
         after it is still worth its time; more cannot help."""
         if self.sends == self.copies and self.acted_on:
             return -math.inf
-        if self._told_t_s is None:     # the first known arrival counts, not each later one
+        if self._told_t_s is None and other_ack_sends:   # the first known arrival counts
             moving = {t for t, a in zip(self.send_times, self.asked, strict=True) if a}
-            if other_ack_sends and set(other_ack_sends) <= moving:
+            if set(other_ack_sends) <= moving:
                 self._told_t_s = max(other_ack_sends)
         return self._told_t_s
 
@@ -256,12 +268,19 @@ def moving_axis(template: AxisMotor, position_deg: float, target_deg: float, t_s
                 moving: bool) -> AxisMotor:
     """An axis like ``template`` standing at ``position_deg`` at ``t_s``; when ``moving`` it is
     already running toward ``target_deg`` at ``t_s`` (its start delay is behind it)."""
-    delay = template.start_delay_s
-    a = AxisMotor(template.min_deg, template.max_deg, template.rate_deg_s, delay,
-                  template.resolution_deg, position_deg, t_s - delay)
-    if moving and abs(target_deg - position_deg) > 1e-9:
-        a.command(target_deg, t_s - delay)  # the start delay ends exactly at t_s
+    a = AxisMotor(template.min_deg, template.max_deg, template.rate_deg_s,
+                  template.start_delay_s, template.resolution_deg)
+    restart_axis(a, position_deg, target_deg, t_s, moving)
     return a
+
+
+def restart_axis(axis: AxisMotor, position_deg: float, target_deg: float, t_s: float,
+                 moving: bool) -> None:
+    """:func:`moving_axis` on ``axis`` itself (its own rates and limits, not jammed)."""
+    delay = axis.start_delay_s
+    axis.rest_at(position_deg, t_s - delay)
+    if moving and abs(target_deg - position_deg) > 1e-9:
+        axis.command(target_deg, t_s - delay)  # the start delay ends exactly at t_s
 
 
 # Tables running on the controller ------------------------------------------------------

@@ -19,14 +19,14 @@ Works with any :class:`~tracker.protocols.base.RotatorDriver` (``position``/``go
 from __future__ import annotations
 
 import math
-from bisect import bisect_left
-from collections.abc import Callable
+from bisect import bisect_left, bisect_right
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from enum import Enum
 
 import numpy as np
 
-from tracker.aim import COMMAND_COST_STARTS, Aim, choose_aim, needs_command
+from tracker.aim import COMMAND_COST_STARTS, Aim, choose_aim, needs_command, quiet_until_s
 from tracker.clock import Clock
 from tracker.errors import (
     PortLostError,
@@ -101,9 +101,10 @@ class Command:
     resend: int = 0                  # > 0: the n-th copy of the last command (no motion seen)
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class Status:
-    """Everything a UI shows for one cycle."""
+    """Everything a UI shows for one cycle (built anew each cycle, so kept cheap: slots, no
+    frozen-instance checks; read it, do not change it)."""
 
     t_s: float
     phase: Phase
@@ -136,6 +137,25 @@ def _plausible_step(spec: RotatorSpec, before: tuple[float, float | None],
     return abs(after[1] - before[1]) <= spec.el_rate_deg_s * dt_s + slack_deg
 
 
+# Plan modes whose path is the plan's own quantised commands (MountPath.exact_from_plan):
+# a staircase, whose rate from one sample to the next jumps between 0 (a step held) and twice
+# the mean. Near a keyhole's zenith the mean sits close to the follow threshold, so the loop
+# would switch between following the plan and aiming on it every few seconds - and an aim
+# taken on a held step lies behind the antenna (a reversal each time). There each sample's
+# rate is the highest within this many seconds either side, and the plan's commands go out
+# at the cycle nearest their planned time: the planner's prediction is the only one there.
+STAIRCASE_MODES = ("keyhole", "unwind")
+STAIRCASE_RATE_WINDOW_S = 3.0
+
+
+def _window_max(t_s: np.ndarray, values: np.ndarray, half_width_s: float) -> np.ndarray:
+    """Per row of ``values``, the column-wise maximum over the rows within
+    ``half_width_s`` of its time (``t_s`` ascending)."""
+    lo = np.searchsorted(t_s, t_s - half_width_s, side="left")
+    hi = np.searchsorted(t_s, t_s + half_width_s, side="right")
+    return np.array([values[a:b].max(axis=0) for a, b in zip(lo, hi, strict=True)])
+
+
 def pass_window(track: SkyTrack, station: Station) -> tuple[float, float]:
     """AOS and LOS (UTC POSIX s) of ``track`` against the station's horizon and mask."""
     up = track.el_deg >= station.horizon_at(track.az_deg)
@@ -162,6 +182,7 @@ class TrackCore:
                  sky: Callable[[float], tuple[float, float]] | None = None):
         self.plan = plan
         self.track = track
+        self._track_from_s, self._track_to_s = float(track.t_s[0]), float(track.t_s[-1])
         # Where the target is outside the track's span (waiting for the pass): shown, not
         # planned with; without it the track's first or last point stands in.
         self.sky = sky
@@ -178,8 +199,21 @@ class TrackCore:
         dt = np.gradient(self.path.t_s)
         self._path_t = self.path.t_s.tolist()
         path_el = self.path.el_deg if self.path.el_deg is not None else np.zeros_like(dt)
-        self._rates = np.stack([np.abs(np.gradient(self.path.az_m_deg) / dt),
-                                np.abs(np.gradient(path_el) / dt)], axis=1).tolist()
+        rates = np.stack([np.abs(np.gradient(self.path.az_m_deg) / dt),
+                          np.abs(np.gradient(path_el) / dt)], axis=1)
+        self._staircase = str(getattr(plan, "mode", "normal")) in STAIRCASE_MODES
+        if self._staircase:
+            rates = _window_max(self.path.t_s, rates, STAIRCASE_RATE_WINDOW_S)
+        self._rates = rates.tolist()
+        # Where both ends of a sample interval are well below the follow thresholds, so is
+        # every rate interpolated in it: :meth:`_fast` needs no interpolation there. Entry
+        # j + 1 covers the interval starting at sample j (entry 0: before the first sample,
+        # the last: after the last).
+        f = self.settings.follow_fraction
+        el_thr = f * spec.el_rate if spec.has_elevation else math.inf
+        slow = ((rates[:, 0] < f * spec.az_rate_deg_s * (1.0 - 1e-9))
+                & (rates[:, 1] < el_thr * (1.0 - 1e-9)))
+        self._slow_from = [bool(slow[0]), *(slow[:-1] & slow[1:]).tolist(), bool(slow[-1])]
         plan_az = np.asarray(plan.cmd_az_deg, dtype=float)
         self._plan_az = plan_az.tolist()
         self._plan_el = np.asarray(getattr(plan, "cmd_el_deg", np.zeros_like(plan_az)),
@@ -218,6 +252,8 @@ class TrackCore:
         self._resume: tuple[Phase, int] | None = None
         self._hold_until_s = -math.inf
         self._hold_level_deg = self.settings.deadband_deg
+        # (from, until, level, motor segments): needs_command is False all along (_quiet).
+        self._quiet_span: tuple[float, float, float, tuple] | None = None
         self._park_sent_s: float | None = None
         self._last_wire_az: float | None = None
         self._wire_still_since_s = -math.inf
@@ -267,7 +303,6 @@ class TrackCore:
         expected_az = float(self.motor.az.position(t_s)) if self.motor is not None else None
         belief = expected_az if expected_az is not None else (
             self.antenna[0] if self.antenna else None)
-        cands = spec.frame.mechs_of_wire(wire_az_deg)
         m_az = spec.frame.nearest_mech_of_wire(wire_az_deg, belief)
         early = False
         if self._last_wire_az is None or abs(wire_az_deg - self._last_wire_az) >= 0.5:
@@ -287,7 +322,8 @@ class TrackCore:
             # names the commanded target: it arrived sooner than believed (the start was
             # guessed on the wrong side of the overlap; the controller knew better). Take it,
             # instead of distrusting a good rotator.
-            at_target = [m for m in cands if abs(m - self.motor.az.target_deg) < 0.5
+            at_target = [m for m in spec.frame.mechs_of_wire(wire_az_deg)
+                         if abs(m - self.motor.az.target_deg) < 0.5
                          and abs(m - m_az) > 180.0]
             if at_target:
                 m_az, early = at_target[0], True
@@ -357,16 +393,23 @@ class TrackCore:
         s = self.settings
         res = self.spec.resolution_deg
         quota = 1 + s.stall_resends
+        w_az, w_el = self._watch["az"], self._watch["el"]
         checked = []
-        for name, pos in zip(("azimuth", "elevation"), self.antenna, strict=True):
+        for name, watch, other, pos in (("azimuth", w_az, w_el, self.antenna[0]),
+                                        ("elevation", w_el, w_az, self.antenna[1])):
             if pos is not None:
-                watch = self._watch["az" if name == "azimuth" else "el"]
-                checked.append((name, watch, watch.check(t_s, pos, res, s.stall_travel_deg)))
+                checked.append((name, watch, other,
+                                watch.check(t_s, pos, res, s.stall_travel_deg)))
         overdue = []
-        for name, watch, stuck_s in checked:
+        for name, watch, other, stuck_s in checked:
+            if not watch.send_times:
+                # Nothing sent since motion was last seen: no chance had, none to judge by;
+                # a copy is due when a stall or overdue motion shows (most cycles: neither).
+                if stuck_s is not None or watch.motion_overdue(t_s, res):
+                    overdue.append(watch)
+                continue
             # One line carries both axes: another axis starting on it shows that it arrived.
-            others = tuple(t for w in self._watch.values() if w is not watch
-                           for t in w.ack_sends)
+            others = other.ack_sends
             # Any of three ways shows the controller had its chance; the first one counts.
             done = watch.sends_had_their_chance(t_s, quota)
             can_copy = watch.sends < quota
@@ -452,7 +495,8 @@ class TrackCore:
         # the wait until it starts has to be foreseen: one cycle and the start delay.
         lookahead = s.cycle_s + self.spec.start_delay_s
         if self._fast(t_s, lookahead):
-            i = min(bisect_left(self._plan_t, t_s), len(self._plan_t) - 1)
+            i = (self._plan_index_near(t_s) if self._staircase
+                 else min(bisect_left(self._plan_t, t_s), len(self._plan_t) - 1))
             el = self._plan_el[i] if self.spec.has_elevation else None
             cmd = self._safe(self._plan_az[i], el, "track")
             self._hold_until_s = -math.inf
@@ -462,8 +506,7 @@ class TrackCore:
             settled = self._phase_commanded is Phase.TRACK or (
                 self._phase_commanded is Phase.PREPOSITION
                 and self._move_i >= len(self.pre_moves))
-            if settled and not needs_command(self.path, self.motor.az, self.motor.el, t_s,
-                                             level, lookahead):
+            if settled and self._quiet(t_s, level, lookahead):
                 return None
             aim = choose_aim(self.path, self.motor.az, self.motor.el, t_s, band,
                              step_s=s.aim_step_s)
@@ -482,6 +525,37 @@ class TrackCore:
                     cmd.el_deg is None or abs(cmd.el_deg - last.el_deg) < 1e-9):
                 return None
         return cmd
+
+    def _quiet(self, t_s: float, level_deg: float, lookahead_s: float) -> bool:
+        """``not needs_command(...)``: the antenna, left alone, stays within ``level_deg``
+        for the look-ahead. Proved by a bound for a while ahead (:func:`quiet_until_s`), the
+        answer is kept until then, as long as the belief of the motors does not change."""
+        motor = self.motor
+        assert motor is not None, "only asked with a belief"
+        key = (motor.az.segment(), None if motor.el is None else motor.el.segment())
+        q = self._quiet_span
+        if q is not None and q[0] <= t_s <= q[1] and level_deg >= q[2] and key == q[3]:
+            return True
+        until = quiet_until_s(self.path, motor.az, motor.el, t_s, level_deg, lookahead_s,
+                              first_s=self.settings.cycle_s)
+        if until is None:
+            if needs_command(self.path, motor.az, motor.el, t_s, level_deg, lookahead_s):
+                return False
+            until = t_s
+        self._quiet_span = (t_s, until, level_deg, key)
+        return True
+
+    def _plan_index_near(self, t_s: float) -> int:
+        """Index of the plan's command whose time is nearest ``t_s`` (the later one on a
+        tie): each goes out within half a plan step of the time the planner gave it, the
+        timing its prediction assumes, and never late."""
+        pt = self._plan_t
+        j = bisect_left(pt, t_s)
+        if j >= len(pt):
+            return len(pt) - 1
+        if j > 0 and t_s - pt[j - 1] < pt[j] - t_s:
+            return j - 1
+        return j
 
     def _band(self) -> float:
         s = self.settings
@@ -503,12 +577,15 @@ class TrackCore:
         q_el = (np.array([self.motor.el.quantise(e) for e in cand_el])
                 if self.motor.el is not None and last.el_deg is not None and cand_el is not None
                 else np.zeros_like(q_az))
-        err = angle_between_deg(pointing_enu(q_az, q_el, self.path.stop_bearing_deg)[:, None],
-                                self.path.target_enu(ts)[None, :])          # (candidate, t)
+        # Neighbouring path points quantise to the same few positions: each distinct one once.
+        _u, first, inv = np.unique(q_az + 1j * q_el, return_index=True, return_inverse=True)
+        err = angle_between_deg(pointing_enu(q_az[first], q_el[first],
+                                             self.path.stop_bearing_deg)[:, None],
+                                self.path.target_enu(ts)[None, :])    # (distinct position, t)
         off = err > self._band()
         # Held from the start of tracking: a candidate counts until the error first leaves
         # the deadband, and only if it is inside at the start.
-        hold = np.where(off.any(axis=1), np.argmax(off, axis=1), len(ts))
+        hold = np.where(off.any(axis=1), np.argmax(off, axis=1), len(ts))[inv.ravel()]
         if not (hold > 0).any():
             return last
         # Hold per motor start, as within the pass (an axis already on target costs none).
@@ -527,6 +604,10 @@ class TrackCore:
     def _fast(self, t_s: float, lookahead_s: float) -> bool:
         """True where the path runs the az or el motor more than ``follow_fraction`` of
         the time (near the zenith, keyhole sweeps)."""
+        path_t, slow_from = self._path_t, self._slow_from
+        if (slow_from[bisect_right(path_t, t_s)]
+                and slow_from[bisect_right(path_t, t_s + lookahead_s)]):
+            return False
         f = self.settings.follow_fraction
         az0, el0 = interp1_rows(t_s, self._path_t, self._rates)
         az1, el1 = interp1_rows(t_s + lookahead_s, self._path_t, self._rates)
@@ -627,11 +708,12 @@ class TrackCore:
     # Reporting ---------------------------------------------------------------------------
 
     def status(self, t_s: float) -> Status:
-        t = self.track.t_s
-        if self.sky is not None and not (t[0] <= t_s <= t[-1]):
+        # Once a cycle: floats throughout (the track's span and the scalar paths).
+        if self.sky is not None and not (self._track_from_s <= t_s <= self._track_to_s):
             taz, tel = self.sky(t_s)
         else:
-            taz, tel = self.track.direction_at(t_s)
+            taz, tel = self.track.direction_at(float(t_s))
+        taz, tel = float(taz), float(tel)
         ant = self.antenna
         err = bearing = None
         if ant is not None:
@@ -639,22 +721,17 @@ class TrackCore:
             bearing = float(self.spec.bearing_of(ant[0]))
             # an azimuth-only beam's elevation is set by hand: only azimuth is ours to get
             # right, as in the planner's prediction
-            if self.phase not in (Phase.PARK, Phase.DONE):
+            if self.phase is not Phase.PARK and self.phase is not Phase.DONE:
                 # after LOS the antenna leaves the target on purpose: no pointing error
-                err = float(pointing_error_deg(self.spec, ant[0], el,
-                                               (float(taz), float(tel))))
+                err = float(pointing_error_deg(self.spec, ant[0], el, (taz, tel)))
         span = max(self.los_s - self.aos_s, 1e-9)
         cmd = self.last_command
-        return Status(t_s=t_s, phase=self.phase, mode=self.mode, target_az_deg=float(taz),
-                      target_el_deg=float(tel),
-                      antenna_az_m_deg=None if ant is None else ant[0],
-                      antenna_el_deg=None if ant is None else ant[1],
-                      antenna_bearing_deg=bearing,
-                      command_az_m_deg=None if cmd is None else cmd.az_m_deg,
-                      command_el_deg=None if cmd is None else cmd.el_deg,
-                      error_deg=err, aos_s=self.aos_s, los_s=self.los_s,
-                      progress=float(min(max((t_s - self.aos_s) / span, 0.0), 1.0)),
-                      commands=self.commands, note=self.note)
+        return Status(t_s, self.phase, self.mode, taz, tel,
+                      None if ant is None else ant[0], None if ant is None else ant[1],
+                      bearing, None if cmd is None else cmd.az_m_deg,
+                      None if cmd is None else cmd.el_deg, err, self.aos_s, self.los_s,
+                      min(max((t_s - self.aos_s) / span, 0.0), 1.0), self.commands,
+                      self.note)
 
 
 def safe_target(spec: RotatorSpec, station: Station, az_m_deg: float, el_deg: float | None
@@ -766,6 +843,36 @@ class PassResult:
     completed: bool = True
     error_t_s: list[float] = field(default_factory=list)   # when each of errors_deg was seen
     cause: str = ""          # why the maximum error is large, if it is ("" otherwise)
+    joined_late_s: float = 0.0   # started this long after AOS (0: from the pre-position)
+    acquired_at: int = 0     # errors_deg before this index are the slew to catch the target
+
+    def count_from_acquisition(self, joined_late_s: float, deadband_deg: float) -> None:
+        """A pass joined under way: the slew to catch the target is not the tracking's
+        error, so :attr:`max_error_deg` counts from the first reading on target."""
+        if joined_late_s <= 0.0:
+            return
+        self.joined_late_s = joined_late_s
+        self.acquired_at = acquisition_index(self.errors_deg, deadband_deg)
+        tail = self.errors_deg[self.acquired_at:]
+        self.max_error_deg = max(tail) if tail else float("nan")
+
+    def joined_note(self) -> str:
+        """``joined 300 s after AOS; on target 38 s later, error counted from then``."""
+        if self.joined_late_s <= 0.0:
+            return ""
+        head = f"joined {self.joined_late_s:.0f} s after AOS"
+        if self.acquired_at >= len(self.errors_deg):
+            return f"{head}; never on target"
+        caught_s = (self.error_t_s[self.acquired_at] - self.error_t_s[0]
+                    if len(self.error_t_s) == len(self.errors_deg) else 0.0)
+        return f"{head}; on target {caught_s:.0f} s later, error counted from then"
+
+
+def acquisition_index(errors_deg: Sequence[float], deadband_deg: float) -> int:
+    """Index of the first error within ``deadband_deg`` + 1 deg (the length when none is):
+    where a pass joined under way has caught its target."""
+    on_deg = deadband_deg + 1.0
+    return next((i for i, e in enumerate(errors_deg) if e <= on_deg), len(errors_deg))
 
 
 # The streaming loop with its recovery paths (timeouts, garbled replies,

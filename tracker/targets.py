@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Callable
-from functools import lru_cache
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -19,6 +18,7 @@ from tracker import celestial
 from tracker.errors import ConfigError, PropagationError
 from tracker.skytrack import SkyTrack
 from tracker.station import Station
+from tracker.sun import satellite_sun_flags
 
 
 @runtime_checkable
@@ -33,30 +33,6 @@ class Target(Protocol):
 # Resolvers are tried in order before the satellite catalogue; each returns a Target for a
 # name it knows, or None.
 RESOLVERS: list[Callable[[str], Target | None]] = [celestial.resolve]
-
-_SUNLIT_NOTE_SHOWN = False
-
-
-@lru_cache(maxsize=1)
-def _ephemeris_or_none():
-    """DE421 for sunlit/visible flags, or None (then sunlit is False and we say so once)."""
-    try:
-        from tracker.ephemeris import load_ephemeris
-    except ImportError:  # pragma: no cover - the celestial part is absent
-        return None
-    try:
-        return load_ephemeris()
-    except ConfigError:
-        return None
-
-
-def ephemeris_note() -> str | None:
-    """Why sunlit/visible flags are all False, or None when the ephemeris is available."""
-    if _ephemeris_or_none() is not None:
-        return None
-    return ("sunlit/visible flags unavailable: the JPL DE421 ephemeris is not installed "
-            "(pip install skyfield-data)")
-
 
 # SGP4 mean elements describe an orbit near their epoch: LEO predictions drift by minutes
 # within weeks and mean nothing after a year (drag, manoeuvres), and far from the epoch (a
@@ -170,11 +146,8 @@ class SatelliteTarget:
         el, az, dist, _, _, range_rate = topocentric.frame_latlon_and_rates(topos)
         el_deg = np.atleast_1d(el.degrees)
         self._check(t, el_deg, geocentric)
-        eph = _ephemeris_or_none()
-        if eph is not None:
-            sunlit = np.atleast_1d(geocentric.is_sunlit(eph)).astype(bool)
-        else:
-            sunlit = np.zeros(t_s.shape, dtype=bool)
+        sunlit, _ = satellite_sun_flags(self.satellite.model, t_s, station.lat_deg,
+                                        station.lon_deg)
         return SkyTrack(t_s, np.mod(np.atleast_1d(az.degrees), 360.0), el_deg,
                         np.atleast_1d(dist.km), np.atleast_1d(range_rate.km_per_s), sunlit,
                         self.name, {"norad_id": self.norad_id})

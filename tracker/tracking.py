@@ -342,14 +342,17 @@ class PassFollower:
                                  should_stop)
             core = TrackCore(plan, track, spec, station, settings,
                              sky=SkyAt(target, station))
+            joined_s = self.clock.timestamp()
             res = run_pass(core, link, self.clock, on_status=self.on_status, events=out,
                            should_stop=should_stop)
             if not res.completed:
                 break                                   # stopped: the caller says why
-            err = res.errors_deg
+            res.count_from_acquisition(joined_s - pas.aos.timestamp(), settings.deadband_deg)
+            err = res.errors_deg[res.acquired_at:]
             p99 = sorted(err)[max(0, math.ceil(0.99 * len(err)) - 1)] if err else float("nan")
-            res.cause = error_cause(track, spec, plan.mode, np.asarray(res.error_t_s),
-                                    np.asarray(err))
+            res.cause = "; ".join(x for x in (res.joined_note(), error_cause(
+                track, spec, plan.mode, np.asarray(res.error_t_s[res.acquired_at:]),
+                np.asarray(err))) if x)
             self.results.append(res)
             out("info", topic="result", text=f"pass {n + 1} done: "
                                              f"{describe_result(res, spec)} (plan predicted "

@@ -10,7 +10,7 @@ import pytest
 from _paths import TESTS
 from sgp4.api import Satrec, jday
 
-from tracker.batch import find_passes_batch, load_stations, pass_track
+from tracker.batch import find_passes_batch, iter_passes_batch, load_stations, pass_track
 from tracker.errors import ConfigError
 from tracker.station import HorizonMask, Station
 
@@ -307,3 +307,50 @@ def test_worker_shares_split_large_grid_classes_and_keep_small_ones_whole(amateu
             assert abs(held[0] - held[1]) <= 1, held  # dealt out evenly
         else:
             assert sorted(held) == [0, len(ids)], held  # whole to one worker
+
+
+def identical(a, b):
+    """Every field of every pass bit for bit the same."""
+    assert len(a) == len(b)
+    for key in a.dtype.names:
+        assert np.array_equal(a[key], b[key]), key
+
+
+def test_stations_refined_together_match_each_alone(amateur):
+    """All stations' brackets are refined and assembled in one pass (in groups sized by the
+    memory budget): each station's passes are those of a run with it alone, bit for bit,
+    with and without a horizon mask."""
+    mask = HorizonMask((0.0, 90.0, 180.0, 270.0), (20.0, 2.0, 2.0, 2.0))
+    stations = (DELFT, Station("Masked", 60.2, 24.9, 20.0, 1.0, mask), QUITO,
+                Station("Dunedin", -45.9, 170.5, 0.0))
+    alone = [run(amateur, stations=(st,)).passes for st in stations]
+    for memory_mb in (256.0, 0.2):  # all stations in one group; one group per station
+        many = run(amateur, stations=stations, memory_mb=memory_mb).passes
+        for k, mine in enumerate(alone):
+            mine = mine.copy()
+            mine["station"] = k
+            identical(many[many["station"] == k], mine)
+        assert len(many) == sum(map(len, alone))
+
+
+def test_streamed_parts_are_the_whole_table(amateur):
+    """iter_passes_batch with a tiny memory budget (passes wait in temporary files per span
+    of AOS times; passes cut at the 0.3-day block edges joined as blocks finish) gives the
+    whole table in order, with its errors and statistics on every part; so does the forked
+    path (statistics alike but for the number of chunks)."""
+    satrecs, names = amateur
+    stations = [DELFT, QUITO]
+    end = START + timedelta(days=2.0)
+    kw = dict(block_days=0.3, memory_mb=0.1)
+    whole = find_passes_batch(satrecs, names, stations, START, end, **kw)
+    spans = (whole.passes["los_s"] - whole.passes["aos_s"]) / 86400.0
+    assert spans.max() > 0.6  # a pass joined across more than one block edge
+    for workers in (1, 2):
+        parts = list(iter_passes_batch(satrecs, names, stations, START, end,
+                                       workers=workers, **kw))
+        assert len(parts) > 3
+        identical(np.concatenate([p.passes for p in parts]), whole.passes)
+        for p in parts:  # the forked path splits the satellites into more chunks
+            assert p.errors == whole.errors
+            assert {**p.stats, "chunks": 0} == {**whole.stats, "chunks": 0}
+            assert (p.start, p.end, p.names) == (whole.start, whole.end, whole.names)

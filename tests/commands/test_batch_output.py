@@ -117,3 +117,66 @@ def test_parquet_without_pyarrow_is_one_clear_line(tmp_path):
     assert proc.stderr == ("tracker: error: Parquet output needs pyarrow, which is not "
                            "installed: pip install 'rotator-tracker[parquet]'\n")
     assert not out.exists()
+
+
+@pytest.fixture
+def inproc_cluster():
+    """Two in-process Dask workers at an ``inproc://`` address: --dask ADDRESS reaches them
+    from main() in this process, quickly and without spawning processes."""
+    distributed = pytest.importorskip("dask.distributed")
+    pytest.importorskip("pyarrow")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        yield cluster.scheduler_address
+
+
+def test_dask_writes_a_partitioned_folder_equal_to_the_file(capsys, tmp_path, inproc_cluster):
+    import pyarrow.dataset as ds
+    import pyarrow.parquet as pq
+
+    single, folder = tmp_path / "p.parquet", tmp_path / "parts"
+    common = ("--min-max-el", "10", "--visible")
+    assert main(batch_args(tmp_path, "parquet", *common, "--out", str(single))) == 0
+    capsys.readouterr()
+    assert main(batch_args(tmp_path, "parquet", *common, "--out", f"{folder}/",
+                           "--dask", inproc_cluster)) == 0
+    err = capsys.readouterr().err
+    assert f"tracker: wrote {folder} (1 part)" in err
+    assert sorted(p.name for p in folder.iterdir()) == ["_common_metadata",
+                                                        "part-00000.parquet"]
+    whole, parts = pq.read_table(single), ds.dataset(folder).to_table()
+    assert parts.num_rows == whole.num_rows > 10 and all(parts.column("visible").to_pylist())
+    assert parts.to_pydict() == whole.to_pydict()
+    stored = json.loads(whole.schema.metadata[b"rotator-tracker"])
+    common_meta = json.loads(pq.read_schema(folder / "_common_metadata")
+                             .metadata[b"rotator-tracker"])
+    assert common_meta["errors"] == stored["errors"]
+    own = ("elapsed_s", "parts", "passes")  # the run's duration; what only a folder has
+    assert {k: v for k, v in common_meta["meta"].items() if k not in own} == {
+        k: v for k, v in stored["meta"].items() if k not in own}
+    assert common_meta["meta"]["parts"] == 1
+    assert common_meta["meta"]["passes"] == whole.num_rows
+
+
+def test_a_non_empty_folder_is_refused_in_one_line_before_the_search(capsys, tmp_path,
+                                                                     inproc_cluster):
+    folder = tmp_path / "parts"
+    folder.mkdir()
+    (folder / "part-00000.parquet").write_bytes(b"old")
+    argv = batch_args(tmp_path, "parquet", "--out", f"{folder}/", "--dask", inproc_cluster)
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err == (f"tracker: error: --out {folder}/ already exists and is not empty; not "
+                   f"writing into it (add --force to replace it, or choose another name)\n")
+    assert (folder / "part-00000.parquet").read_bytes() == b"old"
+    assert main([*argv, "--force"]) == 0
+    assert (folder / "part-00000.parquet").read_bytes()[:4] == b"PAR1"
+
+
+def test_a_plot_needs_the_passes_in_one_place(capsys, tmp_path, inproc_cluster):
+    argv = batch_args(tmp_path, "parquet", "--out", f"{tmp_path}/parts/", "--dask",
+                      inproc_cluster, "--plot", str(tmp_path / "t.png"))
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "--plot needs every pass in this process" in err and err.count("\n") == 1
+    assert not (tmp_path / "parts").exists()

@@ -1,5 +1,7 @@
 """What a command loads: ``tracker --help`` stays light (no numpy, no skyfield) and an offline
-command loads nothing network-related. Checked in a fresh interpreter, from ``-X importtime``."""
+command loads nothing network-related; a satellite pass listing loads neither the planetary
+ephemeris nor the cache's downloader. Checked in a fresh
+interpreter, from ``-X importtime``."""
 
 from __future__ import annotations
 
@@ -43,3 +45,13 @@ def test_an_offline_pass_listing_imports_nothing_network_related(tmp_path):
     assert {"tracker.passes", "skyfield.sgp4lib"} <= modules
     assert not modules & NETWORK
     assert "skyfield.iokit" not in modules           # skyfield's downloader (ssl, urllib)
+
+
+def test_a_satellite_pass_listing_loads_only_what_it_uses(tmp_path):
+    modules = _imported(tmp_path, "passes", "ISS", "--at", "2026-08-23T00:00Z",
+                        "--lat", "52", "--lon", "4.4")
+    assert "tle.catalog" in modules and "tracker.sun" in modules
+    # sunlit/visible come from tracker.sun, not DE421; reading the cache needs no downloader;
+    # statistics and difflib serve only other paths (the snapshot's note, suggestions)
+    assert not modules & {"tracker.ephemeris", "jplephem.spk", "skyfield_data", "tle.store",
+                          "statistics", "difflib"}

@@ -142,6 +142,13 @@ def test_checksum_counts_minus_as_one():
             assert compute_checksum(line) == int(line[68])
 
 
+@given(st.text(max_size=80))
+def test_checksum_is_the_digit_sum_of_the_first_68_columns(line):
+    # the definition, character by character (only ASCII digits and '-' count)
+    expected = sum(int(c) if c in "0123456789" else c == "-" for c in line[:68]) % 10
+    assert compute_checksum(line) == expected
+
+
 @pytest.mark.parametrize(("field", "norad_id"), [
     ("00005", 5), ("25544", 25544), ("99999", 99999), ("A0000", 100000), ("H9999", 179999),
     ("J0000", 180000), ("N9999", 229999), ("P0000", 230000), ("Z9999", 339999),

@@ -9,9 +9,10 @@ from datetime import datetime, timezone
 import pytest
 from _celestrak import LAST_MODIFIED
 
+from tle.cachedir import default_cache_dir
 from tle.catalog import Catalog
 from tle.errors import TleFetchError
-from tle.store import TleStore, default_cache_dir, resolve_source
+from tle.store import TleStore, resolve_source
 from tracker.clock import ManualClock
 
 T0 = datetime(2026, 8, 23, 12, tzinfo=timezone.utc)

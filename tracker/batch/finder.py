@@ -24,22 +24,31 @@ How one job runs (every step is numpy over all satellites of a chunk at once):
    series (a second SGP4 call only for the rare root that moved by more than a second):
    about one SGP4 call per event, to ``tol_s``.
 
+Steps 3 and 4 run for all stations of a chunk at once (a station index per sample and
+bracket), in groups of stations sized by the memory budget; a pass does not depend on the
+other stations.
+
 SGP4 errors (decayed elements) are collected per satellite and reported, never raised.
 Memory is bounded by chunking over satellites (sized from ``memory_mb``) and over time (blocks
-of at most ``block_days``; passes cut at a block edge are joined again).
+of at most ``block_days``; passes cut at a block edge are joined again). The result itself is
+held whole by :func:`find_passes_batch`; :func:`iter_passes_batch` gives it in parts and keeps
+rows beyond the budget in temporary files meanwhile (:class:`tracker.spill.RowSpill`).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from datetime import datetime, timedelta, timezone
+from functools import cached_property
 
 import numpy as np
 from sgp4.api import SGP4_ERRORS, SatrecArray, jday
 
 from tracker.batch import geometry as geo
 from tracker.errors import ConfigError
+from tracker.spill import RowSpill
 from tracker.station import Station
 
 PASS_DTYPE = np.dtype([
@@ -98,6 +107,14 @@ class PassTable:
         return PassTable(self.passes[mask], self.names, self.stations, self.start, self.end,
                          self.errors, self.stats)
 
+    @classmethod
+    def concat(cls, parts: list[PassTable]) -> PassTable:
+        """Consecutive parts of one table (as :func:`iter_passes_batch` gives them) as one."""
+        first = parts[0]
+        passes = np.concatenate([p.passes for p in parts])
+        return cls(passes, first.names, first.stations, first.start, first.end, first.errors,
+                   first.stats)
+
 
 @dataclass
 class _Job:
@@ -112,6 +129,7 @@ class _Job:
     tol_s: float
     stats: dict
     errors: dict  # sat -> (tau_s, code)
+    memory_mb: float = 256.0
     _theta0: float | None = None
     _theta_rate: float = 0.0
 
@@ -141,13 +159,22 @@ class _Job:
             mask = self.stations[st].mask
             base = float(self.frames.min_el_deg[st])
             return base if mask is None else np.maximum(base, mask.min_el_at(az_deg))
-        thr = self.frames.min_el_deg[st].copy()
-        for k, station in enumerate(self.stations):
-            if station.mask is not None:
-                m = st == k
-                if m.any():
-                    thr[m] = np.maximum(thr[m], station.mask.min_el_at(az_deg[m]))
+        thr = self.frames.min_el_deg[st]
+        for k in self.masked:
+            m = st == k
+            if m.any():
+                thr[m] = np.maximum(thr[m], self.stations[k].mask.min_el_at(az_deg[m]))
         return thr
+
+    @cached_property
+    def masked(self) -> list[int]:
+        """The stations with a horizon mask."""
+        return [k for k, s in enumerate(self.stations) if s.mask is not None]
+
+    @cached_property
+    def sin_min_el(self) -> np.ndarray:
+        """sin(min elevation) per station (the AOS/LOS target without a mask)."""
+        return np.array([math.sin(math.radians(x)) for x in self.frames.min_el_deg.tolist()])
 
 
 def _sgp4_pairs(job: _Job, sat: np.ndarray, tau: np.ndarray, kind: str = "sgp4_refine"):
@@ -263,9 +290,13 @@ class _Topo:
     def el_deg(self):
         return np.degrees(np.arcsin(np.clip(self.s, -1.0, 1.0)))
 
-    def az_deg(self, job: _Job, st: int):
+    def take(self, i) -> _Topo:
+        return _Topo(self.s[i], self.s1[i], None if self.s2 is None else self.s2[i],
+                     tuple(x[i] for x in self.d), self.c[i], self.sn[i])
+
+    def az_deg(self, job: _Job, st):
         c, sn = self.c, self.sn
-        e, n = job.frames.east[st], job.frames.north[st]
+        e, n = geo.station_columns(job.frames.east, st), geo.station_columns(job.frames.north, st)
         dx, dy, dz = self.d
         # The station's east/north axes rotated into TEME.
         de = dx * (c * e[0] - sn * e[1]) + dy * (sn * e[0] + c * e[1])
@@ -273,14 +304,15 @@ class _Topo:
         return np.degrees(np.arctan2(de, dn)) % 360.0
 
 
-def _topo(job: _Job, st: int, tau, r, v, a=None) -> _Topo:
-    """sin(el), d/dt and (given the acceleration ``a``) d2/dt2 of station ``st`` at TEME
-    states; the station turns with the Earth in TEME. sin(el) is smooth everywhere (even
-    through the zenith), so its derivative's root is the culmination and needs no arcsin."""
+def _topo(job: _Job, st, tau, r, v, a=None) -> _Topo:
+    """sin(el), d/dt and (given the acceleration ``a``) d2/dt2 of stations ``st`` (one per
+    state) at TEME states; the station turns with the Earth in TEME. sin(el) is smooth
+    everywhere (even through the zenith), so its derivative's root is the culmination and
+    needs no arcsin."""
     theta = job.theta(tau)
     c, sn = np.cos(theta), np.sin(theta)
     w = geo.EARTH_ROTATION_RAD_S
-    o, u = job.frames.ecef_km[st], job.frames.up[st]
+    o, u = geo.station_columns(job.frames.ecef_km, st), geo.station_columns(job.frames.up, st)
     ox, oy = c * o[0] - sn * o[1], sn * o[0] + c * o[1]
     ux, uy, uz = c * u[0] - sn * u[1], sn * u[0] + c * u[1], u[2]
     dx, dy, dz = r[:, 0] - ox, r[:, 1] - oy, r[:, 2] - o[2]
@@ -302,22 +334,26 @@ def _topo(job: _Job, st: int, tau, r, v, a=None) -> _Topo:
     return _Topo(s, s1, s2, (dx, dy, dz), c, sn)
 
 
-def _newton_step(job: _Job, st: int, t: _Topo, tca: bool):
-    """(g, Newton step to g's root) at points ``t``, where g is d sin(el)/dt for a
-    culmination and, for AOS/LOS, sin(el) - sin(horizon) (second-order step: sin(el) is
-    curved on the scale of a grazing pass) or, with a horizon mask, el - mask(az) in deg."""
+def _newton_step(job: _Job, st, t: _Topo, tca: bool):
+    """(g, Newton step to g's root) at points ``t`` (of stations ``st``), where g is
+    d sin(el)/dt for a culmination and, for AOS/LOS, sin(el) - sin(horizon) (second-order
+    step: sin(el) is curved on the scale of a grazing pass) or, with a horizon mask,
+    el - mask(az) in deg."""
     with np.errstate(divide="ignore", invalid="ignore"):
         if tca:
             return t.s1, t.s1 / t.s2
-        mask = job.stations[st].mask
-        if mask is None:
-            g = t.s - math.sin(math.radians(job.frames.min_el_deg[st]))
-            step = g / t.s1
-            return g, step + 0.5 * t.s2 * step * step / t.s1
-        el = t.el_deg()
-        rate = np.degrees(t.s1 / np.sqrt(np.maximum(1.0 - t.s * t.s, 1e-12)))
-        g = el - job.threshold(st, t.az_deg(job, st))
-        return g, g / rate
+        g = t.s - job.sin_min_el[st]
+        step = g / t.s1
+        step = step + 0.5 * t.s2 * step * step / t.s1
+        masked = job.masked
+        if masked:
+            i = np.flatnonzero(np.isin(st, masked))
+            tm, sm = t.take(i), st[i]
+            el = tm.el_deg()
+            rate = np.degrees(tm.s1 / np.sqrt(np.maximum(1.0 - tm.s * tm.s, 1e-12)))
+            g[i] = el - job.threshold(sm, tm.az_deg(job, sm))
+            step[i] = g[i] / rate
+        return g, step
 
 
 def _bracketed(x, step, g, lo, hi, lo_neg):
@@ -352,8 +388,9 @@ def _solve(evaluate, lo, hi, lo_neg, guess, tol_s: float, max_it: int = 60):
     return tau
 
 
-def _refine(job: _Job, st: int, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
-    """AOS/LOS (``tca`` False) or culminations in brackets [lo, hi]: (tau, el, az, r_teme).
+def _refine(job: _Job, st, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
+    """AOS/LOS (``tca`` False) or culminations in brackets [lo, hi] of satellites ``sat``
+    seen from stations ``st``: (tau, el, az, r_teme).
 
     1. Newton steps on the cubic interpolant ``cubic`` (no SGP4; second order for AOS/LOS)
        until one is below ``SOLVE_TOL_S``; the point after it is then usually within a
@@ -374,14 +411,17 @@ def _refine(job: _Job, st: int, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
     job.stats[key] = job.stats.get(key, 0) + n
     x_ref = np.zeros(n)
     dr, dv = np.zeros((n, 3)), np.zeros((n, 3))  # SGP4 - cubic at x_ref
+    corrected = [False]  # any dr, dv set (until then adding them changes nothing)
 
     def model(k, tau):
         r, v, a = cubic(k, tau)
-        r = r + dr[k] + dv[k] * (tau - x_ref[k])[:, None]
-        return _topo(job, st, tau, r, v + dv[k], a), r
+        if corrected[0]:
+            r = r + dr[k] + dv[k] * (tau - x_ref[k])[:, None]
+            v = v + dv[k]
+        return _topo(job, st[k], tau, r, v, a), r
 
     def on_cubic(k, tau):
-        return _newton_step(job, st, model(k, tau)[0], tca)
+        return _newton_step(job, st[k], model(k, tau)[0], tca)
 
     x = _solve(on_cubic, lo, hi, lo_neg, guess, tol_s=SOLVE_TOL_S)
     lo, hi = lo.copy(), hi.copy()
@@ -400,7 +440,8 @@ def _refine(job: _Job, st: int, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
         # Within CORRECT_SPAN_S of xa, SGP4's state is its Taylor series with two-body
         # acceleration (J2 and lunisolar terms change it by < 1e-3: millimetres).
         a_s = _gravity(r_s)
-        g, step = _newton_step(job, st, _topo(job, st, xa, r_s, v_s, a_s), tca)
+        st_a = st[active]
+        g, step = _newton_step(job, st_a, _topo(job, st_a, xa, r_s, v_s, a_s), tca)
         x1, lo[active], hi[active] = _bracketed(xa, step, g, lo[active], hi[active],
                                                 lo_neg[active])
         near = np.flatnonzero(np.abs(x1 - xa) <= CORRECT_SPAN_S)
@@ -412,10 +453,10 @@ def _refine(job: _Job, st: int, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
             dt = (x1[near] - xa[near])[:, None]
             a_n = a_s[near]
             r1 = r_s[near] + (v_s[near] + 0.5 * a_n * dt) * dt
-            t1 = _topo(job, st, x1[near], r1, v_s[near] + a_n * dt, a_n)
+            t1 = _topo(job, st[k], x1[near], r1, v_s[near] + a_n * dt, a_n)
             tau[k], r_out[k] = x1[near], r1
-            el[k], az[k] = t1.el_deg(), t1.az_deg(job, st)
-            g1, step1 = _newton_step(job, st, t1, tca)
+            el[k], az[k] = t1.el_deg(), t1.az_deg(job, st[k])
+            g1, step1 = _newton_step(job, st[k], t1, tca)
             x2, lo[k], hi[k] = _bracketed(x1[near], step1, g1, lo[k], hi[k], lo_neg[k])
             more = ~(np.abs(step1) <= job.tol_s) & (g1 != 0) & (hi[k] - lo[k] >= job.tol_s)
             x1[near] = x2
@@ -429,6 +470,7 @@ def _refine(job: _Job, st: int, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
             k = active[far]
             r_c, v_c, _ = cubic(k, xa[far])
             x_ref[k], dr[k], dv[k] = xa[far], r_s[far] - r_c, v_s[far] - v_c
+            corrected[0] = True
             x1[far] = _solve(lambda j, t, k=k: on_cubic(k[j], t), lo[k], hi[k], lo_neg[k],
                              x1[far], tol_s=0.1)
         x[active] = x1
@@ -436,7 +478,7 @@ def _refine(job: _Job, st: int, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
     if active.size:  # still moving after CORRECT_ROUNDS: take the last corrected point
         t1, r1 = model(active, x[active])
         tau[active], r_out[active] = x[active], r1
-        el[active], az[active] = t1.el_deg(), t1.az_deg(job, st)
+        el[active], az[active] = t1.el_deg(), t1.az_deg(job, st[active])
     return tau, el, az, r_out
 
 
@@ -520,26 +562,10 @@ def _coarse_candidates(job: _Job, arc, tau_c, coarse_s, r_apo, screenable):
     return out
 
 
-def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc,
-                     screenable):
-    """(S, K * n) booleans: fine steps of the candidate coarse intervals where a pass is still
-    possible.
-
-    Inside a coarse interval the direction moves monotonically along the arc; its angle from
-    A after time t is bracketed by the slowest and fastest angular rate, taken as the arc's
-    mean rate times the Kepler perigee/apogee rate ratio for the eccentricity (plus 1 % for
-    SGP4's short-period terms and drag). Each fine step then sweeps a sub-arc of known
-    bounds, tested against the horizon cone like the coarse interval. No SGP4 calls.
-    """
-    S, K = cand.shape
-    out = np.zeros((S, K * n), bool)
-    if n == 1:
-        out[:] = cand
-        return out
-    ss, kk = np.nonzero(cand)
-    if ss.size == 0:
-        return out
-    # float32 throughout: the cone has degrees of margin, float32 rounds at 1e-7 rad.
+def _sub_arcs(arc, ss, kk, n: int, coarse_s, ecc):
+    """Bounds [a1, a2] (rad from A, (len(ss), n)) of the sub-arc each fine step of the
+    coarse intervals (ss, kk) can sweep; the same for every station. float32: the cone has
+    degrees of margin, float32 rounds at 1e-7 rad."""
     f32 = np.float32
     fine_s = coarse_s / n
     e_eff = np.minimum(ecc[ss] + 0.002, 0.9)
@@ -554,6 +580,36 @@ def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc
     np.clip(a1, f32(0.0), ph_, out=a1)
     a2 = np.minimum(w_hi * t_b, ph_ - w_lo * (f32(coarse_s) - t_b))
     np.clip(a2, a1, ph_, out=a2)
+    return a1, a2
+
+
+def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc,
+                     screenable, sub_arcs=None):
+    """(S, K * n) booleans: fine steps of the candidate coarse intervals where a pass is still
+    possible.
+
+    Inside a coarse interval the direction moves monotonically along the arc; its angle from
+    A after time t is bracketed by the slowest and fastest angular rate, taken as the arc's
+    mean rate times the Kepler perigee/apogee rate ratio for the eccentricity (plus 1 % for
+    SGP4's short-period terms and drag). Each fine step then sweeps a sub-arc of known
+    bounds, tested against the horizon cone like the coarse interval (in float32). No SGP4
+    calls. ``sub_arcs``: :func:`_sub_arcs` of every coarse interval, (S, K, n) each, when
+    many stations share them.
+    """
+    S, K = cand.shape
+    out = np.zeros((S, K * n), bool)
+    if n == 1:
+        out[:] = cand
+        return out
+    ss, kk = np.nonzero(cand)
+    if ss.size == 0:
+        return out
+    f32 = np.float32
+    fine_s = coarse_s / n
+    if sub_arcs is None:
+        a1, a2 = _sub_arcs(arc, ss, kk, n, coarse_s, ecc)
+    else:
+        a1, a2 = sub_arcs[0][ss, kk], sub_arcs[1][ss, kk]
     # The station (geocentric unit vector) in TEME at the middle of every fine step of the
     # window, gathered per candidate: rho (cos psi, sin psi), z with psi = GMST + longitude.
     u = job.frames.unit[st]
@@ -632,8 +688,15 @@ def _run_chunk(job: _Job, sat_ids: np.ndarray, n: int, fine_step_s: float, r_apo
     arc = _arc_geometry(r, v, valid)
     cands = _coarse_candidates(job, arc, tau_c, coarse_s, r_apo, screenable)
     cand_any = np.logical_or.reduce(cands) if len(cands) > 1 else cands[0]
-    subs = [_fine_candidates(job, st, cand, arc, n, coarse_s, r_apo, ecc, screenable)
-            for st, cand in enumerate(cands)]
+    sub_arcs = None
+    if len(cands) > 1 and n > 1:  # worth computing once for every interval
+        ss, kk = np.nonzero(cand_any)
+        a1, a2 = _sub_arcs(arc, ss, kk, n, coarse_s, ecc)
+        shape = (*cand_any.shape, n)
+        sub_arcs = (np.zeros(shape), np.zeros(shape))
+        sub_arcs[0][ss, kk], sub_arcs[1][ss, kk] = a1, a2
+    subs = [_fine_candidates(job, st, cand, arc, n, coarse_s, r_apo, ecc, screenable,
+                             sub_arcs) for st, cand in enumerate(cands)]
     sub_any = np.logical_or.reduce(subs) if len(subs) > 1 else subs[0]
     # "intervals": fine steps of the whole window; "candidate_intervals": those the two
     # screening levels kept (the only ones SGP4 samples).
@@ -659,32 +722,66 @@ def _run_chunk(job: _Job, sat_ids: np.ndarray, n: int, fine_step_s: float, r_apo
     theta_f = job.theta(np.arange(nf + 1) * fine_s)
     r_ecef, v_ecef = geo.teme_to_ecef(P, V, theta_f[j])
 
-    brackets = []
     pos = np.cumsum(F.ravel()) - 1 if len(cands) > 1 else None
-    for st, sub in enumerate(subs):
-        sel = np.arange(len(flat)) if pos is None else pos[np.flatnonzero(_fine_mask(sub))]
+    picks = [np.arange(len(flat)) if pos is None else pos[np.flatnonzero(_fine_mask(sub))]
+             for sub in subs]
+    for group in _station_groups([len(p) for p in picks], job.memory_mb):
+        sel = np.concatenate([picks[st] for st in group])
         if sel.size == 0:
             continue
-        el, az, rate = geo.look_angles(tuple(c[sel] for c in r_ecef),
-                                       tuple(c[sel] for c in v_ecef), job.frames, st)
-        good = ok[sel]
-        f = np.where(good, el - job.threshold(st, az), -1e3)
-        rate = np.where(good, rate, 0.0)
-        ss, jj = s_loc[sel], j[sel]
-        tau = jj * fine_s
-        contig = (ss[1:] == ss[:-1]) & (jj[1:] == jj[:-1] + 1) & good[1:] & good[:-1]
-        up = f >= 0
-        # Up samples with no contiguous neighbour: the window edge (or decay) cuts the pass.
-        prev_c = np.concatenate([[False], contig])
-        next_c = np.concatenate([contig, [False]])
-        brackets.append(dict(
-            st=st, sat=sat_ids[ss], tau=tau, f=f, rate=rate, el=el, az=az, contig=contig,
-            up=up, cut_start=up & ~prev_c, cut_end=up & ~next_c, fine_s=fine_s, r=P[sel],
-            v=V[sel], r_apo=r_apo[ss]))
-    return brackets
+        st = np.repeat(np.asarray(group, np.int64), [len(picks[k]) for k in group])
+        yield _station_samples(job, st, sel, s_loc, j, ok, sat_ids, r_apo, fine_s, P, V,
+                               r_ecef, v_ecef)
 
 
-def _peak_bound_deg(job: _Job, st: int, tau0, r0, r1, r_apo, h: float) -> np.ndarray:
+def _station_groups(sizes: list[int], memory_mb: float) -> list[list[int]]:
+    """Consecutive stations whose samples together stay within the memory budget (about
+    1 kB per sample through bracketing and refinement); at least one station per group."""
+    limit = max(1, int(memory_mb * 2**20 / 1024))
+    groups: list[list[int]] = []
+    total = 0
+    for st, n in enumerate(sizes):
+        if not groups or (total + n > limit and groups[-1]):
+            groups.append([])
+            total = 0
+        groups[-1].append(st)
+        total += n
+    return groups
+
+
+def _station_samples(job: _Job, st, sel, s_loc, j, ok, sat_ids, r_apo, fine_s: float, P, V,
+                     r_ecef, v_ecef) -> dict:
+    """Look angles and bracketing flags of the shared fine samples ``sel`` as seen from
+    stations ``st`` (one per sample; each station's samples consecutive, in time order)."""
+    def azimuth(i):
+        return geo.look_angles(tuple(c[sel[i]] for c in r_ecef),
+                               tuple(c[sel[i]] for c in v_ecef), job.frames, st[i])[1]
+
+    el, _, rate = geo.look_angles(tuple(c[sel] for c in r_ecef),
+                                  tuple(c[sel] for c in v_ecef), job.frames, st, False)
+    # Azimuths only where used: under a horizon mask and at window-edge cuts.
+    az = np.full(len(sel), np.nan)
+    masked = np.flatnonzero(np.isin(st, job.masked))
+    az[masked] = azimuth(masked)
+    good = ok[sel]
+    f = np.where(good, el - job.threshold(st, az), -1e3)
+    rate = np.where(good, rate, 0.0)
+    ss, jj = s_loc[sel], j[sel]
+    tau = jj * fine_s
+    contig = ((ss[1:] == ss[:-1]) & (jj[1:] == jj[:-1] + 1) & good[1:] & good[:-1]
+              & (st[1:] == st[:-1]))
+    up = f >= 0
+    # Up samples with no contiguous neighbour: the window edge (or decay) cuts the pass.
+    prev_c = np.concatenate([[False], contig])
+    next_c = np.concatenate([contig, [False]])
+    cut = np.flatnonzero(up & ~(prev_c & next_c) & np.isnan(az))
+    az[cut] = azimuth(cut)
+    return dict(st=st, sat=sat_ids[ss], tau=tau, f=f, rate=rate, el=el, az=az, contig=contig,
+                up=up, cut_start=up & ~prev_c, cut_end=up & ~next_c, fine_s=fine_s, r=P[sel],
+                v=V[sel], r_apo=r_apo[ss])
+
+
+def _peak_bound_deg(job: _Job, st, tau0, r0, r1, r_apo, h: float) -> np.ndarray:
     """Upper bound of the (geocentric) elevation between two samples ``h`` seconds apart.
 
     The satellite stays on the great-circle arc between its two directions (as in the
@@ -702,8 +799,8 @@ def _peak_bound_deg(job: _Job, st: int, tau0, r0, r1, r_apo, h: float) -> np.nda
     q = np.cross(h_hat, a)
     theta = job.theta(tau0 + 0.5 * h)
     c, s = np.cos(theta), np.sin(theta)
-    u = frames.unit[st]
-    p = np.stack([c * u[0] - s * u[1], s * u[0] + c * u[1], np.full_like(c, u[2])], -1)
+    u = geo.station_columns(frames.unit, st)
+    p = np.stack([c * u[0] - s * u[1], s * u[0] + c * u[1], u[2] + 0.0 * c], -1)
     pa, pb = np.einsum("ij,ij->i", a, p), np.einsum("ij,ij->i", b, p)
     ph, pq = np.einsum("ij,ij->i", h_hat, p), np.einsum("ij,ij->i", q, p)
     alpha = np.arctan2(pq, pa)
@@ -717,7 +814,8 @@ def _peak_bound_deg(job: _Job, st: int, tau0, r0, r1, r_apo, h: float) -> np.nda
 
 
 def _refine_station_chunk(job: _Job, b: dict):
-    """Turn one station's samples into pass rows (refined AOS, TCA, LOS)."""
+    """Turn stations' samples (:func:`_station_samples`) into pass rows (refined AOS, TCA,
+    LOS), all stations' brackets at once."""
     st, sat, tau, f, rate, el, az, contig, r = (b[k] for k in (
         "st", "sat", "tau", "f", "rate", "el", "az", "contig", "r"))
     h = b["fine_s"]
@@ -727,21 +825,24 @@ def _refine_station_chunk(job: _Job, b: dict):
     los_i = i0[b["up"][i0] & ~b["up"][i1]]
     max_i = i0[(rate[i0] > 0) & (rate[i1] <= 0)]
     # Maxima: refine those that could reach the threshold (near misses inside one step too).
-    bound = _peak_bound_deg(job, st, tau[max_i], r[max_i], r[max_i + 1], b["r_apo"][max_i], h)
-    max_i = max_i[bound >= job.frames.min_el_deg[st] - ELLIPSOID_MARGIN_DEG]
+    bound = _peak_bound_deg(job, st[max_i], tau[max_i], r[max_i], r[max_i + 1],
+                            b["r_apo"][max_i], h)
+    max_i = max_i[bound >= job.frames.min_el_deg[st[max_i]] - ELLIPSOID_MARGIN_DEG]
     dp, s = _hermite_slope(el[max_i], rate[max_i], el[max_i + 1], rate[max_i + 1], h)
     guess = tau[max_i] + h * _first_root_guess(dp, s)
     rv = (b["r"], b["v"])
     cubic = _cubic(tau[max_i], h, *(x[max_i] for x in rv), *(x[max_i + 1] for x in rv))
-    m_tau, m_el, m_az, m_r = _refine(job, st, sat[max_i], tau[max_i], tau[max_i + 1],
+    m_st = st[max_i]
+    m_tau, m_el, m_az, m_r = _refine(job, m_st, sat[max_i], tau[max_i], tau[max_i + 1],
                                      np.zeros(len(max_i), bool), guess, cubic, tca=True)
-    m_f = m_el - job.threshold(st, m_az)
+    m_f = m_el - job.threshold(m_st, m_az)
     hidden = (m_f >= 0) & (f[max_i] < 0) & (f[max_i + 1] < 0)
 
     # Crossing brackets: grid sign changes plus both sides of each hidden pass.
     hi_idx = max_i[hidden]
     zeros = np.zeros(len(hi_idx))
     c_sat = np.concatenate([sat[aos_i], sat[los_i], sat[hi_idx], sat[hi_idx]])
+    c_st = np.concatenate([st[aos_i], st[los_i], st[hi_idx], st[hi_idx]])
     c_lo = np.concatenate([tau[aos_i], tau[los_i], tau[hi_idx], m_tau[hidden]])
     c_hi = np.concatenate([tau[aos_i + 1], tau[los_i + 1], m_tau[hidden], tau[hi_idx + 1]])
     c_glo = np.concatenate([f[aos_i], f[los_i], f[hi_idx], m_f[hidden]])
@@ -755,36 +856,47 @@ def _refine_station_chunk(job: _Job, b: dict):
     guess = c_lo + width * _first_root_guess(p, s)
     c_iv = np.concatenate([aos_i, los_i, hi_idx, hi_idx])
     cubic = _cubic(tau[c_iv], h, *(x[c_iv] for x in rv), *(x[c_iv + 1] for x in rv))
-    c_tau, c_el, c_az, c_r = _refine(job, st, c_sat, c_lo, c_hi, c_glo < 0, guess, cubic,
+    c_tau, c_el, c_az, c_r = _refine(job, c_st, c_sat, c_lo, c_hi, c_glo < 0, guess, cubic,
                                      tca=False)
 
     # Window-edge (or decay) cuts become clipped AOS/LOS at the sample itself.
     cs, ce = np.flatnonzero(b["cut_start"]), np.flatnonzero(b["cut_end"])
     ev = dict(
         sat=np.concatenate([c_sat, sat[cs], sat[ce]]),
+        st=np.concatenate([c_st, st[cs], st[ce]]),
         tau=np.concatenate([c_tau, tau[cs], tau[ce]]),
         kind=np.concatenate([c_kind, np.zeros(len(cs), int), np.ones(len(ce), int)]),
         az=np.concatenate([c_az, az[cs], az[ce]]),
         el=np.concatenate([c_el, el[cs], el[ce]]),
         r=np.concatenate([c_r, r[cs], r[ce]]),
         clip=np.concatenate([np.zeros(len(c_sat), bool), np.ones(len(cs) + len(ce), bool)]))
-    mx = dict(sat=sat[max_i], tau=m_tau, el=m_el, az=m_az, r=m_r)
-    return _assemble(job, st, ev, mx)
+    mx = dict(sat=sat[max_i], st=m_st, tau=m_tau, el=m_el, az=m_az, r=m_r)
+    return _assemble(job, ev, mx)
 
 
-def _assemble(job: _Job, st: int, ev: dict, mx: dict) -> np.ndarray:
-    """Pair AOS with the next LOS per satellite, attach the highest maximum, set Sun flags."""
-    # Integer keys (satellite, microsecond) keep the pairing independent of how satellites
-    # are numbered in this chunk, so every chunking gives the same passes.
-    comb = ev["sat"].astype(np.int64) * 10**13 + np.round(ev["tau"] * 1e6).astype(np.int64)
+def _pair_keys(job: _Job, ev: dict, mx: dict):
+    """Integer keys (satellite and station pair, microsecond) of the events and maxima: the
+    pairing is then independent of how satellites are numbered in this chunk, so every
+    chunking gives the same passes. Pairs are ranked densely so the keys fit in int64."""
+    pair = [x["st"].astype(np.int64) * len(job.satrecs) + x["sat"] for x in (ev, mx)]
+    rank = np.unique(np.concatenate(pair), return_inverse=True)[1].reshape(-1)
+    us = [np.round(x["tau"] * 1e6).astype(np.int64) for x in (ev, mx)]
+    n = len(pair[0])
+    return rank[:n] * 10**12 + us[0], rank[n:] * 10**12 + us[1], rank[:n], rank[n:]
+
+
+def _assemble(job: _Job, ev: dict, mx: dict) -> np.ndarray:
+    """Pair AOS with the next LOS per satellite and station, attach the highest maximum, set
+    Sun flags."""
+    comb, m_comb, pair, m_pair = _pair_keys(job, ev, mx)
     order = np.lexsort((ev["kind"], comb))
-    kind, sat_o = ev["kind"][order], ev["sat"][order]
-    is_pass = (kind[:-1] == 0) & (kind[1:] == 1) & (sat_o[:-1] == sat_o[1:])
+    kind, pair_o = ev["kind"][order], pair[order]
+    is_pass = (kind[:-1] == 0) & (kind[1:] == 1) & (pair_o[:-1] == pair_o[1:])
     a_idx, l_idx = order[:-1][is_pass], order[1:][is_pass]
     n = len(a_idx)
     rows = np.zeros(n, PASS_DTYPE)
     rows["sat"] = ev["sat"][a_idx]
-    rows["station"] = st
+    rows["station"] = ev["st"][a_idx]
     rows["aos_s"], rows["los_s"] = ev["tau"][a_idx], ev["tau"][l_idx]
     rows["aos_az_deg"], rows["los_az_deg"] = ev["az"][a_idx], ev["az"][l_idx]
     rows["aos_clipped"], rows["los_clipped"] = ev["clip"][a_idx], ev["clip"][l_idx]
@@ -795,14 +907,12 @@ def _assemble(job: _Job, st: int, ev: dict, mx: dict) -> np.ndarray:
     rows["tca_az_deg"] = ev["az"][t_idx]
     tca_r = ev["r"][t_idx]
     if n and len(mx["sat"]):
-        m_comb = (mx["sat"].astype(np.int64) * 10**13
-                  + np.round(mx["tau"] * 1e6).astype(np.int64))
         pa = comb[a_idx]
         order = np.argsort(pa, kind="stable")
         pi = np.searchsorted(pa[order], m_comb, "right") - 1
         inside = pi >= 0
         pi = order[np.maximum(pi, 0)]
-        inside &= (m_comb <= comb[l_idx][pi]) & (mx["sat"] == rows["sat"][pi])
+        inside &= (m_comb <= comb[l_idx][pi]) & (m_pair == pair[a_idx][pi])
         inside &= mx["el"] > rows["max_el_deg"][pi]
         sel = np.flatnonzero(inside)
         sel = sel[np.lexsort((mx["el"][sel], pi[sel]))]
@@ -817,7 +927,8 @@ def _assemble(job: _Job, st: int, ev: dict, mx: dict) -> np.ndarray:
     # instants the station is also in nautical twilight or darker. One call for all three.
     tau = np.concatenate([rows["aos_s"], rows["tca_s"], rows["los_s"]])
     lit, sun_el_sin = geo.sun_flags(np.concatenate([ev["r"][a_idx], tca_r, ev["r"][l_idx]]),
-                                    tau, job.jd0, job.fr0, job.theta(tau), job.frames, st)
+                                    tau, job.jd0, job.fr0, job.theta(tau), job.frames,
+                                    np.tile(rows["station"], 3))
     vis = lit & (sun_el_sin < math.sin(math.radians(TWILIGHT_DEG)))
     rows["sunlit"] = lit.reshape(3, n).any(0)
     rows["visible"] = vis.reshape(3, n).any(0)
@@ -878,64 +989,68 @@ def find_passes_block(satrecs, names, stations, start, end, min_el_deg=None, *,
                       ) -> PassTable:
     """One time block of :func:`find_passes_batch` (no joining across blocks)."""
     start, end = _to_utc(start), _to_utc(end)
+    job = _block_job(satrecs, stations, start, end, min_el_deg, step_s, tol_s, memory_mb)
+    rows = list(_block_rows(job, start))
+    passes = np.concatenate(rows) if rows else np.zeros(0, PASS_DTYPE)
+    passes = passes[table_order(passes)]
+    return PassTable(passes, list(names), list(stations), start, end,
+                     _block_errors(job, names, start), job.stats)
+
+
+def table_order(passes: np.ndarray) -> np.ndarray:
+    """Indices sorting pass rows into table order: by AOS, then satellite, then station.
+    One sort on AOS; only the rows sharing an AOS (passes clipped at the window start,
+    mostly) are ordered by the other keys."""
+    aos = passes["aos_s"]
+    order = np.argsort(aos, kind="stable")
+    ordered = aos[order]
+    tie = np.flatnonzero(ordered[1:] == ordered[:-1])
+    if tie.size:
+        at = np.union1d(tie, tie + 1)
+        rows = order[at]
+        order[at] = rows[np.lexsort((passes["station"][rows], passes["sat"][rows],
+                                     aos[rows]))]
+    return order
+
+
+def _block_job(satrecs, stations, start: datetime, end: datetime, min_el_deg, step_s: float,
+               tol_s: float, memory_mb: float) -> _Job:
     window_s = (end - start).total_seconds()
     frames = geo.StationFrames.from_stations(stations, min_el_deg)
     jd0, fr0 = jday(start.year, start.month, start.day, start.hour, start.minute,
                     start.second + start.microsecond * 1e-6)
-    stats: dict = {}
-    job = _Job(list(satrecs), frames, list(stations), jd0, fr0, window_s, geo.dut1_s(start),
-               step_s, tol_s, stats, {})
+    return _Job(list(satrecs), frames, list(stations), jd0, fr0, window_s, geo.dut1_s(start),
+                step_s, tol_s, {}, {}, memory_mb)
+
+
+def _block_errors(job: _Job, names, start: datetime) -> list[SatError]:
+    t0 = start.timestamp()
+    return [SatError(s, names[s], code, SGP4_ERRORS.get(code, "error"), t0 + tau)
+            for s, (tau, code) in sorted(job.errors.items())]
+
+
+def _block_rows(job: _Job, start: datetime) -> Iterator[np.ndarray]:
+    """The block's pass rows (POSIX times), in parts as the satellite chunks and station
+    groups are refined; in no particular order."""
+    stats, window_s, step_s, memory_mb = job.stats, job.window_s, job.step_s, job.memory_mb
+    n_stations = len(job.stations)
+    t0 = start.timestamp()
     grid = _GridClasses.of(job.satrecs, step_s)
     r_apo, ecc, screenable = grid.r_apo, grid.ecc, grid.screenable
-    rows = []
     for ids in grid.groups():
         f_s, n = grid.fine_s[ids[0]].item(), grid.n_fact[ids[0]].item()
         k = max(1, math.ceil(window_s / (n * f_s)))
-        size = _chunk_size(k + 1, k * n + 1, len(stations), memory_mb)
+        size = _chunk_size(k + 1, k * n + 1, n_stations, memory_mb)
         for c0 in range(0, len(ids), size):
             chunk = ids[c0:c0 + size]
             stats["chunks"] = stats.get("chunks", 0) + 1
             for b in _run_chunk(job, chunk, n, f_s, r_apo[chunk], ecc[chunk],
                                 screenable[chunk]):
-                rows.append(_refine_station_chunk(job, b))
-    passes = np.concatenate(rows) if rows else np.zeros(0, PASS_DTYPE)
-    passes = passes[(passes["los_s"] > passes["aos_s"]) | passes["aos_clipped"]]
-    t0 = start.timestamp()
-    for key in ("aos_s", "tca_s", "los_s"):
-        passes[key] += t0
-    passes = passes[_aos_order(passes)]
-    errors = []
-    for s, (tau, code) in sorted(job.errors.items()):
-        errors.append(SatError(s, names[s], code, SGP4_ERRORS.get(code, "error"),
-                               t0 + tau))
-    return PassTable(passes, list(names), list(stations), start, end, errors, stats)
-
-
-def _aos_order(passes: np.ndarray) -> np.ndarray:
-    """The order of pass rows by AOS, then satellite, then station: a stable sort on AOS, then
-    a three-key sort of only the rows that share an AOS (passes in progress at the window
-    start, mostly); a three-key sort of every row costs several times more."""
-    aos = np.ascontiguousarray(passes["aos_s"])
-    order = np.argsort(aos, kind="stable")
-    a = aos[order]
-    tied = np.zeros(len(order), bool)
-    tied[1:] = a[1:] == a[:-1]
-    tied[:-1] |= tied[1:]
-    if tied.any():
-        rows = order[tied]
-        order[tied] = rows[np.lexsort((passes["station"][rows], passes["sat"][rows],
-                                       aos[rows]))]
-    return order
-
-
-def _in_aos_order(passes: np.ndarray) -> bool:
-    """Are the rows already in order of AOS, then satellite, then station? (A check costs a
-    twentieth of the sort.)"""
-    aos, sat, st = passes["aos_s"], passes["sat"], passes["station"]
-    later = aos[1:] > aos[:-1]
-    same = aos[1:] == aos[:-1]
-    after = (sat[1:] > sat[:-1]) | ((sat[1:] == sat[:-1]) & (st[1:] >= st[:-1]))
-    return bool(np.all(later | (same & after)))
+                rows = _refine_station_chunk(job, b)
+                rows = rows[(rows["los_s"] > rows["aos_s"]) | rows["aos_clipped"]]
+                for key in ("aos_s", "tca_s", "los_s"):
+                    rows[key] += t0
+                yield rows
 
 
 def merge_tables(tables: list[PassTable], names, stations, start, end) -> PassTable:
@@ -944,8 +1059,9 @@ def merge_tables(tables: list[PassTable], names, stations, start, end) -> PassTa
     if len(tables) == 1 and tables[0].start == start and tables[0].end == end:
         t = tables[0]  # one error per satellite and no block edge: only the order to check
         passes = t.passes
-        if not _in_aos_order(passes):
-            passes = passes[_aos_order(passes)]
+        order = table_order(passes)
+        if np.any(order[1:] < order[:-1]):
+            passes = passes[order]
         return PassTable(passes, list(names), list(stations), start, end,
                          sorted(t.errors, key=lambda e: e.sat), dict(t.stats))
     passes = np.concatenate([t.passes for t in tables]) if tables else np.zeros(0, PASS_DTYPE)
@@ -970,7 +1086,7 @@ def merge_tables(tables: list[PassTable], names, stations, start, end) -> PassTa
         keep = np.ones(len(passes), bool)
         keep[np.flatnonzero(join) + 1] = False
         passes = passes[keep]
-    passes = passes[_aos_order(passes)]
+    passes = passes[table_order(passes)]
     first: dict[int, SatError] = {}
     stats: dict = {}
     for t in tables:
@@ -1014,16 +1130,14 @@ def remap(table: PassTable, ids, names, stations) -> PassTable:
 
 # Load model of the worker split, measured on the active catalogue: a satellite costs about
 # sqrt(its fine step / the shortest fine step) of one with the shortest step (slower orbits
-# have fewer samples and passes), every chunk about PIECE_COST of those however small it is,
-# and this process, which also merges the results, is given PARENT_ALLOWANCE of the total
-# less. A grid class is dealt out over the workers from MIN_SPLIT_SATS per worker on.
+# have fewer samples and passes), every chunk about PIECE_COST of those however small it is.
+# A grid class is dealt out over the workers from MIN_SPLIT_SATS per worker on.
 PIECE_COST = 5.0
-PARENT_ALLOWANCE = 0.025
 MIN_SPLIT_SATS = 16
 
 
 def _worker_shares(grid: _GridClasses, workers: int) -> list[np.ndarray]:
-    """Satellite indices per worker (this process first): each large grid class dealt out
+    """Satellite indices per worker: each large grid class dealt out
     evenly, the small ones whole to the least-loaded worker (every chunk has a fixed cost, so
     small classes are not duplicated)."""
     weight = np.sqrt(grid.fine_s.min() / grid.fine_s)
@@ -1031,7 +1145,6 @@ def _worker_shares(grid: _GridClasses, workers: int) -> list[np.ndarray]:
     costs = [float(weight[ids].sum()) + PIECE_COST for ids in classes]
     shares: list[list[np.ndarray]] = [[] for _ in range(workers)]
     load = np.zeros(workers)
-    load[0] = PARENT_ALLOWANCE * sum(costs)
     small = []
     for ids, cost in zip(classes, costs, strict=True):
         if len(ids) >= workers * MIN_SPLIT_SATS:
@@ -1047,16 +1160,6 @@ def _worker_shares(grid: _GridClasses, workers: int) -> list[np.ndarray]:
     return [np.sort(np.concatenate(s)) if s else np.zeros(0, np.int64) for s in shares]
 
 
-_FORKED: tuple | None = None
-
-
-def _forked_block(task):
-    ids, a, b, kwargs = task
-    satrecs, names, stations, min_el_deg = _FORKED  # type: ignore[misc]
-    return ids, find_passes_block([satrecs[i] for i in ids], [names[i] for i in ids],
-                                  stations, a, b, min_el_deg, **kwargs)
-
-
 def find_passes_batch(satrecs, names, stations, start: datetime, end: datetime,
                       min_el_deg: float | None = None, *, step_s: float = 480.0,
                       tol_s: float = 0.02, memory_mb: float = 256.0,
@@ -1067,39 +1170,178 @@ def find_passes_batch(satrecs, names, stations, start: datetime, end: datetime,
     :class:`~tracker.station.Station` list; ``min_el_deg`` overrides each station's own
     minimum elevation (the horizon mask still applies). ``step_s`` is the fine sampling step,
     ``tol_s`` the time tolerance of AOS/TCA/LOS, ``memory_mb`` the working-set budget per
-    process. ``workers > 1`` splits the satellites over that many processes (this one and
-    forked ones; POSIX); the result is identical because every satellite is computed
-    independently.
+    process. ``workers > 1`` splits the satellites over forked processes (POSIX); the result
+    is identical because every satellite is computed independently. For results too large
+    to hold, :func:`iter_passes_batch` gives the same table in parts.
     """
-    global _FORKED
+    return PassTable.concat(list(_passes_in_parts(
+        satrecs, names, stations, start, end, min_el_deg, step_s=step_s, tol_s=tol_s,
+        memory_mb=memory_mb, block_days=block_days, workers=workers, spill=False)))
+
+
+def iter_passes_batch(satrecs, names, stations, start: datetime, end: datetime,
+                      min_el_deg: float | None = None, *, step_s: float = 480.0,
+                      tol_s: float = 0.02, memory_mb: float = 256.0,
+                      block_days: float = 7.0, workers: int = 1) -> Iterator[PassTable]:
+    """:func:`find_passes_batch`'s table in consecutive parts, for results too large to hold
+    (many stations, long windows): each part sorted like the whole, and concatenated they
+    are the whole table. Memory stays within about ``memory_mb`` whatever the number of
+    passes: while the search runs, passes beyond that budget wait in temporary files, one
+    per span of AOS times, and each span is sorted when its part is given. The search is
+    finished before the first part, so every part carries the run's ``errors`` and
+    ``stats``."""
+    yield from _passes_in_parts(satrecs, names, stations, start, end, min_el_deg,
+                                step_s=step_s, tol_s=tol_s, memory_mb=memory_mb,
+                                block_days=block_days, workers=workers, spill=True)
+
+
+# Passes of one satellite over one station per day, a generous figure (low orbits give 4-6
+# above 0 deg): the estimate that decides how a result is split for memory.
+PASSES_PER_DAY = 8.0
+
+
+def _passes_in_parts(satrecs, names, stations, start, end, min_el_deg, *, step_s, tol_s,
+                     memory_mb, block_days, workers, spill: bool) -> Iterator[PassTable]:
     if len(satrecs) != len(names):
         raise ConfigError(f"{len(satrecs)} satellites but {len(names)} names")
     if not stations:
         raise ConfigError("no stations given")
     if not (10.0 <= step_s <= 600.0):
         raise ConfigError(f"step_s = {step_s!r} is invalid; allowed: 10 to 600 seconds")
-    kwargs = dict(step_s=step_s, tol_s=tol_s, memory_mb=memory_mb)
     blocks = time_blocks(start, end, block_days)
-    shares = [] if workers <= 1 or len(satrecs) < 2 * workers else [
-        s for s in _worker_shares(_GridClasses.of(satrecs, step_s), workers) if len(s)]
-    if len(shares) < 2:
-        tables = [find_passes_block(satrecs, names, stations, a, b, min_el_deg, **kwargs)
-                  for a, b in blocks]
-    else:
-        import multiprocessing
+    start, end = _to_utc(start), _to_utc(end)
+    kwargs = dict(step_s=step_s, tol_s=tol_s, memory_mb=memory_mb)
+    days = (end - start).total_seconds() / geo.DAY_S
+    budget_rows = memory_mb * 2**20 / (4 * PASS_DTYPE.itemsize)
+    est_rows = len(satrecs) * len(stations) * days * PASSES_PER_DAY
+    errors: dict[int, SatError] = {}
+    stats: dict = {}
+    with RowSpill(PASS_DTYPE, "aos_s", start.timestamp(), end.timestamp(),
+                  math.ceil(est_rows / budget_rows) if spill else 1) as store:
+        if workers <= 1 or len(satrecs) < 2 * workers:
+            found = _local_rows(satrecs, names, stations, blocks, min_el_deg, kwargs, errors,
+                                stats)
+        else:
+            found = _forked_rows(satrecs, names, stations, blocks, min_el_deg, kwargs, workers,
+                                 max(1, math.ceil(est_rows / len(blocks) / budget_rows)),
+                                 errors, stats)
+        for rows in _joined(found, [b.timestamp() for _, b in blocks[:-1]],
+                            len(stations)):
+            store.add(rows)
+        errs = [errors[k] for k in sorted(errors)]
+        given = False
+        for passes in store.spans():
+            given = True
+            yield PassTable(passes[table_order(passes)], list(names), list(stations), start,
+                            end, errs, stats)
+        if not given:
+            yield PassTable(np.zeros(0, PASS_DTYPE), list(names), list(stations), start, end,
+                            errs, stats)
 
-        for a, _ in blocks:
-            geo.dut1_s(a)  # computed once here, inherited by the forked workers
-        # This process computes the first share itself while the forked workers do the
-        # others: one fork fewer, and its waiting for results overlaps useful work.
-        own = [(shares[0], a, b, kwargs) for a, b in blocks]
-        tasks = [(ids, a, b, kwargs) for a, b in blocks for ids in shares[1:]]
-        _FORKED = (list(satrecs), list(names), list(stations), min_el_deg)
-        try:
-            with multiprocessing.get_context("fork").Pool(len(shares) - 1) as pool:
-                pending = pool.map_async(_forked_block, tasks)
-                results = [_forked_block(task) for task in own] + pending.get()
-        finally:
-            _FORKED = None
-        tables = [remap(t, i, names, stations) for i, t in results]
-    return merge_tables(tables, names, stations, _to_utc(start), _to_utc(end))
+
+def _note_block(errors: dict, stats: dict, block_errors, block_stats: dict) -> None:
+    """Keep the first error per satellite and add up the statistics of a finished block."""
+    for e in block_errors:
+        if e.sat not in errors or e.first_s < errors[e.sat].first_s:
+            errors[e.sat] = e
+    for k, val in block_stats.items():
+        stats[k] = stats.get(k, 0) + val
+
+
+def _local_rows(satrecs, names, stations, blocks, min_el_deg, kwargs, errors, stats):
+    """(block index, rows) as each satellite chunk of each block is refined, in this
+    process."""
+    for i, (a, b) in enumerate(blocks):
+        job = _block_job(satrecs, stations, a, b, min_el_deg, **kwargs)
+        for rows in _block_rows(job, a):
+            yield i, rows
+        _note_block(errors, stats, _block_errors(job, names, a), job.stats)
+
+
+_FORKED: tuple | None = None
+
+
+def _forked_block(task):
+    ids, a, b, kwargs = task
+    satrecs, names, stations, min_el_deg = _FORKED  # type: ignore[misc]
+    return ids, find_passes_block([satrecs[i] for i in ids], [names[i] for i in ids],
+                                  stations, a, b, min_el_deg, **kwargs)
+
+
+def _forked_rows(satrecs, names, stations, blocks, min_el_deg, kwargs, workers: int,
+                 pieces: int, errors, stats):
+    """(block index, rows) from ``workers`` forked processes, each block's satellites split
+    into at least ``pieces`` tasks per worker so that one task's result fits the budget."""
+    global _FORKED
+    import multiprocessing
+
+    shares = _worker_shares(_GridClasses.of(satrecs, kwargs["step_s"]), workers)
+    parts = [x for p in range(pieces) for share in shares if len(x := share[p::pieces])]
+    n_tasks = len(parts)
+    tasks = [(sub, a, b, kwargs) for a, b in blocks for sub in parts]
+    for a, _ in blocks:
+        geo.dut1_s(a)  # computed once here, inherited by the forked workers
+    _FORKED = (list(satrecs), list(names), list(stations), min_el_deg)
+    try:
+        with multiprocessing.get_context("fork").Pool(workers) as pool:
+            for k, (sub, table) in enumerate(pool.imap(_forked_block, tasks)):
+                table = remap(table, sub, names, stations)
+                _note_block(errors, stats, table.errors, table.stats)
+                yield k // n_tasks, table.passes
+    finally:
+        _FORKED = None
+
+
+def _joined(found, edges: list[float], n_stations: int) -> Iterator[np.ndarray]:
+    """The rows of consecutive time blocks with each pass cut at a block edge joined to its
+    continuation (AOS of the first part, LOS of the last, the first highest maximum); a
+    pass cut at an edge waits until the next block is finished."""
+    empty = np.zeros(0, PASS_DTYPE)
+    waiting, done = empty, np.zeros(0, bool)  # cut at the edge before the current block
+    cut: list[np.ndarray] = []  # the current block's passes cut at its end
+    block = 0
+    for i, rows in found:
+        while block < i:  # the block before is finished: what it did not continue is final
+            yield waiting[~done]
+            waiting = np.concatenate(cut) if cut else empty
+            done, cut = np.zeros(len(waiting), bool), []
+            block += 1
+        if len(waiting):
+            rows = _continue(waiting, done, rows, edges[i - 1], n_stations)
+        if i < len(edges):
+            at_end = rows["los_clipped"] & (rows["los_s"] == edges[i])
+            cut.append(rows[at_end])
+            rows = rows[~at_end]
+        yield rows
+    yield waiting[~done]
+    yield from cut
+
+
+def _continue(waiting, done, rows, edge_s: float, n_stations: int) -> np.ndarray:
+    """``rows`` with each pass that continues a ``waiting`` one (cut at ``edge_s``) replaced
+    by the joined pass; ``done`` marks the waiting passes so continued."""
+    start = np.flatnonzero(rows["aos_clipped"] & (rows["aos_s"] == edge_s))
+    wait = np.flatnonzero(~done)
+    if not (start.size and wait.size):
+        return rows
+
+    def key(x):
+        return x["sat"].astype(np.int64) * n_stations + x["station"]
+
+    w_key = key(waiting[wait])
+    order = np.argsort(w_key)
+    at = np.clip(np.searchsorted(w_key[order], key(rows[start])), 0, len(wait) - 1)
+    match = w_key[order][at] == key(rows[start])
+    j, k = start[match], wait[order[at[match]]]
+    a, b = waiting[k], rows[j]
+    for name in ("los_s", "los_az_deg", "los_clipped"):
+        a[name] = b[name]
+    higher = b["max_el_deg"] > a["max_el_deg"]
+    for name in ("tca_s", "max_el_deg", "tca_az_deg"):
+        a[name] = np.where(higher, b[name], a[name])
+    a["sunlit"] |= b["sunlit"]
+    a["visible"] |= b["visible"]
+    rows = rows.copy()
+    rows[j] = a
+    done[k] = True
+    return rows

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tracker.station import Station
+from tracker.sun import in_sunlight, sun_distance_km, sun_sin_elevation, sun_teme_unit
 
 WGS84_A_KM = 6378.137
 WGS84_F = 1.0 / 298.257223563
@@ -68,6 +69,12 @@ class StationFrames:
         return len(self.radius_km)
 
 
+def station_columns(table: np.ndarray, station_idx) -> np.ndarray:
+    """Components (3, ...) of per-station vectors ``table`` (N, 3) at ``station_idx`` (an
+    int or an array of indices): one contiguous gather per component."""
+    return np.take(np.ascontiguousarray(table.T), station_idx, axis=1)
+
+
 def teme_to_ecef(r_teme, v_teme, theta_rad):
     """Rotate TEME position/velocity (..., 3) into ECEF at GMST angle(s) ``theta_rad`` (...).
 
@@ -83,25 +90,29 @@ def teme_to_ecef(r_teme, v_teme, theta_rad):
     return (x, y, r_teme[..., 2]), (vx, vy, v_teme[..., 2])
 
 
-def look_angles(r_ecef, v_ecef, frames: StationFrames, station_idx):
+def look_angles(r_ecef, v_ecef, frames: StationFrames, station_idx, with_az: bool = True):
     """Elevation, azimuth (deg) and elevation rate (deg/s) of satellites seen from stations.
 
     ``r_ecef``/``v_ecef`` are component tuples as returned by :func:`teme_to_ecef`;
     ``station_idx`` (an int or an array like the components) picks each sample's station.
+    ``with_az`` False leaves the azimuth out (None).
     """
-    o = frames.ecef_km[station_idx]
-    u, e, n = frames.up[station_idx], frames.east[station_idx], frames.north[station_idx]
-    dx, dy, dz = r_ecef[0] - o[..., 0], r_ecef[1] - o[..., 1], r_ecef[2] - o[..., 2]
-    ru = dx * u[..., 0] + dy * u[..., 1] + dz * u[..., 2]
-    re = dx * e[..., 0] + dy * e[..., 1]
-    rn = dx * n[..., 0] + dy * n[..., 1] + dz * n[..., 2]
+    o, u = station_columns(frames.ecef_km, station_idx), station_columns(frames.up, station_idx)
+    dx, dy, dz = r_ecef[0] - o[0], r_ecef[1] - o[1], r_ecef[2] - o[2]
+    ru = dx * u[0] + dy * u[1] + dz * u[2]
     dist2 = dx * dx + dy * dy + dz * dz
     inv = 1.0 / np.sqrt(dist2)
     sin_el = np.clip(ru * inv, -1.0, 1.0)
     el = np.degrees(np.arcsin(sin_el))
-    az = np.degrees(np.arctan2(re, rn)) % 360.0
+    az = None
+    if with_az:
+        e = station_columns(frames.east, station_idx)
+        n = station_columns(frames.north, station_idx)
+        re = dx * e[0] + dy * e[1]
+        rn = dx * n[0] + dy * n[1] + dz * n[2]
+        az = np.degrees(np.arctan2(re, rn)) % 360.0
     vx, vy, vz = v_ecef
-    vu = vx * u[..., 0] + vy * u[..., 1] + vz * u[..., 2]
+    vu = vx * u[0] + vy * u[1] + vz * u[2]
     rv = dx * vx + dy * vy + dz * vz
     d_sin = (vu - ru * rv / dist2) * inv
     rate = np.degrees(d_sin / np.sqrt(np.maximum(1.0 - sin_el * sin_el, 1e-12)))
@@ -116,33 +127,15 @@ def horizon_angle_rad(r_km, station_radius_km, el_deg) -> np.ndarray:
     return np.arccos(ratio) - el
 
 
-def sun_teme_unit(jd_utc) -> np.ndarray:
-    """Sun direction (unit vectors, equator and equinox of date, ~0.01 deg) at Julian dates.
-
-    The low-precision formula of the Astronomical Almanac; plenty for shadow and twilight tests.
-    """
-    n = np.asarray(jd_utc, dtype=float) - 2451545.0
-    g = np.radians(np.mod(357.528 + 0.9856003 * n, 360.0))
-    lam = np.radians(np.mod(280.460 + 0.9856474 * n, 360.0)) + np.radians(
-        1.915 * np.sin(g) + 0.020 * np.sin(2 * g))
-    eps = np.radians(23.439 - 0.0000004 * n)
-    return np.stack([np.cos(lam), np.cos(eps) * np.sin(lam), np.sin(eps) * np.sin(lam)], -1)
-
-
-def sun_distance_km(jd_utc) -> np.ndarray:
-    n = np.asarray(jd_utc, dtype=float) - 2451545.0
-    g = np.radians(np.mod(357.528 + 0.9856003 * n, 360.0))
-    return (1.00014 - 0.01671 * np.cos(g) - 0.00014 * np.cos(2 * g)) * 149597870.7
-
-
 def sun_flags(r_teme_km, tau_s, jd0: float, fr0: float, theta_rad, frames: StationFrames,
-              station: int, grid_s: float = 3600.0):
+              station, grid_s: float = 3600.0):
     """(sunlit, sine of the Sun's elevation at ``station``) at times ``tau_s`` (seconds after
-    the Julian date ``jd0 + fr0``) for satellites at TEME positions ``r_teme_km`` (n, 3).
+    the Julian date ``jd0 + fr0``) for satellites at TEME positions ``r_teme_km`` (n, 3),
+    seen from ``station`` (an index, or one per position).
 
-    The Sun's direction and distance are computed on a ``grid_s`` grid and interpolated
-    linearly (the Sun moves 0.04 deg an hour: the chord error is ~1e-7 rad). Sunlit means
-    the Sun-ward ray misses a spherical Earth.
+    The Sun's direction and distance (:mod:`tracker.sun`) are computed on a ``grid_s`` grid
+    and interpolated linearly (the Sun moves 0.04 deg an hour: the chord error is ~1e-7
+    rad). Sunlit means the Sun-ward ray misses a spherical Earth.
     """
     tau_s = np.asarray(tau_s, dtype=float)
     if tau_s.size == 0:
@@ -157,20 +150,9 @@ def sun_flags(r_teme_km, tau_s, jd0: float, fr0: float, theta_rad, frames: Stati
     row = table[i]
     dt = tau_s - t_grid[i]
     sx, sy, sz, dist = (row[:, k] + row[:, k + 4] * dt for k in range(4))
-    rx, ry, rz = r_teme_km[:, 0], r_teme_km[:, 1], r_teme_km[:, 2]
-    # Ray from the satellite towards the Sun: d = S - r; its closest approach to the
-    # Earth's centre lies ahead of the satellite when r . d < 0, at distance^2
-    # |r|^2 - (r . d_hat)^2.
-    dx, dy, dz = sx * dist - rx, sy * dist - ry, sz * dist - rz
-    rd = rx * dx + ry * dy + rz * dz
-    r2 = rx * rx + ry * ry + rz * rz
-    ahead = rd < 0
-    lit = ~ahead | (r2 - rd * rd / (dx * dx + dy * dy + dz * dz) > WGS84_A_KM**2)
-    lit &= r2 > WGS84_A_KM**2
-    c, s = np.cos(theta_rad), np.sin(theta_rad)
-    u = frames.up[station]
-    sin_el = (c * sx + s * sy) * u[0] + (c * sy - s * sx) * u[1] + sz * u[2]
-    return lit, sin_el
+    lit = in_sunlight((r_teme_km[:, 0], r_teme_km[:, 1], r_teme_km[:, 2]),
+                      (sx * dist, sy * dist, sz * dist))
+    return lit, sun_sin_elevation((sx, sy, sz), theta_rad, station_columns(frames.up, station))
 
 
 def orbit_bounds(satrecs) -> tuple[np.ndarray, np.ndarray]:

@@ -4,7 +4,8 @@
 Stations come from ``--stations FILE`` (the config's station fields as CSV
 ``name,lat_deg,lon_deg[,alt_m[,min_el_deg]]`` or TOML ``[[station]]`` tables) or the usual
 station options. Output: ``--format table|csv|json|ics`` to stdout or ``--out FILE`` (written
-atomically), or ``--format parquet`` (with ``--out``; needs pyarrow). The result is written in
+atomically), or ``--format parquet`` (with ``--out``; needs pyarrow; with ``--dask`` and an
+``--out`` folder, ``DIR/``, each worker writes its chunk's file). The result is written in
 parts of :data:`ROWS_PER_PART` passes, so the text of a whole-catalogue run is never held at
 once (iCalendar excepted). ``--rotator NAME`` adds the planner's
 summary (mode, predicted max error, pre-position time) to passes above ``--min-max-el``.
@@ -13,10 +14,12 @@ summary (mode, predicted max error, pre-position time) to passes above ``--min-m
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from collections.abc import Iterable, Iterator
 from datetime import timedelta
+from itertools import chain
 from pathlib import Path
 
 from tracker.commands._common import (
@@ -139,12 +142,10 @@ def stations_from_args(args: argparse.Namespace) -> list:
     return [station_from_args(args, quiet=args.format != "table")]
 
 
-def find(args: argparse.Namespace, elements: list, stations: list):
-    """Run the finder (local or Dask) for the parsed options; returns (table, start).
-
-    Element sets too far from their epoch for the window are removed from ``elements``."""
-    from tracker.batch import find_passes_batch, find_passes_dask, satrecs_of
-    from tracker.commands._common import flag_first
+def search_window(args: argparse.Namespace, elements: list):
+    """The checked options' window (start, end); element sets too far from their epoch for
+    it are removed from ``elements`` (in place: the table's satellite indices must index the
+    caller's list too, for plans_for), the others' age is warned about."""
     from tracker.errors import ConfigError
 
     if not (0 < args.days <= 60):
@@ -154,26 +155,46 @@ def find(args: argparse.Namespace, elements: list, stations: list):
     check_number_arg(args, "min_max_el", 0.0, 90.0, "degrees")
     start = clock_from_args(args, manual=True).now()
     end = start + timedelta(days=args.days)
-    # In place: the table's satellite indices must index the caller's list too (plans_for).
     elements[:] = usable_elements(elements, start, end)
     warn_element_age(elements, start)
+    return start, end
+
+
+def find(args: argparse.Namespace, elements: list, stations: list):
+    """Run the finder (local or Dask) for the parsed options; returns (table, start).
+
+    Element sets too far from their epoch for the window are removed from ``elements``."""
+    from tracker.batch import PassTable
+
+    parts, start = find_parts(args, elements, stations)
+    return PassTable.concat(list(parts)), start
+
+
+def find_parts(args: argparse.Namespace, elements: list, stations: list):
+    """:func:`find` with the table in parts (``iter_passes_batch``): returns (parts, start);
+    the search runs when the first part is taken, and every part carries its errors."""
+    from tracker.batch import find_passes_dask, iter_passes_batch, satrecs_of, select_passes
+    from tracker.commands._common import flag_first
+    from tracker.errors import ConfigError
+
+    start, end = search_window(args, elements)
     if args.dask is not None:
         try:
-            table = find_passes_dask(elements, stations, start, end, args.min_el,
-                                     address=args.dask or None, step_s=args.step)
+            parts = iter([find_passes_dask(elements, stations, start, end, args.min_el,
+                                           address=args.dask or None, step_s=args.step)])
         except ConfigError as e:
             raise flag_first(flag_first(e, "find_passes_dask", "--dask"), "address",
                              "--dask") from None
     else:
         satrecs, names = satrecs_of(elements)
-        table = find_passes_batch(satrecs, names, stations, start, end, args.min_el,
+        parts = iter_passes_batch(satrecs, names, stations, start, end, args.min_el,
                                   step_s=args.step, workers=args.workers)
-    keep = table.passes["max_el_deg"] >= args.min_max_el
-    if args.sunlit:
-        keep &= table.passes["sunlit"]
-    if args.visible:
-        keep &= table.passes["visible"]
-    return table.select(keep), start
+    return (select_passes(t, args.min_max_el, only_of(args)) for t in parts), start
+
+
+def only_of(args: argparse.Namespace) -> str | None:
+    """``--sunlit`` / ``--visible`` as the finder's filter name."""
+    return "visible" if args.visible else "sunlit" if args.sunlit else None
 
 
 def rotator_spec(args: argparse.Namespace):
@@ -231,12 +252,66 @@ def check_outputs(args: argparse.Namespace) -> None:
             raise ConfigError("--format parquet needs --out FILE (Parquet is not written to "
                               "the terminal)")
         require_pyarrow()
-    if args.out:
+    if partitioned(args):
+        check_partitioned(args)
+    elif args.out:
         check_output(args.out, force=args.force, label="--out")
     if getattr(args, "plot", None):
         check_plot_path(args.plot, force=args.force, label="--plot")
     if getattr(args, "sky_plots", None):
         require_matplotlib()
+
+
+def partitioned(args: argparse.Namespace) -> bool:
+    """``--format parquet --dask --out DIR/`` (a trailing slash, or a folder that exists):
+    the workers write one file each into DIR."""
+    out = getattr(args, "out", None)
+    return (getattr(args, "format", None) == "parquet" and args.dask is not None
+            and bool(out) and (out.endswith(("/", os.sep)) or Path(out).is_dir()))
+
+
+def check_partitioned(args: argparse.Namespace) -> None:
+    from tracker.batch.output import check_output_dir
+    from tracker.errors import ConfigError
+
+    for flag, value in (("--plot", getattr(args, "plot", None)),
+                        ("--sky-plots", getattr(args, "sky_plots", None))):
+        if value:
+            raise ConfigError(f"{flag} needs every pass in this process; it cannot be drawn "
+                              f"with a partitioned --out folder (give --out a file name)")
+    check_output_dir(args.out, force=args.force, label="--out")
+
+
+def run_partitioned(args: argparse.Namespace) -> int:
+    """The workers find and write the passes, one Parquet file per chunk in the --out
+    folder; this process sees only counts and errors."""
+    from tracker.batch import write_passes_dask
+    from tracker.commands._common import flag_first
+    from tracker.errors import ConfigError
+
+    t0 = time.perf_counter()
+    elements = load_elements(args.source)
+    stations = stations_from_args(args)
+    start, end = search_window(args, elements)
+    meta = window_meta(args, stations, len(elements), start, end)
+    try:
+        result = write_passes_dask(
+            elements, stations, start, end, args.out, args.min_el,
+            min_max_el_deg=args.min_max_el, only=only_of(args),
+            rotator=rotator_spec(args) if args.rotator else None, meta=meta,
+            force=args.force, address=args.dask or None, step_s=args.step,
+            rows_per_group=ROWS_PER_PART)
+    except ConfigError as e:
+        raise flag_first(flag_first(e, "write_passes_dask", "--dask"), "address",
+                         "--dask") from None
+    elapsed = time.perf_counter() - t0
+    report_errors(result.errors)
+    parts = len(result.files)
+    print(f"tracker: wrote {result.folder} ({parts} part{'s' if parts != 1 else ''})",
+          file=sys.stderr)
+    print(f"tracker: {result.n_passes} passes of {len(elements)} satellites over "
+          f"{len(stations)} station(s) in {elapsed:.1f} s", file=sys.stderr)
+    return 0
 
 
 def emit(args: argparse.Namespace, text: str | Iterable[str]) -> None:
@@ -262,12 +337,13 @@ def record_parts(table, plans, rows: int | None = None) -> Iterator:
         yield pass_records(table.select(part), None if plans is None else plans[part])
 
 
-def write_output(args: argparse.Namespace, table, plans, meta: dict, start) -> None:
-    """``--format``/``--out`` for a batch result, written part by part."""
+def write_output(args: argparse.Namespace, tables: Iterable[tuple], meta: dict, start,
+                 errors: list[dict]) -> None:
+    """``--format``/``--out`` for a batch result given as consecutive (table, plans) parts,
+    written part by part."""
     from tracker.export import render_chunks, write_parquet
 
-    parts = record_parts(table, plans)
-    errors = error_records(table)
+    parts = (records for table, plans in tables for records in record_parts(table, plans))
     if args.format == "parquet":
         emit(args, lambda f: write_parquet(parts, f, meta=meta, errors=errors))
         return
@@ -276,42 +352,48 @@ def write_output(args: argparse.Namespace, table, plans, meta: dict, start) -> N
 
 
 def meta_of(args, table, start, elapsed_s: float) -> dict:
+    return dict(window_meta(args, table.stations, len(table.names), start, table.end),
+                elapsed_s=round(elapsed_s, 3))
+
+
+def window_meta(args, stations, n_satellites: int, start, end) -> dict:
+    """The document's ``meta`` for a run over ``stations`` (all but ``elapsed_s``)."""
     from tracker.export import station_meta
     from tracker.timescale import iso_utc
 
-    return {"source": args.source, "start": iso_utc(start), "end": iso_utc(table.end),
-            "stations": [station_meta(s) for s in table.stations],
+    return {"source": args.source, "start": iso_utc(start), "end": iso_utc(end),
+            "stations": [station_meta(s) for s in stations],
             "min_el_deg": args.min_el, "min_max_el_deg": args.min_max_el,
-            "filter": "visible" if args.visible else "sunlit" if args.sunlit else None,
-            "rotator": args.rotator, "satellites": len(table.names),
-            "elapsed_s": round(elapsed_s, 3)}
+            "filter": only_of(args), "rotator": args.rotator, "satellites": n_satellites}
 
 
-def error_records(table) -> list[dict]:
-    from tracker.timescale import iso_utc
-
-    return [{"target": e.name, "code": e.code, "message": e.message,
-             "from": iso_utc(e.first_s)} for e in table.errors]
-
-
-def report_errors(table) -> None:
-    if not table.errors:
+def report_errors(errors) -> None:
+    """One note naming the satellites SGP4 could not propagate (a table's ``errors``)."""
+    if not errors:
         return
-    shown = ", ".join(f"{e.name} ({e.message})" for e in table.errors[:3])
-    more = f" and {len(table.errors) - 3} more" if len(table.errors) > 3 else ""
-    print(f"tracker: note: SGP4 could not propagate {len(table.errors)} satellite(s) for the "
+    shown = ", ".join(f"{e.name} ({e.message})" for e in errors[:3])
+    more = f" and {len(errors) - 3} more" if len(errors) > 3 else ""
+    print(f"tracker: note: SGP4 could not propagate {len(errors)} satellite(s) for the "
           f"whole window (decayed or bad elements): {shown}{more}", file=sys.stderr)
 
 
 def run(args: argparse.Namespace) -> int:
     check_outputs(args)
+    if partitioned(args):
+        return run_partitioned(args)
     t0 = time.perf_counter()
     elements = load_elements(args.source)
     stations = stations_from_args(args)
-    table, start = find(args, elements, stations)
+    parts, start = find_parts(args, elements, stations)
+    table = next(parts)  # the search runs here
+    whole = bool(args.rotator or args.plot or args.format == "ics")
+    if whole:
+        from tracker.batch import PassTable
+
+        table = PassTable.concat([table, *parts])
     plans = plans_for(args, table, elements)
     elapsed = time.perf_counter() - t0
-    report_errors(table)
+    report_errors(table.errors)
     if args.plot:
         from tracker.export import pass_records
         from tracker.plot import timeline_plot
@@ -320,7 +402,22 @@ def run(args: argparse.Namespace) -> int:
                              table.end.timestamp(), title=f"{args.source}: {len(table)} passes",
                              force=args.force, label="--plot")
         print(f"tracker: wrote {path}", file=sys.stderr)
-    write_output(args, table, plans, meta_of(args, table, start, elapsed), start)
-    print(f"tracker: {len(table)} passes of {len(elements)} satellites over "
+    from tracker.export import error_records
+
+    written = [0]
+
+    def tables():
+        # Without plans, plot or iCalendar the parts are written as the finder gives them
+        # (one held at a time); empty parts are left out unless the whole result is empty.
+        for part in [table] if whole else chain([table], parts):
+            if whole or len(part):
+                written[0] += len(part)
+                yield part, plans
+        if not written[0] and not whole:
+            yield table.select(slice(0, 0)), None
+
+    write_output(args, tables(), meta_of(args, table, start, elapsed), start,
+                 error_records(table.errors))
+    print(f"tracker: {written[0]} passes of {len(elements)} satellites over "
           f"{len(stations)} station(s) in {elapsed:.1f} s", file=sys.stderr)
     return 0

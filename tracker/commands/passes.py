@@ -94,8 +94,6 @@ def collect_passes(targets, station, start: datetime, end: datetime) -> list:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tracker.targets import ephemeris_note
-
     clock = clock_from_args(args, manual=True)
     now = clock.now()
     targets = targets_from_args(args, now)
@@ -104,9 +102,6 @@ def run(args: argparse.Namespace) -> int:
     station = station_from_args(args, quiet=args.format != "table")
     warn_element_age(targets, now)
     passes = collect_passes(targets, station, now, end)
-    note = ephemeris_note()
-    if note and args.format == "table":
-        print(f"tracker: note: {note}", file=sys.stderr)
     if args.format in ("csv", "json"):
         from tracker.export import pass_records, render, station_meta
         from tracker.timescale import iso_utc

@@ -17,7 +17,6 @@ from tracker.commands.batch import (
     add_batch_args,
     check_outputs,
     emit,
-    error_records,
     find,
     load_elements,
     meta_of,
@@ -81,7 +80,7 @@ def check_priority_names(args: argparse.Namespace, elements: list) -> None:
 def run(args: argparse.Namespace) -> int:
     from tracker.commands._common import flag_first
     from tracker.errors import ConfigError
-    from tracker.export import pass_records, render
+    from tracker.export import error_records, pass_records, render
     from tracker.pass_schedule import parse_priorities, schedule_passes
 
     if args.default_priority < 0:
@@ -109,11 +108,11 @@ def run(args: argparse.Namespace) -> int:
     elapsed = time.perf_counter() - t0
     chosen = set(sched.chosen)
     out = records if args.show_all else records.take(sched.chosen)
-    report_errors(table)
+    report_errors(table.errors)
     meta = meta_of(args, table, start, elapsed)
     meta.update(rotator=spec.name, total_priority=sched.total_priority,
                 chosen=len(sched.chosen), candidates=len(records))
-    text = render(args.format, out, meta=meta, errors=error_records(table),
+    text = render(args.format, out, meta=meta, errors=error_records(table.errors),
                   stamp_s=start.timestamp(), name=f"{args.source} schedule")
     if args.plot:
         from tracker.plot import timeline_plot

@@ -22,6 +22,8 @@ the station until it is handed over; standalone use hands it over for good.
 
 from __future__ import annotations
 
+import math
+import re
 import socket
 import socketserver
 import threading
@@ -64,6 +66,8 @@ POLL_S = 0.25             # how often a move under the stall watch is read back
 # The longest request is a few dozen bytes; a longer line is refused and the client closed,
 # so a client that never sends a newline cannot grow the server's memory.
 MAX_LINE_BYTES = 1024
+# A plain decimal: Python's float() would also take "1_0" (as 10), "inf" and "nan".
+_DECIMAL_RE = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
 
 EventSink = Callable[..., None]
 
@@ -113,6 +117,14 @@ COMMANDS: dict[str, tuple[str, int, tuple[str, ...]]] = {
     "\x01": ("dump_caps", 0, ()),
 }
 LONG_NAMES = {long: short for short, (long, _n, _l) in COMMANDS.items()}
+
+
+def _degrees(text: str) -> float | None:
+    """The number in one argument of a move, or None when it is not a finite plain decimal."""
+    if _DECIMAL_RE.fullmatch(text) is None:
+        return None
+    value = float(text)
+    return value if math.isfinite(value) else None
 
 
 def parse_line(line: str) -> tuple[str | None, str, list[str]]:
@@ -437,11 +449,10 @@ class RotctldServer:
         return self._wire_of_bearing(antenna["az_deg"]), antenna["el_deg"]
 
     def _set_pos(self, args: list[str]) -> Reply:
-        try:
-            az, el = float(args[0]), float(args[1])
-        except (IndexError, ValueError):
+        az, el = (_degrees(a) for a in (args + [""] * 2)[:2])
+        if az is None or el is None:
             raise Refused(RIG_EINVAL, f"set_pos {' '.join(args)!r}: give AZ EL in "
-                                      f"degrees") from None
+                                      f"degrees")
         with self._lock:
             self._guarded_goto(az, el, "set_pos")
         return Reply([])

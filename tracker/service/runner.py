@@ -590,11 +590,11 @@ class StationService:
         """The pass's measured max error. Joined under way (a restart, a controller back
         late), the slew to catch the target is not the tracking's error: it is counted from
         the first reading on target, and the reason says so."""
+        from tracker.stream import acquisition_index
+
         late_s = joined_s - p.pass_.aos.timestamp()
         if late_s > 0 and errors:
-            on = self.stream.deadband_deg + 1.0
-            first = next((i for i, e in enumerate(errors) if e <= on), len(errors))
-            errors = errors[first:]
+            errors = errors[acquisition_index(errors, self.stream.deadband_deg):]
             outcome.reason = (f"joined {late_s:.0f} s after AOS; error counted from "
                               f"acquisition" + ("" if errors else " (never acquired)"))
         if errors:
