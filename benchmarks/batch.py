@@ -8,9 +8,16 @@ Every timing is printed as wall time and as CPU time (this process plus its work
 processes): on a machine shared with other jobs the CPU figures are the steadier ones.
 
 1. raw ``SatrecArray`` SGP4 rate (evaluations/s) - the ceiling for any SGP4-based finder;
-2. skyfield ``find_events`` in a loop over a sample of the first 1000 objects, scaled to 1000
-   (the sample size is printed), against the batch finder on those same 1000 objects; each
-   side timed ``--repeat`` times (default 3) and its fastest run taken;
+2. on two sets of 1000 objects - the first 1000 of the catalogue and 1000 drawn at random
+   (``--seed``) - the batch finder (1 and 2 worker processes) against a skyfield
+   ``find_events`` loop and ``sgp4-predict`` (optional: ``pip install sgp4-predict``, the
+   ``bench`` extra), each on an every-k-th sample of the set scaled to 1000 (sample sizes
+   printed); each side timed ``--repeat`` times (default 3) and its fastest run taken. Also
+   the finder's SGP4 share: its CPU time inside SGP4 (one extra run with the two SGP4 entry
+   points wrapped) against its total, i.e. the rate it reaches against the raw rate for its
+   own mix of evaluations; and its completeness against a 1 s brute-force scan
+   (SGP4 every second of the week, same frames) of an every-k-th sample of the set
+   (``--check-sample``): no pass with max elevation >= 0.1 deg missed, AOS/LOS within 0.5 s;
 3. the whole catalogue x 7 days from one station (1 process, then 2 worker processes), with
    the SGP4 evaluations/s achieved and the peak memory (tracemalloc, ru_maxrss);
 4. 100 stations against 1 station on the 1000 objects: CPU per pass (goal <= 4 us), the
@@ -18,14 +25,15 @@ processes): on a machine shared with other jobs the CPU figures are the steadier
    <= 512 MB), which streams its result (``iter_passes_batch``, parts dropped as they come).
    Each run is a fresh process, so its peak RSS is its own.
 
-Usage: python benchmarks/batch.py [--tle PATH] [--sky-sample N] [--repeat N] [--quick]
-       [--network-only]
+Usage: python benchmarks/batch.py [--tle PATH] [--sky-sample N] [--predict-sample N]
+       [--check-sample N] [--seed N] [--repeat N] [--quick] [--network-only]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import random
 import resource
 import subprocess
 import sys
@@ -38,6 +46,8 @@ import numpy as np
 from sgp4.api import Satrec, SatrecArray, jday
 
 from tracker.batch import find_passes_batch, iter_passes_batch
+from tracker.batch import finder as finder_mod
+from tracker.batch import geometry as geo
 from tracker.station import Station
 
 START = datetime(2026, 3, 19, 4, 51, tzinfo=timezone.utc)
@@ -82,6 +92,170 @@ def skyfield_loop_s(sets, days: float, repeat: int) -> tuple[float, float]:
     return wall, cpu
 
 
+def predict_loop_s(sets, days: float, repeat: int) -> tuple[float, float, int]:
+    """(wall, CPU, failures) of ``sgp4-predict``'s ``transits_iter`` over ``sets``: every pass
+    of the window, those in progress at its edges cut there (like the batch finder)."""
+    import sgp4_predict as sp
+
+    observer = sp.GeodeticPoint(STATION.lat_deg, STATION.lon_deg, STATION.alt_m)
+    interval = sp.Interval(START, START + timedelta(days=days))
+    longest = timedelta(days=days + 1)  # always-up objects: one pass for the whole window
+    failures = []
+
+    def loop():
+        failures.clear()
+        for name, l1, l2 in sets:
+            try:
+                predictor = sp.Predictor.from_tle(sp.Tle(name, l1, l2))
+                list(predictor.transits_iter(observer, interval, 0.0,
+                                             max_transit_duration=longest,
+                                             skip_leading_partial=False,
+                                             clamp_to_interval=True))
+            except (ValueError, RuntimeError):
+                failures.append(name)
+
+    _, wall, cpu = timed_best(loop, repeat)
+    return wall, cpu, len(failures)
+
+
+def sgp4_seconds(fn) -> tuple[float, float]:
+    """(CPU seconds of ``fn``, of them inside the finder's SGP4 calls): its two SGP4 entry
+    points (the coarse ``SatrecArray`` call and the per-satellite pairs) wrapped."""
+    spent = [0.0]
+    pairs, array = finder_mod._sgp4_pairs, finder_mod.SatrecArray
+
+    def timed_pairs(*a, **k):
+        c = time.process_time()
+        out = pairs(*a, **k)
+        spent[0] += time.process_time() - c
+        return out
+
+    class TimedArray:
+        def __init__(self, satrecs):
+            self.array = array(satrecs)
+
+        def sgp4(self, jd, fr):
+            c = time.process_time()
+            out = self.array.sgp4(jd, fr)
+            spent[0] += time.process_time() - c
+            return out
+
+    finder_mod._sgp4_pairs, finder_mod.SatrecArray = timed_pairs, TimedArray
+    try:
+        c = time.process_time()
+        fn()
+        total = time.process_time() - c
+    finally:
+        finder_mod._sgp4_pairs, finder_mod.SatrecArray = pairs, array
+    return total, spent[0]
+
+
+def scan_passes(satrec, start: datetime, days: float, min_el_deg: float = 0.0):
+    """Complete passes (rise and set inside the window) from SGP4 every second, in the
+    finder's frames: (rise_s, set_s, max_el_deg) rows, POSIX seconds, crossings
+    interpolated linearly between the two seconds around them."""
+    frames = geo.StationFrames.from_stations([STATION])
+    jd0, fr0 = jday(start.year, start.month, start.day, start.hour, start.minute,
+                    start.second)
+    dut1 = geo.dut1_s(start)
+    t = np.arange(0.0, days * 86400.0 + 1.0)
+    e, r, v = satrec.sgp4_array(np.full(len(t), jd0), fr0 + t / 86400.0)
+    theta = geo.gmst_rad(jd0, fr0 + (t + dut1) / 86400.0)
+    el = geo.look_angles(*geo.teme_to_ecef(r, v, theta), frames, 0)[0]
+    el = np.where((e == 0) & np.isfinite(el), el, -90.0)
+    up = el >= min_el_deg
+    rise = np.flatnonzero(up[1:] & ~up[:-1]) + 1
+    fall = np.flatnonzero(~up[1:] & up[:-1]) + 1
+    fall = fall[fall > (rise[0] if len(rise) else len(t))]
+    rise = rise[:len(fall)]
+
+    def cross(i):
+        return t[i - 1] + (min_el_deg - el[i - 1]) / (el[i] - el[i - 1])
+
+    t0 = start.timestamp()
+    peaks = [float(el[a:b].max()) for a, b in zip(rise.tolist(), fall.tolist(), strict=True)]
+    return np.column_stack([cross(rise) + t0, cross(fall) + t0, peaks]).reshape(-1, 3)
+
+
+def completeness(table, satrecs, sample: list[int], days: float) -> dict:
+    """The finder's passes of the ``sample`` satellites against a 1 s scan of each."""
+    worst = 0.0
+    found = missed = extra = 0
+    for i in sample:
+        scan = scan_passes(satrecs[i], START, days)
+        mine = table.passes[table.passes["sat"] == i]
+        mine = mine[~mine["aos_clipped"] & ~mine["los_clipped"]]
+        used = np.zeros(len(mine), bool)
+        for rise, fall, peak in scan:
+            k = np.flatnonzero(np.abs(mine["aos_s"] - rise) < 60.0)
+            if len(k) == 0:
+                missed += peak >= 0.1
+                continue
+            used[k[0]] = True
+            found += 1
+            worst = max(worst, abs(mine["aos_s"][k[0]] - rise), abs(mine["los_s"][k[0]] - fall))
+        extra += int(np.sum(~used & (mine["max_el_deg"] >= 0.1)))
+    return dict(found=found, missed=int(missed), extra=extra, worst_s=worst)
+
+
+def compare_set(label: str, sets, satrecs, names, args) -> dict:
+    """Section [2] for one set of objects; returns the figures for the summary."""
+    end = START + timedelta(days=DAYS)
+    rep = args.repeat
+    one, t_one, c_one = timed_best(lambda: find_passes_batch(satrecs, names, [STATION],
+                                                             START, end), rep)
+    two = [per_process(lambda: find_passes_batch(satrecs, names, [STATION], START, end,
+                                                 workers=2)) for _ in range(rep)]
+    t_two, c_two = min(x[0] for x in two), min(x[1] + x[2] for x in two)
+    c_main, c_workers = min(x[1] for x in two), min(x[2] for x in two)
+    c_all, c_sgp4 = sgp4_seconds(lambda: find_passes_batch(satrecs, names, [STATION], START,
+                                                           end))
+    step = max(1, len(sets) // args.sky_sample)
+    sample = sets[::step]
+    t_sky, c_sky = skyfield_loop_s(sample, DAYS, rep)
+    scale = len(sets) / len(sample)
+    print(f"\n[2] {label}: {len(sets)} objects x {DAYS:g} days, 1 station (each figure the "
+          f"best of {rep} runs, all sides alike):")
+    print(f"    batch finder, 1 process:   {wc(t_one, c_one)} ({len(one)} passes, "
+          f"{evals(one) / 1e6:.2f} M SGP4 evaluations)")
+    print(f"    batch finder, 2 processes: {wc(t_two, c_two)} -> {t_one / t_two:.2f}x wall "
+          f"(target >= 1.8x; only as good as the free cores), CPU {c_two / c_one:.2f}x of 1 "
+          f"process (this process {c_main:.2f} s, the workers {c_workers:.2f} s)")
+    print(f"    finder's SGP4 share: {c_sgp4:.2f} s of {c_all:.2f} s CPU = {c_sgp4 / c_all:.0%} "
+          f"of the raw SGP4 rate for its own evaluations (target >= 70%)")
+    print(f"    skyfield find_events loop: {wc(t_sky, c_sky)} for {len(sample)} objects "
+          f"(every {step}th) -> {t_sky * scale:.1f} s wall / {c_sky * scale:.1f} s CPU scaled")
+    out = dict(label=label, cpu=c_one, sky=c_sky * scale / c_one, two=t_one / t_two,
+               share=c_sgp4 / c_all, predict=None)
+    print(f"    speed-up over skyfield, 1 process: {t_sky * scale / t_one:.1f}x wall, "
+          f"{out['sky']:.1f}x CPU (target >= 40x; the finder's SGP4 evaluations alone, at "
+          f"its own raw rate, would give {c_sky * scale / c_sgp4:.0f}x)")
+    try:
+        import sgp4_predict  # noqa: F401
+    except ImportError:
+        print("    sgp4-predict: not installed (pip install sgp4-predict), skipped")
+    else:
+        p_step = max(1, len(sets) // args.predict_sample)
+        p_sample = sets[::p_step]
+        t_p, c_p, failed = predict_loop_s(p_sample, DAYS, rep)
+        p_scale = len(sets) / len(p_sample)
+        out["predict"] = c_p * p_scale / c_one
+        print(f"    sgp4-predict transits_iter loop: {wc(t_p, c_p)} for {len(p_sample)} objects "
+              f"(every {p_step}th; {failed} raised) -> {c_p * p_scale:.1f} s CPU scaled; "
+              f"speed-up {t_p * p_scale / t_one:.1f}x wall, {out['predict']:.1f}x CPU "
+              f"(target >= 10x)")
+    c_step = max(1, len(sets) // args.check_sample)
+    check = list(range(0, len(sets), c_step))
+    t0 = time.perf_counter()
+    res = completeness(one, satrecs, check, DAYS)
+    out["complete"] = res
+    print(f"    completeness against a 1 s SGP4 scan of {len(check)} objects (every "
+          f"{c_step}th, {time.perf_counter() - t0:.0f} s): {res['found']} passes found, "
+          f"{res['missed']} missed with max el >= 0.1 deg, {res['extra']} not in the scan; "
+          f"AOS/LOS at most {res['worst_s']:.3f} s from the scan's (target <= 0.5 s)")
+    return out
+
+
 def timed(fn):
     """(result, wall seconds, CPU seconds incl. worker processes)."""
     c, t = cpu_s(), time.perf_counter()
@@ -94,6 +268,17 @@ def timed_best(fn, repeat: int):
     shared with other jobs, the minimum is the figure least disturbed by them."""
     runs = [timed(fn) for _ in range(repeat)]
     return runs[-1][0], min(r[1] for r in runs), min(r[2] for r in runs)
+
+
+def per_process(fn) -> tuple[float, float, float]:
+    """(wall, CPU of this process, CPU of its finished worker processes) of ``fn``."""
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    k0 = kids.ru_utime + kids.ru_stime
+    c, t = time.process_time(), time.perf_counter()
+    fn()
+    wall, own = time.perf_counter() - t, time.process_time() - c
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, own, kids.ru_utime + kids.ru_stime - k0
 
 
 def wc(wall: float, cpu: float) -> str:
@@ -155,7 +340,12 @@ def main() -> int:
     ap.add_argument("--tle", default=str(Path(__file__).resolve().parents[2] / "shared" / "tle"
                                          / "active.txt"))
     ap.add_argument("--sky-sample", type=int, default=100,
-                    help="objects of the first 1000 timed with skyfield (scaled to 1000)")
+                    help="objects of each 1000 timed with skyfield (scaled to 1000)")
+    ap.add_argument("--predict-sample", type=int, default=250,
+                    help="objects of each 1000 timed with sgp4-predict (scaled to 1000)")
+    ap.add_argument("--check-sample", type=int, default=20,
+                    help="objects of each 1000 checked against a 1 s scan")
+    ap.add_argument("--seed", type=int, default=18, help="seed of the random 1000")
     ap.add_argument("--quick", action="store_true", help="skip the full-catalogue runs")
     ap.add_argument("--repeat", type=int, default=3,
                     help="runs of each timing in [2]; the fastest counts (default 3)")
@@ -224,28 +414,18 @@ def main() -> int:
         del full, full1, full2
 
     first = slice(0, 1000)
-    sat1k, names1k, sets1k = satrecs[first], names[first], sets[first]
-    rep = args.repeat
-    one, t_one, c_one = timed_best(lambda: find_passes_batch(sat1k, names1k, [STATION],
-                                                             START, end), rep)
-    _, t_two, c_two = timed_best(lambda: find_passes_batch(sat1k, names1k, [STATION], START,
-                                                           end, workers=2), rep)
-    step = max(1, len(sets1k) // args.sky_sample)
-    sample = sets1k[::step]
-    t_sky, c_sky = skyfield_loop_s(sample, DAYS, rep)
-    scale = len(sets1k) / len(sample)
-    t_sky_1000, c_sky_1000 = t_sky * scale, c_sky * scale
-    print(f"\n[2] 1000 objects x {DAYS:g} days, 1 station (each figure the best of {rep} "
-          f"runs, both sides alike):")
-    print(f"    batch finder, 1 process:   {wc(t_one, c_one)} ({len(one)} passes)")
-    print(f"    batch finder, 2 processes: {wc(t_two, c_two)}")
-    print(f"    skyfield find_events loop: {wc(t_sky, c_sky)} for {len(sample)} objects "
-          f"(every {step}th) -> {t_sky_1000:.1f} s wall / {c_sky_1000:.1f} s CPU scaled to "
-          f"1000")
-    print(f"    speed-up, 1 process:   {t_sky_1000 / t_one:.1f}x wall, "
-          f"{c_sky_1000 / c_one:.1f}x CPU (target >= 20x)")
-    print(f"    speed-up, 2 processes: {t_sky_1000 / t_two:.1f}x wall (both cores; "
-          f"the skyfield loop uses one)")
+    picked = sorted(random.Random(args.seed).sample(range(len(sets)), min(1000, len(sets))))
+    figures = [compare_set("first 1000", sets[first], satrecs[first], names[first], args),
+               compare_set(f"random 1000 (seed {args.seed})", [sets[i] for i in picked],
+                           [satrecs[i] for i in picked], [names[i] for i in picked], args)]
+    print("\n    summary (CPU ratios; targets: skyfield >= 40x, sgp4-predict >= 10x, 2 "
+          "processes >= 1.8x, SGP4 share >= 70%):")
+    for f in figures:
+        pred = "-" if f["predict"] is None else f"{f['predict']:.1f}x"
+        c = f["complete"]
+        print(f"    {f['label']:24s} finder {f['cpu']:.2f} s CPU; skyfield {f['sky']:.1f}x; "
+              f"sgp4-predict {pred}; 2 processes {f['two']:.2f}x wall; SGP4 share "
+              f"{f['share']:.0%}; missed {c['missed']}, worst {c['worst_s']:.3f} s")
 
     network_report(path)
     return 0

@@ -268,6 +268,47 @@ def test_memory_is_bounded_by_chunking_not_by_catalogue_size():
     assert peaks_mb[1] - peaks_mb[0] < 4 * result_mb + 2.0, (peaks_mb, result_mb)
 
 
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_subarc_screen_matches_a_dense_sweep_of_the_arc(dtype):
+    """The closed-form screen of a fine step's sub-arc agrees with the largest projection of
+    the station found by sweeping the arc densely, wherever the two are not within rounding
+    of the cone's edge."""
+    from tracker.batch.finder import _subarc_within
+
+    rng = np.random.default_rng(7)
+    m = 4000
+    r_in = np.sqrt(rng.random(m))
+    beta = rng.random(m) * 2 * np.pi
+    a1 = rng.random(m) * 2 * np.pi
+    a2 = a1 + rng.random(m) * (2 * np.pi - a1)
+    cos_lim = rng.uniform(-0.3, 1.0, m)
+    sweep = np.linspace(0.0, 1.0, 4001)
+    alpha = a1[:, None] + (a2 - a1)[:, None] * sweep
+    best = (r_in[:, None] * np.cos(alpha - beta[:, None])).max(1)
+    got = _subarc_within(*(x.astype(dtype) for x in (r_in * np.cos(beta), r_in * np.sin(beta),
+                                                      a1, a2, cos_lim)))
+    clear = np.abs(best - cos_lim) > 1e-4
+    assert clear.sum() > 0.95 * m
+    assert np.array_equal(got[clear], (best >= cos_lim)[clear])
+
+
+def test_worker_shares_split_large_grid_classes_and_keep_small_ones_whole(amateur):
+    from tracker.batch.finder import MIN_SPLIT_SATS, _GridClasses, _worker_shares
+
+    satrecs, _names = amateur
+    grid = _GridClasses.of(satrecs, 480.0)
+    shares = _worker_shares(grid, 2)
+    assert len(shares) == 2
+    every = np.sort(np.concatenate(shares))
+    assert np.array_equal(every, np.arange(len(satrecs)))  # each satellite exactly once
+    for ids in grid.groups():
+        held = [np.isin(ids, s).sum() for s in shares]
+        if len(ids) >= 2 * MIN_SPLIT_SATS:
+            assert abs(held[0] - held[1]) <= 1, held  # dealt out evenly
+        else:
+            assert sorted(held) == [0, len(ids)], held  # whole to one worker
+
+
 def identical(a, b):
     """Every field of every pass bit for bit the same."""
     assert len(a) == len(b)

@@ -185,8 +185,11 @@ def _sgp4_pairs(job: _Job, sat: np.ndarray, tau: np.ndarray, kind: str = "sgp4_r
     v = np.empty((m, 3))
     if m == 0:
         return err, r, v
-    presorted = bool(np.all(sat[1:] >= sat[:-1]))
-    order = np.arange(m) if presorted else np.argsort(sat, kind="stable")
+    # Each satellite's times in increasing order: SDP4's resonance integrator restarts from
+    # the epoch whenever time goes backwards (deep-space objects run 30 % slower shuffled).
+    step = sat[1:] - sat[:-1]
+    presorted = bool(np.all((step > 0) | ((step == 0) & (tau[1:] >= tau[:-1]))))
+    order = np.arange(m) if presorted else np.lexsort((tau, sat))
     s_sorted = sat if presorted else sat[order]
     jd = np.full(m, job.jd0)
     fr = job.fr(tau if presorted else tau[order])
@@ -481,25 +484,42 @@ def _refine(job: _Job, st, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
 
 def _arc_geometry(r, v, valid):
     """The orbit arcs between consecutive coarse samples: start direction A, in-plane normal
-    q, pole h (unit vectors, (S, K, 3)) and the swept angle phi in [0, 2 pi) (S, K).
+    q, pole h (unit vectors, (S, K, 3)), the swept angle phi in [0, 2 pi) (S, K) and the
+    cosine and sine of phi / 2.
 
     The plane's pole is the mean of the two ends' orbit normals (r x v), so the plane is
     well defined for any arc length and follows the slow nodal drift to first order.
     """
     def unit(x):
-        n = np.sqrt(np.einsum("...c,...c->...", x, x))[..., None]
+        n = np.sqrt(_dot3(x, x))[..., None]
         return x / np.where(n > 0, n, 1.0)
 
-    w = unit(np.cross(r, v))
+    w = unit(_cross3(r, v))
     h_hat = unit(w[:, :-1] + w[:, 1:])
     r_hat = unit(r)
     a_hat, b_hat = r_hat[:, :-1], r_hat[:, 1:]
     # A and B projected into the plane (they lie within perturbations of it).
-    A = unit(a_hat - np.einsum("skc,skc->sk", a_hat, h_hat)[..., None] * h_hat)
-    q = np.cross(h_hat, A)
-    phi = np.mod(np.arctan2(np.einsum("skc,skc->sk", b_hat, q),
-                            np.einsum("skc,skc->sk", b_hat, A)), 2 * math.pi)
-    return dict(A=A, B=b_hat, q=q, h=h_hat, phi=phi, ok=valid[:, :-1] & valid[:, 1:])
+    A = unit(a_hat - _dot3(a_hat, h_hat)[..., None] * h_hat)
+    q = _cross3(h_hat, A)
+    phi = np.mod(np.arctan2(_dot3(b_hat, q), _dot3(b_hat, A)), 2 * math.pi)
+    return dict(A=A, B=b_hat, q=q, h=h_hat, phi=phi, cos_half=np.cos(0.5 * phi),
+                sin_half=np.sin(0.5 * phi), ok=valid[:, :-1] & valid[:, 1:])
+
+
+def _dot3(a, b):
+    """Dot products of (..., 3) vectors (no einsum parsing on the hot path)."""
+    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
+
+
+def _cross3(a, b):
+    """Cross products of (..., 3) vectors, component by component (np.cross moves axes)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    np.subtract(a1 * b2, a2 * b1, out=out[..., 0])
+    np.subtract(a2 * b0, a0 * b2, out=out[..., 1])
+    np.subtract(a0 * b1, a1 * b0, out=out[..., 2])
+    return out
 
 
 def _station_teme(job: _Job, st: int, tau) -> np.ndarray:
@@ -523,7 +543,7 @@ def _cone_limits(job: _Job, st: int, r_apo, dt_s: float):
 
 def _coarse_candidates(job: _Job, arc, tau_c, coarse_s, r_apo, screenable):
     """Per station, (S, K) booleans: coarse intervals where a pass is geometrically possible."""
-    A, B, q, h_hat, phi_ab = arc["A"], arc["B"], arc["q"], arc["h"], arc["phi"]
+    A, B, q, h_hat = arc["A"], arc["B"], arc["q"], arc["h"]
     out = []
     for k in range(len(job.frames)):
         p = _station_teme(job, k, 0.5 * (tau_c[:-1] + tau_c[1:]))
@@ -532,7 +552,10 @@ def _coarse_candidates(job: _Job, arc, tau_c, coarse_s, r_apo, screenable):
         pb = np.einsum("skc,kc->sk", B, p)
         ph = np.einsum("skc,kc->sk", h_hat, p)
         pq = np.einsum("skc,kc->sk", q, p)
-        in_arc = np.mod(np.arctan2(pq, pa), 2 * math.pi) <= phi_ab
+        # The station's in-plane direction lies within the arc iff it is within phi / 2 of
+        # the arc's middle: its projection there is >= R cos(phi / 2).
+        in_arc = (pa * arc["cos_half"] + pq * arc["sin_half"]
+                  >= np.sqrt(pa * pa + pq * pq) * arc["cos_half"])
         cand = (pa >= cos_lim) | (pb >= cos_lim) | (in_arc & (np.abs(ph) <= sin_lim))
         cand |= ~screenable[:, None]
         out.append(cand & arc["ok"])
@@ -541,19 +564,23 @@ def _coarse_candidates(job: _Job, arc, tau_c, coarse_s, r_apo, screenable):
 
 def _sub_arcs(arc, ss, kk, n: int, coarse_s, ecc):
     """Bounds [a1, a2] (rad from A, (len(ss), n)) of the sub-arc each fine step of the
-    coarse intervals (ss, kk) can sweep; the same for every station."""
+    coarse intervals (ss, kk) can sweep; the same for every station. float32: the cone has
+    degrees of margin, float32 rounds at 1e-7 rad."""
+    f32 = np.float32
     fine_s = coarse_s / n
     e_eff = np.minimum(ecc[ss] + 0.002, 0.9)
     ratio = ((1.0 + e_eff) / (1.0 - e_eff)) ** 2 * 1.01
     phi = arc["phi"][ss, kk]
     w_mean = phi / coarse_s
-    w_lo, w_hi = (w_mean / ratio)[:, None], (w_mean * ratio)[:, None]
-    t_a = np.arange(n) * fine_s
-    t_b = t_a + fine_s
-    ph_ = phi[:, None]
-    a1 = np.clip(np.maximum(w_lo * t_a, ph_ - w_hi * (coarse_s - t_a)), 0.0, ph_)
-    a2 = np.clip(np.minimum(w_hi * t_b, ph_ - w_lo * (coarse_s - t_b)), 0.0, ph_)
-    return a1, np.maximum(a1, a2)
+    w_lo, w_hi = (w_mean / ratio).astype(f32)[:, None], (w_mean * ratio).astype(f32)[:, None]
+    t_a = (np.arange(n) * fine_s).astype(f32)
+    t_b = (np.arange(1, n + 1) * fine_s).astype(f32)
+    ph_ = phi.astype(f32)[:, None]
+    a1 = np.maximum(w_lo * t_a, ph_ - w_hi * (f32(coarse_s) - t_a))
+    np.clip(a1, f32(0.0), ph_, out=a1)
+    a2 = np.minimum(w_hi * t_b, ph_ - w_lo * (f32(coarse_s) - t_b))
+    np.clip(a2, a1, ph_, out=a2)
+    return a1, a2
 
 
 def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc,
@@ -565,9 +592,9 @@ def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc
     A after time t is bracketed by the slowest and fastest angular rate, taken as the arc's
     mean rate times the Kepler perigee/apogee rate ratio for the eccentricity (plus 1 % for
     SGP4's short-period terms and drag). Each fine step then sweeps a sub-arc of known
-    bounds, tested against the horizon cone like the coarse interval. No SGP4 calls.
-    ``sub_arcs``: :func:`_sub_arcs` of every coarse interval, (S, K, n) each, when many
-    stations share them.
+    bounds, tested against the horizon cone like the coarse interval (in float32). No SGP4
+    calls. ``sub_arcs``: :func:`_sub_arcs` of every coarse interval, (S, K, n) each, when
+    many stations share them.
     """
     S, K = cand.shape
     out = np.zeros((S, K * n), bool)
@@ -577,6 +604,7 @@ def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc
     ss, kk = np.nonzero(cand)
     if ss.size == 0:
         return out
+    f32 = np.float32
     fine_s = coarse_s / n
     if sub_arcs is None:
         a1, a2 = _sub_arcs(arc, ss, kk, n, coarse_s, ecc)
@@ -587,25 +615,50 @@ def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc
     u = job.frames.unit[st]
     psi = job.theta((np.arange(K * n) + 0.5) * fine_s) + math.atan2(u[1], u[0])
     rho, z = math.hypot(u[0], u[1]), u[2]
-    idx = (kk * n)[:, None] + np.arange(n)
-    cp, sp = (np.cos(psi) * rho)[idx], (np.sin(psi) * rho)[idx]
-    A, q = arc["A"][ss, kk], arc["q"][ss, kk]
-    pa = A[:, 0, None] * cp + A[:, 1, None] * sp + A[:, 2, None] * z
-    pq = q[:, 0, None] * cp + q[:, 1, None] * sp + q[:, 2, None] * z
-    cos_lim = _cone_limits(job, st, r_apo, fine_s)[0][ss][:, None]
-    # The sub-arc [a1, a2] comes within the cone iff its nearest point to the station's
-    # in-plane direction beta is within it: R cos(distance to [a1, a2]) >= cos(limit),
-    # R = |projection of the station on the plane| (R >= cos(limit) inside the arc).
-    # With e1 = a1 - beta, e2 = beta - a2 (beta in [0, 2 pi)): inside the sub-arc both are
-    # <= 0; below it the distance is min(e1, e2 + 2 pi), above it min(e2, e1 + 2 pi).
-    beta = np.arctan2(pq, pa)
-    beta += np.where(beta < 0, 2 * math.pi, 0.0)
-    e1, e2 = a1 - beta, beta - a2
-    dist = np.minimum(np.maximum(e1, e2), np.minimum(e1, e2) + 2 * math.pi)
-    sub = np.hypot(pa, pq) * np.cos(np.maximum(dist, 0.0)) >= cos_lim
+    cp = (np.cos(psi) * rho).astype(f32).reshape(K, n)[kk]
+    sp = (np.sin(psi) * rho).astype(f32).reshape(K, n)[kk]
+    A = arc["A"][ss, kk].astype(f32)
+    q = arc["q"][ss, kk].astype(f32)
+    pa = A[:, 0, None] * cp
+    pa += A[:, 1, None] * sp
+    pa += A[:, 2, None] * f32(z)
+    pq = q[:, 0, None] * cp
+    pq += q[:, 1, None] * sp
+    pq += q[:, 2, None] * f32(z)
+    cos_lim = _cone_limits(job, st, r_apo, fine_s)[0][ss].astype(f32)[:, None]
+    sub = _subarc_within(pa, pq, a1, a2, cos_lim)
     sub |= ~screenable[ss][:, None]
     out.reshape(S, K, n)[ss, kk] = sub
     return out
+
+
+def _subarc_within(pa, pq, a1, a2, cos_lim):
+    """Does the sub-arc [a1, a2] (angles from A in the orbit plane, 0 <= a2 - a1 < 2 pi) come
+    within the cone around the station, i.e. does the station's largest projection on it,
+    max over a of pa cos a + pq sin a, reach ``cos_lim``? (Inputs are overwritten.)
+
+    The station's in-plane part is R (cos beta, sin beta). On the arc's middle direction m
+    (half-width w) it projects to pm = R cos(beta - m), across it to |pp| = R |sin(beta - m)|.
+    Inside the arc (|beta - m| <= w, i.e. pm >= R cos w) the largest projection is R; outside
+    it is at the nearer end, R cos(|beta - m| - w) = pm cos w + |pp| sin w. No arctangent.
+    """
+    r_in = np.sqrt(pa * pa + pq * pq)
+    mid = a1 + a2
+    mid *= 0.5
+    half = a2 - a1
+    half *= 0.5
+    cm, sm, ch, sh = np.cos(mid), np.sin(mid), np.cos(half), np.sin(half)
+    pm = pa * cm
+    pm += pq * sm
+    pq *= cm
+    pa *= sm
+    pp = np.abs(pq - pa, out=pq)
+    pp *= sh
+    pp += pm * ch
+    sub = pp >= cos_lim
+    ch *= r_in
+    sub |= (pm >= ch) & (r_in >= cos_lim)
+    return sub
 
 
 def _fine_mask(sub):
@@ -895,6 +948,42 @@ def _to_utc(t: datetime) -> datetime:
     return t.astimezone(timezone.utc)
 
 
+@dataclass(frozen=True)
+class _GridClasses:
+    """Per satellite: the fine step, the coarse factor (fine steps per coarse interval) and the
+    screening bounds. Satellites with the same (fine step, coarse factor) share one time grid
+    and are screened together."""
+
+    fine_s: np.ndarray
+    n_fact: np.ndarray
+    r_apo: np.ndarray  # apogee radius (km) with a margin for SGP4's short-period terms
+    ecc: np.ndarray
+    screenable: np.ndarray
+
+    @classmethod
+    def of(cls, satrecs, step_s: float) -> _GridClasses:
+        r_apo, rate = geo.orbit_bounds(satrecs)
+        ecc = np.clip(np.array([sr.ecco for sr in satrecs], dtype=float), 0.0, 0.999)
+        r_apo += 100.0  # SGP4 vs Kepler radius, drag and J2 short-period terms
+        # Fine step: step_s for low orbits, an integer multiple of it for slower ones (so
+        # satellites group into few chunks), in proportion to the period and at most
+        # MAX_FINE_S: what matters for the interpolation between samples is the arc swept per
+        # step (GEO: two hours, a 30 degree arc, like a low orbit in 480 s).
+        slow = np.floor(np.maximum(LEO_RATE_RAD_S / rate, 1.0))
+        fine_s = np.minimum(step_s * slow, max(step_s, step_s * (MAX_FINE_S // step_s)))
+        # Coarse factor: as many fine steps per coarse interval as keep the arc within
+        # ARC_LIMIT_RAD, at most MAX_COARSE_S.
+        n_fact = np.clip(np.floor(np.minimum(ARC_LIMIT_RAD / rate, MAX_COARSE_S) / fine_s), 1,
+                         None).astype(int)
+        screenable = rate * fine_s * n_fact <= ARC_LIMIT_RAD
+        return cls(fine_s, n_fact, r_apo, ecc, screenable)
+
+    def groups(self) -> list[np.ndarray]:
+        """Satellite indices per (fine step, coarse factor), in a fixed order."""
+        keys = sorted(set(zip(self.fine_s.tolist(), self.n_fact.tolist(), strict=True)))
+        return [np.flatnonzero((self.fine_s == f_s) & (self.n_fact == n)) for f_s, n in keys]
+
+
 def find_passes_block(satrecs, names, stations, start, end, min_el_deg=None, *,
                       step_s: float = 480.0, tol_s: float = 0.02, memory_mb: float = 256.0,
                       ) -> PassTable:
@@ -946,27 +1035,10 @@ def _block_rows(job: _Job, start: datetime) -> Iterator[np.ndarray]:
     stats, window_s, step_s, memory_mb = job.stats, job.window_s, job.step_s, job.memory_mb
     n_stations = len(job.stations)
     t0 = start.timestamp()
-    n_sat = len(job.satrecs)
-    r_apo = np.empty(n_sat)
-    rate = np.empty(n_sat)
-    for i, sr in enumerate(job.satrecs):
-        r_apo[i], rate[i] = geo.orbit_bounds(sr)
-    ecc = np.array([min(max(sr.ecco, 0.0), 0.999) for sr in job.satrecs])
-    r_apo += 100.0  # SGP4 vs Kepler radius, drag and J2 short-period terms
-    # Fine step: step_s for low orbits, an integer multiple of it for slower ones (so
-    # satellites group into few chunks), in proportion to the period and at most
-    # MAX_FINE_S: what matters for the interpolation between samples is the arc swept per
-    # step (GEO: two hours, a 30 degree arc, like a low orbit in 480 s).
-    slow = np.floor(np.maximum(LEO_RATE_RAD_S / rate, 1.0))
-    fine_s = np.minimum(step_s * slow, max(step_s, step_s * (MAX_FINE_S // step_s)))
-    # Coarse factor: as many fine steps per coarse interval as keep the arc within
-    # ARC_LIMIT_RAD, at most MAX_COARSE_S.
-    n_fact = np.clip(np.floor(np.minimum(ARC_LIMIT_RAD / rate, MAX_COARSE_S) / fine_s), 1,
-                     None).astype(int)
-    screenable = rate * fine_s * n_fact <= ARC_LIMIT_RAD
-    groups = sorted(set(zip(fine_s.tolist(), n_fact.tolist(), strict=True)))
-    for f_s, n in groups:
-        ids = np.flatnonzero((fine_s == f_s) & (n_fact == n))
+    grid = _GridClasses.of(job.satrecs, step_s)
+    r_apo, ecc, screenable = grid.r_apo, grid.ecc, grid.screenable
+    for ids in grid.groups():
+        f_s, n = grid.fine_s[ids[0]].item(), grid.n_fact[ids[0]].item()
         k = max(1, math.ceil(window_s / (n * f_s)))
         size = _chunk_size(k + 1, k * n + 1, n_stations, memory_mb)
         for c0 in range(0, len(ids), size):
@@ -993,9 +1065,9 @@ def merge_tables(tables: list[PassTable], names, stations, start, end) -> PassTa
         return PassTable(passes, list(names), list(stations), start, end,
                          sorted(t.errors, key=lambda e: e.sat), dict(t.stats))
     passes = np.concatenate([t.passes for t in tables]) if tables else np.zeros(0, PASS_DTYPE)
-    passes = passes[np.lexsort((passes["aos_s"], passes["station"], passes["sat"]))]
     edges = {t.end.timestamp() for t in tables} - {end.timestamp()}
     if len(passes) > 1 and edges:
+        passes = passes[np.lexsort((passes["aos_s"], passes["station"], passes["sat"]))]
         edge = np.isin(passes["los_s"], list(edges)) & passes["los_clipped"]
         join = (edge[:-1] & passes["aos_clipped"][1:]
                 & (passes["aos_s"][1:] == passes["los_s"][:-1])
@@ -1054,6 +1126,38 @@ def remap(table: PassTable, ids, names, stations) -> PassTable:
               for e in table.errors]
     return PassTable(passes, list(names), list(stations), table.start, table.end, errors,
                      table.stats)
+
+
+# Load model of the worker split, measured on the active catalogue: a satellite costs about
+# sqrt(its fine step / the shortest fine step) of one with the shortest step (slower orbits
+# have fewer samples and passes), every chunk about PIECE_COST of those however small it is.
+# A grid class is dealt out over the workers from MIN_SPLIT_SATS per worker on.
+PIECE_COST = 5.0
+MIN_SPLIT_SATS = 16
+
+
+def _worker_shares(grid: _GridClasses, workers: int) -> list[np.ndarray]:
+    """Satellite indices per worker: each large grid class dealt out
+    evenly, the small ones whole to the least-loaded worker (every chunk has a fixed cost, so
+    small classes are not duplicated)."""
+    weight = np.sqrt(grid.fine_s.min() / grid.fine_s)
+    classes = grid.groups()
+    costs = [float(weight[ids].sum()) + PIECE_COST for ids in classes]
+    shares: list[list[np.ndarray]] = [[] for _ in range(workers)]
+    load = np.zeros(workers)
+    small = []
+    for ids, cost in zip(classes, costs, strict=True):
+        if len(ids) >= workers * MIN_SPLIT_SATS:
+            for w in range(workers):
+                shares[w].append(ids[w::workers])
+                load[w] += cost / workers
+        else:
+            small.append((cost, ids))
+    for cost, ids in sorted(small, key=lambda x: -x[0]):
+        w = int(np.argmin(load))
+        shares[w].append(ids)
+        load[w] += cost
+    return [np.sort(np.concatenate(s)) if s else np.zeros(0, np.int64) for s in shares]
 
 
 def find_passes_batch(satrecs, names, stations, start: datetime, end: datetime,
@@ -1171,9 +1275,12 @@ def _forked_rows(satrecs, names, stations, blocks, min_el_deg, kwargs, workers: 
     global _FORKED
     import multiprocessing
 
-    ids = np.arange(len(satrecs))
-    n_tasks = workers * pieces
-    tasks = [(ids[w::n_tasks], a, b, kwargs) for a, b in blocks for w in range(n_tasks)]
+    shares = _worker_shares(_GridClasses.of(satrecs, kwargs["step_s"]), workers)
+    parts = [x for p in range(pieces) for share in shares if len(x := share[p::pieces])]
+    n_tasks = len(parts)
+    tasks = [(sub, a, b, kwargs) for a, b in blocks for sub in parts]
+    for a, _ in blocks:
+        geo.dut1_s(a)  # computed once here, inherited by the forked workers
     _FORKED = (list(satrecs), list(names), list(stations), min_el_deg)
     try:
         with multiprocessing.get_context("fork").Pool(workers) as pool:

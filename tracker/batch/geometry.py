@@ -8,6 +8,7 @@ against the geodetic normal, with no refraction.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -154,17 +155,20 @@ def sun_flags(r_teme_km, tau_s, jd0: float, fr0: float, theta_rad, frames: Stati
     return lit, sun_sin_elevation((sx, sy, sz), theta_rad, station_columns(frames.up, station))
 
 
-def orbit_bounds(satrec) -> tuple[float, float]:
-    """(apogee radius km, fastest orbital angular rate rad/s) from a Satrec's mean elements."""
-    n_rad_s = max(satrec.no_kozai, 1e-6) / 60.0
-    e = min(max(satrec.ecco, 0.0), 0.999)
+def orbit_bounds(satrecs) -> tuple[np.ndarray, np.ndarray]:
+    """(apogee radius km, fastest orbital angular rate rad/s) per Satrec, from the mean
+    elements."""
+    n_rad_s = np.maximum(np.array([sr.no_kozai for sr in satrecs], dtype=float), 1e-6) / 60.0
+    e = np.clip(np.array([sr.ecco for sr in satrecs], dtype=float), 0.0, 0.999)
     a_km = (MU_KM3_S2 / n_rad_s**2) ** (1.0 / 3.0)
     rate = n_rad_s * (1.0 + e) ** 2 / (1.0 - e * e) ** 1.5
     return a_km * (1.0 + e), rate
 
 
+@functools.lru_cache(maxsize=64)
 def dut1_s(start_utc) -> float:
-    """UT1 - UTC at ``start_utc`` from skyfield's bundled IERS table (changes ~ms per week)."""
+    """UT1 - UTC at ``start_utc`` from skyfield's bundled IERS table (changes ~ms per week).
+    Cached: building the time scale costs more than a small batch job."""
     from tracker.timescale import timescale
 
     value = float(timescale().from_datetime(start_utc).dut1)
