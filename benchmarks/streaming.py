@@ -22,7 +22,7 @@ simulated rotator (THE motor model, tracker.mount, G-5500 at 50 Hz rates), start
 Per deadband D, for the stream policy: lost-track seconds (error > 5 deg while up; all passes
 and the passes the planner calls followable), the share of passes whose max error is within
 D and within D + 0.25, max and p99 great-circle error over all visible time (sampled every
-0.25 s), motor starts per pass, and two clairvoyant references (benchmarks/clairvoyant.py):
+0.25 s), motor starts per pass, and two clairvoyant references (tracker/schedule.py):
 the per-axis lower bound (:func:`start_bound`: each axis alone within D, knowing the future,
 pre-position from park included) and a whole-pass joint schedule that keeps the great-circle
 error within D (:func:`joint_starts`). Beside it the two peers, each tuned to the stream
@@ -44,13 +44,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from clairvoyant import axis_schedule, joint_schedule
 from passsuite import pass_suite, sample_suite
 
 from tracker.aim import gpredict_aim
 from tracker.geometry import MountPath, pointing_error_deg
 from tracker.mount import AxisMotor, MotorModel, drive_axis, preset
 from tracker.planner import gpredict_plan, plan_pass
+from tracker.schedule import axis_schedule, plan_schedule
 from tracker.stream import StreamSettings, TrackCore, pass_window
 
 LOST_DEG = 5.0
@@ -76,14 +76,16 @@ class CycleMeter:
 
 
 def fly_stream(track, spec, station, deadband_deg: float, cycle_s: float = 0.5,
-               meter: CycleMeter | None = None):
+               meter: CycleMeter | None = None, planned: bool = True):
     """The live loop's decisions against a simulated rotator; returns (cmd_t, az, el), plan.
 
     With ``meter`` the core's per-cycle calls (and the status the live loop shows each cycle)
-    are timed in CPU time; the commands are the same either way."""
+    are timed in CPU time; the commands are the same either way. ``planned``: the
+    whole-pass schedule (StreamSettings.planned_schedule), else the aim policy alone."""
     plan = plan_pass(track, spec, station, current=(spec.park_az_deg, spec.park_el_deg))
     core = TrackCore(plan, track, spec, station,
-                     StreamSettings(deadband_deg=deadband_deg, cycle_s=cycle_s))
+                     StreamSettings(deadband_deg=deadband_deg, cycle_s=cycle_s,
+                                    planned_schedule=planned))
     t = min(core.preposition_t_s, float(track.t_s[0])) - cycle_s
     truth = MotorModel(spec, spec.park_az_deg, spec.park_el_deg, t)
     cmds = []
@@ -156,7 +158,7 @@ def axis_start_bound(t_s: np.ndarray, path_deg: np.ndarray, weight: np.ndarray, 
                      start_delay_s: float, bound_deg: float, cycle_s: float = 0.5,
                      start_deg: float | None = None) -> int | None:
     """Fewest motor starts one axis needs to keep ``weight * |antenna - path|`` within
-    ``bound_deg`` (None: it cannot), knowing the future (:func:`clairvoyant.axis_schedule`).
+    ``bound_deg`` (None: it cannot), knowing the future (:func:`tracker.schedule.axis_schedule`).
 
     An optimistic bound for the live loop: the other axis is assumed perfect (the
     great-circle error is at least each axis's share of it: elevation error, and azimuth
@@ -198,7 +200,7 @@ def start_bound(track, spec, station, bound_deg: float, from_park: bool = False)
 
 
 def joint_starts(track, spec, station, bound_deg: float) -> int | None:
-    """Motor starts of :func:`clairvoyant.joint_schedule` (great-circle error within
+    """Motor starts of :func:`tracker.schedule.plan_schedule` (great-circle error within
     ``bound_deg``) from park: each axis pre-positioned as :func:`start_bound` does, then the
     whole pass planned for both axes. None when no candidate keeps the bound."""
     axes = _pass_axes(track, spec, station)
@@ -210,8 +212,8 @@ def joint_starts(track, spec, station, bound_deg: float) -> int | None:
     if rest_az is None or rest_el is None:
         return None
     motor = MotorModel(spec, rest_az[0], rest_el[0], float(ts[0]))
-    found = joint_schedule(path, motor.az, motor.el, float(ts[0]), float(ts[-1]), bound_deg)
-    return None if found is None else rest_az[1] + rest_el[1] + found[0]
+    found = plan_schedule(path, motor.az, motor.el, float(ts[0]), float(ts[-1]), bound_deg)
+    return None if found is None else rest_az[1] + rest_el[1] + found.starts
 
 
 def measure(track, spec, station, cmds, t_start: float) -> dict:
@@ -341,7 +343,27 @@ class PeerTuner:
         return th, summarise(self.flown(th), self.followable, deadband_deg)
 
 
-def compare(suite, spec, deadbands: list[float], peers: bool = True, joint: bool = True) -> dict:
+EL_CLASSES_DEG = ((0.0, 10.0), (10.0, 45.0), (45.0, 90.1))
+
+
+def _by_elevation(suite, ours: np.ndarray, bounds: list, joint: list) -> list[tuple]:
+    """Per max-elevation class: (lo, hi, passes, our starts over the bound, the joint
+    schedule's over the bound), on the passes where both references exist (nan: none)."""
+    max_el = np.array([sp.meta["max_el_deg"] for sp in suite])
+    b = np.array([np.nan if x is None else x for x in bounds], dtype=float)
+    j = np.array([np.nan if x is None else x for x in joint], dtype=float)
+    out = []
+    for lo, hi in EL_CLASSES_DEG:
+        sel = (max_el >= lo) & (max_el < hi) & np.isfinite(b) & (b > 0)
+        both = sel & np.isfinite(j)
+        out.append((lo, hi, int(sel.sum()),
+                    float(ours[sel].sum() / b[sel].sum()) if sel.any() else float("nan"),
+                    float(j[both].sum() / b[both].sum()) if both.any() else float("nan")))
+    return out
+
+
+def compare(suite, spec, deadbands: list[float], peers: bool = True, joint: bool = True,
+            aim_only: bool = False) -> dict:
     """Fly every pass of ``suite`` with the stream policy at each deadband; per deadband the
     clairvoyant bound and (``joint``) the joint schedule's starts, and (``peers``) each peer policy
     tuned to the stream policy's p99 error. Returns a result per deadband plus the lossy
@@ -349,6 +371,8 @@ def compare(suite, spec, deadbands: list[float], peers: bool = True, joint: bool
     whether :func:`start_bound` finds each axis able to keep within the lost-track limit)."""
     rows: dict[float, list] = {d: [] for d in deadbands}
     cpu = dict.fromkeys(deadbands, 0.0)
+    aim_rows: dict[float, list] = {d: [] for d in deadbands}
+    aim_cpu = dict.fromkeys(deadbands, 0.0)
     followable, t_starts, lossy = [], [], []
     for sp in suite:
         tr, st = sp.track, sp.station
@@ -358,6 +382,11 @@ def compare(suite, spec, deadbands: list[float], peers: bool = True, joint: bool
             t_start = min(plan.preposition_t_s, float(tr.t_s[0])) - 0.5
             rows[d].append(measure(tr, spec, st, cmds, t_start))
             cpu[d] += time.process_time() - c0
+            if aim_only:
+                c0 = time.process_time()
+                acmds, _plan, _t = fly_stream(tr, spec, st, d, planned=False)
+                aim_rows[d].append(measure(tr, spec, st, acmds, t_start))
+                aim_cpu[d] += time.process_time() - c0
             if rows[d][-1]["lost_s"] > 0:
                 lossy.append((f"stream D={d:g}", sp.meta["target"], sp.meta["station"],
                               sp.meta["max_el_deg"], rows[d][-1]["lost_s"],
@@ -379,15 +408,20 @@ def compare(suite, spec, deadbands: list[float], peers: bool = True, joint: bool
         r["stream_feasible_pp"] = float(np.mean(r["per_pass_starts"][feasible])) if any(
             feasible) else float("nan")
         r["bound_passes"] = int(feasible.sum())
-        if joint:
-            refs = [joint_starts(sp.track, spec, sp.station, d) for sp in suite]
-            ok = np.array([x is not None for x in refs]) & feasible
-            r["joint_pp"] = float(np.mean([x for x, f in zip(refs, ok, strict=True) if f])) \
-                if ok.any() else float("nan")
-            r["stream_joint_pp"] = float(np.mean(r["per_pass_starts"][ok])) if ok.any() \
-                else float("nan")
-        else:
-            r["joint_pp"] = r["stream_joint_pp"] = float("nan")
+        refs = [joint_starts(sp.track, spec, sp.station, d) if joint else None
+                for sp in suite]
+        ok = np.array([x is not None for x in refs]) & feasible
+        r["joint_pp"] = float(np.mean([x for x, f in zip(refs, ok, strict=True) if f])) \
+            if ok.any() else float("nan")
+        r["stream_joint_pp"] = float(np.mean(r["per_pass_starts"][ok])) if ok.any() \
+            else float("nan")
+        r["by_el"] = _by_elevation(suite, r["per_pass_starts"], bounds, refs)
+        if aim_only:
+            a = summarise(aim_rows[d], followable, d)
+            a["cpu_s"] = aim_cpu[d]
+            a["x_bound"] = float(np.mean(a["per_pass_starts"][feasible])) / r["bound_pp"] \
+                if any(feasible) else float("nan")
+            r["aim_only"] = a
         r["peers"] = {name: tu.tuned(r["p99"], d) for name, tu in tuners.items()}
         out["deadbands"][d] = r
     out["peer_cpu"] = {name: tu.cpu_s for name, tu in tuners.items()}
@@ -399,7 +433,8 @@ def print_results(res: dict, n_passes: int) -> None:
     followable = res["followable"]
     print(f"\npasses: {n_passes}; followable (planner predicts no loss): "
           f"{int(followable.sum())}")
-    print("\nstream policy (tracker.stream.TrackCore + tracker.aim), per deadband:")
+    print("\nstream policy (tracker.stream.TrackCore: the whole-pass schedule, the aim policy "
+          "as fallback), per deadband:")
     print(f"{'D deg':>6}{'lost s':>8}{'lost fol.':>10}{'in D %':>8}{'in D+.25%':>10}"
           f"{'max':>7}{'p99':>7}{'starts/pass':>12}{'bound':>7}{'x bound':>8}"
           f"{'joint':>7}{'x joint':>8}{'cpu s':>7}")
@@ -412,8 +447,22 @@ def print_results(res: dict, n_passes: int) -> None:
     print("bound: fewest starts per pass (pre-position from park included) with each axis "
           "alone within D, knowing the future (start_bound; passes where it is feasible); "
           "joint: a whole-pass schedule knowing the future that keeps the great-circle error "
-          "within D (benchmarks/clairvoyant.py; a schedule that exists, not a bound); "
+          "within D (tracker.schedule; a schedule that exists, not a bound); "
           "x: our starts on the same passes over it")
+    if any("aim_only" in r for r in res["deadbands"].values()):
+        print("the aim policy alone (StreamSettings(planned_schedule=False)), same run:")
+        for d, r in res["deadbands"].items():
+            a = r["aim_only"]
+            print(f"{d:>6g}{a['lost_s']:>8.1f}{a['lost_followable_s']:>10.1f}"
+                  f"{100 * a['in_db']:>8.1f}{100 * a['in_db25']:>10.1f}{a['max']:>7.2f}"
+                  f"{a['p99']:>7.2f}{a['starts_pp']:>12.1f}{r['bound_pp']:>7.1f}"
+                  f"{a['x_bound']:>8.2f}{'':>15}{a['cpu_s']:>7.1f}   "
+                  f"schedule/aim starts {r['starts_pp'] / a['starts_pp']:.3f}")
+    print("starts over the bound by max elevation (ours | the joint schedule's):")
+    for d, r in res["deadbands"].items():
+        print(f"  D={d:g}: " + "; ".join(
+            f"{lo:g}-{min(hi, 90):g} deg ({n}): {mine:.2f} | {ref:.2f}"
+            for lo, hi, n, mine, ref in r["by_el"]))
     peers = [n for n in PEERS if any(n in r["peers"] for r in res["deadbands"].values())]
     if peers:
         print("\npeer policies tuned to the stream policy's p99 error (largest threshold "
@@ -464,6 +513,8 @@ def main(argv=None) -> int:
                     help="fly only this many passes spread evenly over the suite (0 = all)")
     ap.add_argument("--no-peers", action="store_true",
                     help="skip the peer policies (Gpredict-style, SatNOGS-style)")
+    ap.add_argument("--aim-only", action="store_true",
+                    help="also fly the aim policy alone (no whole-pass schedule): the ratio")
     ap.add_argument("--no-joint", action="store_true",
                     help="skip the clairvoyant joint schedule (the costliest reference)")
     args = ap.parse_args(argv)
@@ -483,7 +534,7 @@ def main(argv=None) -> int:
           f"{time.perf_counter() - t0:.1f} s")
     c0, w0 = time.process_time(), time.perf_counter()
     res = compare(suite, spec, args.deadband, peers=not args.no_peers,
-                  joint=not args.no_joint)
+                  joint=not args.no_joint, aim_only=args.aim_only)
     print_results(res, len(suite))
     print(f"took {time.perf_counter() - w0:.0f} s wall, {time.process_time() - c0:.0f} s CPU")
     return 0

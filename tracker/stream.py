@@ -46,9 +46,13 @@ from tracker.geometry import (
     raise_to_mask,
 )
 from tracker.mount import MotorModel, RotatorSpec
+from tracker.schedule import PassSchedule, plan_schedule
 from tracker.skytrack import SkyTrack, angle_between_deg, interp1_rows
 from tracker.stall import AxisWatch, moving_axis, stall_error
 from tracker.station import Station
+
+# What TrackCore._planned answers when the aim policy, not the schedule, decides.
+_AIM = object()
 
 
 class Phase(str, Enum):
@@ -86,6 +90,9 @@ class StreamSettings:
     # rarely helps and costs a second or more, so only a longer run of them counts.
     garbled_before_lost: int = 10
     aim_step_s: float = 0.5
+    # Plan the pass's moves before AOS knowing the whole pass (tracker.schedule) and follow
+    # them while the read-back agrees; False: the aim policy decides every move.
+    planned_schedule: bool = True
     park_timeout_s: float = 180.0
 
 
@@ -224,6 +231,10 @@ class TrackCore:
         self._az_command_t_s = -math.inf        # when the azimuth was last told a new target
         self._resend_due = False
         self._inconsistent_since_s: float | None = None
+        # The whole-pass schedule (tracker.schedule), planned on the first settled cycle.
+        self._schedule: PassSchedule | None = None
+        self._schedule_i = 0
+        self._schedule_tried = not (self.settings.planned_schedule and spec.has_elevation)
 
     # Read-back ---------------------------------------------------------------------------
 
@@ -462,6 +473,10 @@ class TrackCore:
             settled = self._phase_commanded is Phase.TRACK or (
                 self._phase_commanded is Phase.PREPOSITION
                 and self._move_i >= len(self.pre_moves))
+            if settled:
+                planned = self._planned(t_s, lookahead)
+                if planned is not _AIM:
+                    return planned
             if settled and not needs_command(self.path, self.motor.az, self.motor.el, t_s,
                                              level, lookahead):
                 return None
@@ -482,6 +497,57 @@ class TrackCore:
                     cmd.el_deg is None or abs(cmd.el_deg - last.el_deg) < 1e-9):
                 return None
         return cmd
+
+    def _planned(self, t_s: float, lookahead_s: float) -> Command | object | None:
+        """The whole-pass schedule's move due now, None to hold, or ``_AIM`` when the aim
+        policy decides: no schedule (not wanted, none keeps the band, a motor was moving
+        when it would have been planned), or the schedule was dropped because the belief
+        (the read-back's) left it, a move came late or a guard changed one. Planned once a
+        pass, on the first settled cycle with both motors at rest (just before AOS); once
+        dropped the aim policy decides the rest of the pass."""
+        if self._schedule is None:
+            if self._schedule_tried or self.motor.moving(t_s):
+                return _AIM
+            self._schedule_tried = True
+            self._schedule = self._plan_schedule(t_s, lookahead_s)
+            self._schedule_i = 0
+            if self._schedule is None:
+                return _AIM
+        sch = self._schedule
+        res = self.spec.resolution_deg
+        az, el = self.motor.position(t_s)
+        want_az, want_el = sch.expected(t_s)
+        if t_s > sch.end_s or abs(az - want_az) > 1.5 * res or abs(el - want_el) > 1.5 * res:
+            self._schedule = None
+            return _AIM
+        # A move goes out on the cycle nearest its planned instant (a real clock's cycles
+        # drift off the planned ones): up to half a cycle early or late.
+        half = 0.5 * self.settings.cycle_s
+        i = self._schedule_i
+        if i >= len(sch.t_s) or sch.t_s[i] > t_s + half + 1e-6:
+            return None
+        self._schedule_i = i + 1
+        cmd = self._safe(sch.az_m_deg[i], sch.el_deg[i], "track")
+        if t_s - sch.t_s[i] > half + 1e-6 or cmd.clamped:
+            self._schedule = None
+            return _AIM
+        return cmd
+
+    def _plan_schedule(self, t_s: float, lookahead_s: float) -> PassSchedule | None:
+        """:func:`~tracker.schedule.plan_schedule` from now to LOS or to where the path
+        turns fast (there the loop follows the plan's own commands)."""
+        if self.motor is None or self.motor.el is None:
+            return None
+        cycle = self.settings.cycle_s
+        end_s = self.los_s
+        t = t_s
+        while t <= end_s:
+            if self._fast(t, lookahead_s):
+                end_s = t - cycle
+                break
+            t += cycle
+        return plan_schedule(self.path, self.motor.az, self.motor.el, t_s, end_s,
+                             self._band(), cycle)
 
     def _band(self) -> float:
         s = self.settings
@@ -613,6 +679,7 @@ class TrackCore:
     def _interrupt(self) -> None:
         """The commanded motion was cut (reconnect, all-stop): the current phase's move is
         sent again. Called repeatedly while the port is gone: only the first call records."""
+        self._schedule = None     # the motion it planned from was cut: the aim policy goes on
         if self._phase_commanded is not None:
             seq = self._phase_commanded in (Phase.PREPOSITION, Phase.PARK)
             self._resume = (self._phase_commanded, max(self._move_i - 1, 0)) if seq else None

@@ -1,30 +1,28 @@
-"""Clairvoyant references for the streaming benchmark: what a policy that knows the whole
-pass in advance needs, in motor starts, to keep the pointing error within a deadband.
+"""A whole-pass command schedule for the live loop, planned before AOS (numpy, no I/O).
 
-* :func:`axis_schedule`: one axis alone, greedily with full knowledge of the future: hold
-  until the error would leave the budget, command as late as the loop's cycle allows, to the
-  integer target held longest. Its command count is the per-axis *lower bound* of
-  benchmarks/streaming.py (``start_bound``: each axis alone within the deadband, the other
-  assumed perfect).
-* :func:`joint_schedule`: a whole-pass schedule for both axes that keeps the *great-circle*
-  error within the deadband, the measure the policies are judged by. The great-circle error
-  is close to ``sqrt(e_az^2 + e_el^2)`` (``e_az`` = azimuth error times cos el), so the axes
-  share the deadband: the axis planned first gets a fixed share of it, the second at every
-  instant what the first leaves, then each is re-planned within what the other now leaves.
-  Both orders and a few shares are tried; every candidate is driven through THE motor model
-  (:func:`tracker.mount.drive_axis`) and checked against the real target; the fewest starts
-  win. Not a lower bound: a schedule that exists, so a policy's starts can be judged against
-  one at the same accuracy.
+The aim policy (:mod:`tracker.aim`) decides one move at a time. The pass is known in advance,
+so the moves can be planned over the whole pass instead, knowing the future:
 
-Why the two differ: an axis that uses the whole deadband leaves none to the other at that
-instant, so whenever both axes move, the great-circle error forbids what the per-axis bound
-assumes (with az moving and el nearly still, every az peak needs el on its aim point).
+* :func:`axis_schedule`: one axis, greedily: hold until its error would leave its budget,
+  command as late as the loop's cycle allows, to the integer target held longest.
+* :func:`plan_schedule`: both axes, keeping the *great-circle* error within the deadband.
+  That error is close to ``sqrt(e_az^2 + e_el^2)`` (``e_az`` = azimuth error times cos el),
+  so the axes share the deadband: the axis planned first gets a fixed share of it, the
+  second at every instant what the first leaves, then each is re-planned within what the
+  other now leaves. Both orders and a few shares are tried; every candidate is driven
+  through THE motor model (:func:`tracker.mount.drive_axis`) and checked against the real
+  target; the fewest motor starts win.
+
+:class:`tracker.stream.TrackCore` follows a :class:`PassSchedule` while the read-back agrees
+with it, and hands the rest of the pass to the aim policy when it does not. The streaming
+benchmark uses the same functions for its clairvoyant references (benchmarks/streaming.py).
 """
 
 from __future__ import annotations
 
 import copy
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -37,6 +35,29 @@ SHARES = (0.3, 0.5, 0.7, 0.9)
 _REACH_DEG = 12
 # How far ahead a hold is looked for (later samples are planned by later commands).
 _HOLD_HORIZON_S = 300.0
+
+
+@dataclass(frozen=True)
+class PassSchedule:
+    """Planned commands: at ``t_s[i]`` send ``az_m_deg[i]`` / ``el_deg[i]`` (mechanical;
+    an axis not meant to move keeps its previous target). ``starts`` and
+    ``peak_error_deg`` are what the motor model predicts up to ``end_s``, after which the
+    schedule has nothing to say; ``expected`` is where it puts the antenna."""
+
+    t_s: tuple[float, ...]
+    az_m_deg: tuple[float, ...]
+    el_deg: tuple[float, ...]
+    starts: int
+    peak_error_deg: float
+    end_s: float
+    sample_t_s: np.ndarray
+    az_pos_deg: np.ndarray
+    el_pos_deg: np.ndarray
+
+    def expected(self, t_s: float) -> tuple[float, float]:
+        """Where the schedule puts the antenna at ``t_s`` (mechanical az, el)."""
+        return (float(np.interp(t_s, self.sample_t_s, self.az_pos_deg)),
+                float(np.interp(t_s, self.sample_t_s, self.el_pos_deg)))
 
 
 def axis_schedule(t_s: np.ndarray, path_deg: np.ndarray, weight: np.ndarray,
@@ -78,11 +99,11 @@ def axis_schedule(t_s: np.ndarray, path_deg: np.ndarray, weight: np.ndarray,
                 break
         if best is None:
             return None
-        k, p, leave, arrive = best
+        k, p, left_at, arrive_s = best
         out.append((k, p))
-        if leave >= n:
+        if left_at >= n:
             return out
-        i = min(max(math.ceil((arrive - float(t_s[0])) / dt - 1e-9), k + 1), n - 1)
+        i = min(max(math.ceil((arrive_s - float(t_s[0])) / dt - 1e-9), k + 1), n - 1)
 
 
 def _drive(commands: list[tuple[int, float]], t_s: np.ndarray, axis: AxisMotor
@@ -95,16 +116,19 @@ def _drive(commands: list[tuple[int, float]], t_s: np.ndarray, axis: AxisMotor
 
 
 class _Joint:
-    """The two axes of one pass on a common time grid, for :func:`joint_schedule`."""
+    """The two axes of one pass on a common time grid, for :func:`plan_schedule`."""
 
     def __init__(self, path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor,
                  ts: np.ndarray, band_deg: float):
         self.path, self.ts, self.band_deg = path, ts, band_deg
-        az_path, el_path = path.mount_at(ts)
-        self.axes = {"az": (az_path, np.abs(np.cos(np.radians(el_path))), az_axis),
+        az_path, el_opt = path.mount_at(ts)
+        el_path = np.zeros_like(ts) if el_opt is None else el_opt
+        self.axes: dict[str, tuple[np.ndarray, np.ndarray, AxisMotor]] = {
+            "az": (az_path, np.abs(np.cos(np.radians(el_path))), az_axis),
                      "el": (el_path, np.ones_like(ts), el_axis)}
 
-    def plan(self, name: str, budget) -> tuple[list, np.ndarray, int] | None:
+    def plan(self, name: str, budget: np.ndarray | float
+             ) -> tuple[list[tuple[int, float]], np.ndarray, int] | None:
         """(commands, positions, starts) of one axis within ``budget``."""
         path_deg, w, axis = self.axes[name]
         cmds = axis_schedule(self.ts, path_deg, w, axis.rate_deg_s, axis.start_delay_s,
@@ -123,12 +147,13 @@ class _Joint:
         peak = float(np.max(self.path.error_deg(self.ts, found["az"][1], found["el"][1])))
         return peak if peak <= self.band_deg + 1e-6 else None
 
-    def candidate(self, first: str, second: str, share: float) -> tuple[int, float] | None:
-        """(starts, peak): ``first`` within ``share`` of the band, ``second`` within what it
+    def candidate(self, first: str, second: str, share: float
+                  ) -> tuple[int, float, dict] | None:
+        """(starts, peak, plans): ``first`` within ``share`` of the band, ``second`` within what it
         leaves, then each re-planned within what the other now leaves (kept if verified)."""
         a = self.plan(first, share * self.band_deg)
-        b = a and self.plan(second, self.left(first, a[1]))
-        if not b:
+        b = None if a is None else self.plan(second, self.left(first, a[1]))
+        if a is None or b is None:
             return None
         found = {first: a, second: b}
         peak = self.verified(found)
@@ -141,19 +166,37 @@ class _Joint:
                 p = self.verified(trial)
                 if p is not None:
                     found, peak = trial, p
-        return found["az"][2] + found["el"][2], peak
+        return found["az"][2] + found["el"][2], peak, found
 
 
-def joint_schedule(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor, t0_s: float,
-                   end_s: float, band_deg: float, cycle_s: float = 0.5,
-                   shares: tuple[float, ...] = SHARES) -> tuple[int, float] | None:
-    """``(motor starts, peak great-circle error)`` of the best whole-pass schedule from
-    ``t0_s`` (both axes at rest) to ``end_s`` within ``band_deg`` (module doc), or None."""
+def plan_schedule(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor, t0_s: float,
+                  end_s: float, band_deg: float, cycle_s: float = 0.5,
+                  shares: tuple[float, ...] = SHARES) -> PassSchedule | None:
+    """The schedule with the fewest motor starts from ``t0_s`` (a cycle instant, both axes
+    at rest, the antenna within the band) to ``end_s`` that keeps the great-circle error
+    within ``band_deg`` (module doc), or None when no candidate keeps it."""
     ts = np.arange(t0_s, min(end_s, path.end_s) + 1e-9, cycle_s / 2.0)
-    if len(ts) < 4:
-        return 0, 0.0
+    if len(ts) < 4 or az_axis.moving(t0_s) or el_axis.moving(t0_s):
+        return None
     joint = _Joint(path, az_axis, el_axis, ts, band_deg)
     found = [joint.candidate(first, second, share)
              for first, second in (("az", "el"), ("el", "az")) for share in shares]
-    found = [f for f in found if f is not None]
-    return min(found) if found else None
+    ranked = sorted((f for f in found if f is not None), key=lambda f: f[:2])
+    if not ranked:
+        return None
+    starts, peak, plans = ranked[0]
+    due: dict[int, list[float | None]] = {}
+    for i, name in enumerate(("az", "el")):
+        for k, q in plans[name][0]:
+            due.setdefault(k, [None, None])[i] = q
+    az_t, el_t = float(az_axis.target_deg), float(el_axis.target_deg)
+    t_out, az_out, el_out = [], [], []
+    for k in sorted(due):
+        a, e = due[k]
+        az_t = az_t if a is None else a
+        el_t = el_t if e is None else e
+        t_out.append(float(ts[k]))
+        az_out.append(az_t)
+        el_out.append(el_t)
+    return PassSchedule(tuple(t_out), tuple(az_out), tuple(el_out), starts, peak,
+                        float(ts[-1]), ts, plans["az"][1], plans["el"][1])
