@@ -23,11 +23,13 @@ from __future__ import annotations
 import copy
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from tracker.geometry import MountPath
 from tracker.mount import AxisMotor, drive_axis
+from tracker.skytrack import interp1
 
 # Shares of the deadband tried for the axis planned first.
 SHARES = (0.3, 0.5, 0.7, 0.9)
@@ -54,10 +56,15 @@ class PassSchedule:
     az_pos_deg: np.ndarray
     el_pos_deg: np.ndarray
 
+    @cached_property
+    def _columns(self) -> tuple[list[float], list[float], list[float]]:
+        return self.sample_t_s.tolist(), self.az_pos_deg.tolist(), self.el_pos_deg.tolist()
+
     def expected(self, t_s: float) -> tuple[float, float]:
-        """Where the schedule puts the antenna at ``t_s`` (mechanical az, el)."""
-        return (float(np.interp(t_s, self.sample_t_s, self.az_pos_deg)),
-                float(np.interp(t_s, self.sample_t_s, self.el_pos_deg)))
+        """Where the schedule puts the antenna at ``t_s`` (mechanical az, el); asked once a
+        cycle, so on floats (:func:`~tracker.skytrack.interp1`)."""
+        t, az, el = self._columns
+        return interp1(t_s, t, az), interp1(t_s, t, el)
 
 
 def axis_schedule(t_s: np.ndarray, path_deg: np.ndarray, weight: np.ndarray,
