@@ -76,12 +76,12 @@ class CycleMeter:
 
 
 def fly_stream(track, spec, station, deadband_deg: float, cycle_s: float = 0.5,
-               meter: CycleMeter | None = None, planned: bool = True):
+               meter: CycleMeter | None = None, planned: bool = False):
     """The live loop's decisions against a simulated rotator; returns (cmd_t, az, el), plan.
 
     With ``meter`` the core's per-cycle calls (and the status the live loop shows each cycle)
-    are timed in CPU time; the commands are the same either way. ``planned``: the
-    whole-pass schedule (StreamSettings.planned_schedule), else the aim policy alone."""
+    are timed in CPU time; the commands are the same either way. ``planned``: with the
+    whole-pass schedule (StreamSettings.planned_schedule), else as ``tracker track`` runs."""
     plan = plan_pass(track, spec, station, current=(spec.park_az_deg, spec.park_el_deg))
     core = TrackCore(plan, track, spec, station,
                      StreamSettings(deadband_deg=deadband_deg, cycle_s=cycle_s,
@@ -363,7 +363,7 @@ def _by_elevation(suite, ours: np.ndarray, bounds: list, joint: list) -> list[tu
 
 
 def compare(suite, spec, deadbands: list[float], peers: bool = True, joint: bool = True,
-            aim_only: bool = False) -> dict:
+            schedule: bool = False) -> dict:
     """Fly every pass of ``suite`` with the stream policy at each deadband; per deadband the
     clairvoyant bound and (``joint``) the joint schedule's starts, and (``peers``) each peer policy
     tuned to the stream policy's p99 error. Returns a result per deadband plus the lossy
@@ -371,8 +371,8 @@ def compare(suite, spec, deadbands: list[float], peers: bool = True, joint: bool
     whether :func:`start_bound` finds each axis able to keep within the lost-track limit)."""
     rows: dict[float, list] = {d: [] for d in deadbands}
     cpu = dict.fromkeys(deadbands, 0.0)
-    aim_rows: dict[float, list] = {d: [] for d in deadbands}
-    aim_cpu = dict.fromkeys(deadbands, 0.0)
+    sched_rows: dict[float, list] = {d: [] for d in deadbands}
+    sched_cpu = dict.fromkeys(deadbands, 0.0)
     followable, t_starts, lossy = [], [], []
     for sp in suite:
         tr, st = sp.track, sp.station
@@ -382,11 +382,11 @@ def compare(suite, spec, deadbands: list[float], peers: bool = True, joint: bool
             t_start = min(plan.preposition_t_s, float(tr.t_s[0])) - 0.5
             rows[d].append(measure(tr, spec, st, cmds, t_start))
             cpu[d] += time.process_time() - c0
-            if aim_only:
+            if schedule:
                 c0 = time.process_time()
-                acmds, _plan, _t = fly_stream(tr, spec, st, d, planned=False)
-                aim_rows[d].append(measure(tr, spec, st, acmds, t_start))
-                aim_cpu[d] += time.process_time() - c0
+                acmds, _plan, _t = fly_stream(tr, spec, st, d, planned=True)
+                sched_rows[d].append(measure(tr, spec, st, acmds, t_start))
+                sched_cpu[d] += time.process_time() - c0
             if rows[d][-1]["lost_s"] > 0:
                 lossy.append((f"stream D={d:g}", sp.meta["target"], sp.meta["station"],
                               sp.meta["max_el_deg"], rows[d][-1]["lost_s"],
@@ -416,12 +416,12 @@ def compare(suite, spec, deadbands: list[float], peers: bool = True, joint: bool
         r["stream_joint_pp"] = float(np.mean(r["per_pass_starts"][ok])) if ok.any() \
             else float("nan")
         r["by_el"] = _by_elevation(suite, r["per_pass_starts"], bounds, refs)
-        if aim_only:
-            a = summarise(aim_rows[d], followable, d)
-            a["cpu_s"] = aim_cpu[d]
+        if schedule:
+            a = summarise(sched_rows[d], followable, d)
+            a["cpu_s"] = sched_cpu[d]
             a["x_bound"] = float(np.mean(a["per_pass_starts"][feasible])) / r["bound_pp"] \
                 if any(feasible) else float("nan")
-            r["aim_only"] = a
+            r["schedule"] = a
         r["peers"] = {name: tu.tuned(r["p99"], d) for name, tu in tuners.items()}
         out["deadbands"][d] = r
     out["peer_cpu"] = {name: tu.cpu_s for name, tu in tuners.items()}
@@ -433,8 +433,8 @@ def print_results(res: dict, n_passes: int) -> None:
     followable = res["followable"]
     print(f"\npasses: {n_passes}; followable (planner predicts no loss): "
           f"{int(followable.sum())}")
-    print("\nstream policy (tracker.stream.TrackCore: the whole-pass schedule, the aim policy "
-          "as fallback), per deadband:")
+    print("\nstream policy (tracker.stream.TrackCore + tracker.aim, as tracker track runs it), "
+          "per deadband:")
     print(f"{'D deg':>6}{'lost s':>8}{'lost fol.':>10}{'in D %':>8}{'in D+.25%':>10}"
           f"{'max':>7}{'p99':>7}{'starts/pass':>12}{'bound':>7}{'x bound':>8}"
           f"{'joint':>7}{'x joint':>8}{'cpu s':>7}")
@@ -449,15 +449,15 @@ def print_results(res: dict, n_passes: int) -> None:
           "joint: a whole-pass schedule knowing the future that keeps the great-circle error "
           "within D (tracker.schedule; a schedule that exists, not a bound); "
           "x: our starts on the same passes over it")
-    if any("aim_only" in r for r in res["deadbands"].values()):
-        print("the aim policy alone (StreamSettings(planned_schedule=False)), same run:")
+    if any("schedule" in r for r in res["deadbands"].values()):
+        print("with the whole-pass schedule (StreamSettings(planned_schedule=True)), same run:")
         for d, r in res["deadbands"].items():
-            a = r["aim_only"]
+            a = r["schedule"]
             print(f"{d:>6g}{a['lost_s']:>8.1f}{a['lost_followable_s']:>10.1f}"
                   f"{100 * a['in_db']:>8.1f}{100 * a['in_db25']:>10.1f}{a['max']:>7.2f}"
                   f"{a['p99']:>7.2f}{a['starts_pp']:>12.1f}{r['bound_pp']:>7.1f}"
                   f"{a['x_bound']:>8.2f}{'':>15}{a['cpu_s']:>7.1f}   "
-                  f"schedule/aim starts {r['starts_pp'] / a['starts_pp']:.3f}")
+                  f"starts with/without {a['starts_pp'] / r['starts_pp']:.3f}")
     print("starts over the bound by max elevation (ours | the joint schedule's):")
     for d, r in res["deadbands"].items():
         print(f"  D={d:g}: " + "; ".join(
@@ -513,8 +513,8 @@ def main(argv=None) -> int:
                     help="fly only this many passes spread evenly over the suite (0 = all)")
     ap.add_argument("--no-peers", action="store_true",
                     help="skip the peer policies (Gpredict-style, SatNOGS-style)")
-    ap.add_argument("--aim-only", action="store_true",
-                    help="also fly the aim policy alone (no whole-pass schedule): the ratio")
+    ap.add_argument("--schedule", action="store_true",
+                    help="also fly the live loop with the whole-pass schedule: the ratio")
     ap.add_argument("--no-joint", action="store_true",
                     help="skip the clairvoyant joint schedule (the costliest reference)")
     args = ap.parse_args(argv)
@@ -534,7 +534,7 @@ def main(argv=None) -> int:
           f"{time.perf_counter() - t0:.1f} s")
     c0, w0 = time.process_time(), time.perf_counter()
     res = compare(suite, spec, args.deadband, peers=not args.no_peers,
-                  joint=not args.no_joint, aim_only=args.aim_only)
+                  joint=not args.no_joint, schedule=args.schedule)
     print_results(res, len(suite))
     print(f"took {time.perf_counter() - w0:.0f} s wall, {time.process_time() - c0:.0f} s CPU")
     return 0

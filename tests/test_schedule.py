@@ -16,6 +16,7 @@ from tracker.schedule import axis_schedule, plan_schedule
 from tracker.stream import Phase, StreamSettings
 
 SPEC = preset("G-5500", 50)
+PLANNED = StreamSettings(deadband_deg=3.0, planned_schedule=True)
 
 
 def _rest_on_path(path: MountPath, t_s: float) -> MotorModel:
@@ -99,7 +100,7 @@ def _sent(rig) -> list[tuple[float, float, float]]:
 
 
 def test_the_live_loop_sends_the_planned_schedule_and_nothing_else(spies):
-    rig = Rig(track=arc_pass(duration_s=400, max_el_deg=30.0, pad_s=30))
+    rig = Rig(track=arc_pass(duration_s=400, max_el_deg=30.0, pad_s=30), settings=PLANNED)
     res = rig.run()
     assert res.completed and rig.core.phase is Phase.DONE
     (sch,) = spies["schedules"]
@@ -122,7 +123,8 @@ def test_readback_off_the_schedule_hands_the_rest_of_the_pass_to_the_aim_policy(
         az, el = rig.fake.model.position(t)
         rig.fake.model.command(az + 6.0, el, t)
 
-    rig = Rig(track=arc_pass(duration_s=400, max_el_deg=30.0, pad_s=30), faults={150: shove})
+    rig = Rig(track=arc_pass(duration_s=400, max_el_deg=30.0, pad_s=30), faults={150: shove},
+              settings=PLANNED)
     res = rig.run()
     assert res.completed
     (sch,) = spies["schedules"]
@@ -139,9 +141,18 @@ def test_readback_off_the_schedule_hands_the_rest_of_the_pass_to_the_aim_policy(
     assert max(late) <= 3.0 + 1.0                        # and brought it back in
 
 
-def test_without_the_schedule_the_aim_policy_decides_every_move(spies):
-    rig = Rig(track=arc_pass(duration_s=400, max_el_deg=30.0, pad_s=30),
-              settings=StreamSettings(deadband_deg=3.0, planned_schedule=False))
+def test_by_default_the_aim_policy_decides_every_move(spies):
+    rig = Rig(track=arc_pass(duration_s=400, max_el_deg=30.0, pad_s=30))
+    assert not rig.settings.planned_schedule
+    assert rig.run().completed
+    assert spies["schedules"] == [] and spies["aims"]
+    assert track_errors(rig).max() <= 3.0 + 1.0
+
+
+def test_a_high_pass_is_left_to_the_aim_policy(spies):
+    # Above 45 deg the axes' split of the deadband (e_az * cos el, e_el) no longer holds
+    # within a deadband; the aim policy measured fewer starts there.
+    rig = Rig(track=arc_pass(duration_s=400, max_el_deg=70.0, pad_s=30), settings=PLANNED)
     assert rig.run().completed
     assert spies["schedules"] == [] and spies["aims"]
     assert track_errors(rig).max() <= 3.0 + 1.0

@@ -13,8 +13,9 @@ so the moves can be planned over the whole pass instead, knowing the future:
   through THE motor model (:func:`tracker.mount.drive_axis`) and checked against the real
   target; the fewest motor starts win.
 
-:class:`tracker.stream.TrackCore` follows a :class:`PassSchedule` while the read-back agrees
-with it, and hands the rest of the pass to the aim policy when it does not. The streaming
+With ``StreamSettings.planned_schedule``, :class:`tracker.stream.TrackCore` follows a
+:class:`PassSchedule` while the read-back agrees with it, and hands the rest of the pass to
+the aim policy when it does not. The streaming
 benchmark uses the same functions for its clairvoyant references (benchmarks/streaming.py).
 """
 

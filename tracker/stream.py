@@ -53,6 +53,9 @@ from tracker.station import Station
 
 # What TrackCore._planned answers when the aim policy, not the schedule, decides.
 _AIM = object()
+# The whole-pass schedule is planned for passes whose mount elevation stays within 45 deg of
+# the horizon (either side of the zenith on a flip path).
+SCHEDULE_MAX_SIN_EL = math.sin(math.radians(45.0))
 
 
 class Phase(str, Enum):
@@ -91,8 +94,9 @@ class StreamSettings:
     garbled_before_lost: int = 10
     aim_step_s: float = 0.5
     # Plan the pass's moves before AOS knowing the whole pass (tracker.schedule) and follow
-    # them while the read-back agrees; False: the aim policy decides every move.
-    planned_schedule: bool = True
+    # them while the read-back agrees. Off by default: on the benchmark's passes it saved
+    # no motor starts over the aim policy (within +-3 %, benchmarks/streaming.py --schedule).
+    planned_schedule: bool = False
     park_timeout_s: float = 180.0
 
 
@@ -546,6 +550,12 @@ class TrackCore:
                 end_s = t - cycle
                 break
             t += cycle
+        # The axes share the deadband as e_az * cos(el) and e_el: a split that holds while
+        # cos(el) changes little within the deadband. Higher up it does not, and there the
+        # aim policy measured fewer starts (benchmarks/streaming.py, by max elevation).
+        _az, el = self.path.mount_at(np.arange(t_s, end_s + cycle, cycle))
+        if el is None or np.max(np.abs(np.sin(np.radians(el)))) > SCHEDULE_MAX_SIN_EL:
+            return None
         return plan_schedule(self.path, self.motor.az, self.motor.el, t_s, end_s,
                              self._band(), cycle)
 
