@@ -1,27 +1,36 @@
-"""Streaming benchmark: the live loop's policy vs a Gpredict-style loop on a simulated G-5500.
+"""Streaming benchmark: the live loop's pointing judged at equal accuracy, on a simulated G-5500.
 
-Run: ``python benchmarks/streaming.py [--days 1] [--max-sats 30] [--deadband 3]
-[--sample N]`` (the 7-day suite: ``--days 7 --max-sats 0``; ``--sample`` flies N passes spread
-evenly over it)
+Run: ``python benchmarks/streaming.py [--sample 100] [--deadband 2 3 4 5] [--days 1]
+[--max-sats 30] [--no-peers] [--no-joint]`` (the whole 1-day suite: ``--sample 0``; the 7-day
+suite: ``--days 7 --max-sats 0 --sample N``; ``--sample`` flies N passes spread evenly)
 
-Both policies fly every pass of the pass suite (benchmarks/passsuite.py) against the same
+Every policy flies the passes of the pass suite (benchmarks/passsuite.py) against the same
 simulated rotator (THE motor model, tracker.mount, G-5500 at 50 Hz rates), starting parked:
 
 * ``stream``: :class:`tracker.stream.TrackCore` exactly as ``tracker track`` runs it: the
   planner's path (overlap / flip / keyhole chosen per pass), mask-safe pre-position, deadband
   with the aim point chosen by :func:`tracker.aim.choose_aim`, read-back (integer degrees)
-  every 0.5 s cycle.
-* ``gpredict``: gtk-rot-ctrl.c: 1 s cycle, 5 deg threshold per axis between the current target
-  and the read-back, lead = the furthest future point within the threshold (bisection), flip
-  only when el max is 180 (``maxel >= 180``), no overlap, targets clamped.
+  every 0.5 s cycle; at each deadband D.
+* ``gpredict-style``: gtk-rot-ctrl.c: 1 s cycle, a threshold per axis between the current
+  target and the read-back, lead = the furthest future point within the threshold
+  (bisection), flip only when el max is 180 (``maxel >= 180``), no overlap, targets clamped.
+* ``satnogs-style`` (:func:`fly_satnogs`): satnogs-client's rotator worker: 3 s cycle, a fixed
+  threshold per axis between where the satellite is now and the read-back, no lead, plain
+  0-360 azimuth, and above a set culmination elevation (75 deg) the second half of the pass
+  mirrored about the culmination point so the antenna goes over the top.
 
-Per policy: max / p99 great-circle pointing error over all visible time (sampled every
-0.25 s), lost-track seconds (error > 5 deg while up; also on the passes the planner calls
-followable), passes with max error <= 3 deg, motor starts and commands sent, and the
-simulation cost per pass (ratio against the baseline in the same run). Each stream pass with
-lost seconds is listed with the planner's predicted loss and the clairvoyant per-axis bound
-(:func:`start_bound` at the lost-track limit): whether the rotator could follow it at all.
-The decision cost per cycle alone: benchmarks/decision_cost.py.
+Per deadband D, for the stream policy: lost-track seconds (error > 5 deg while up; all passes
+and the passes the planner calls followable), the share of passes whose max error is within
+D and within D + 0.25, max and p99 great-circle error over all visible time (sampled every
+0.25 s), motor starts per pass, and two clairvoyant references (tracker/schedule.py):
+the per-axis lower bound (:func:`start_bound`: each axis alone within D, knowing the future,
+pre-position from park included) and a whole-pass joint schedule that keeps the great-circle
+error within D (:func:`joint_starts`). Beside it the two peers, each tuned to the stream
+policy's p99 error at that D (the largest threshold whose p99 is within it,
+:class:`PeerTuner`), with their starts. Each stream pass with lost seconds is listed with the
+planner's predicted loss and whether :func:`start_bound` at the lost-track limit finds it
+followable at all. CPU time is printed beside wall time. The decision cost per cycle alone:
+benchmarks/decision_cost.py.
 """
 
 from __future__ import annotations
@@ -41,6 +50,7 @@ from tracker.aim import gpredict_aim
 from tracker.geometry import MountPath, pointing_error_deg
 from tracker.mount import AxisMotor, MotorModel, drive_axis, preset
 from tracker.planner import gpredict_plan, plan_pass
+from tracker.schedule import axis_schedule, plan_schedule
 from tracker.stream import StreamSettings, TrackCore, pass_window
 
 LOST_DEG = 5.0
@@ -66,14 +76,16 @@ class CycleMeter:
 
 
 def fly_stream(track, spec, station, deadband_deg: float, cycle_s: float = 0.5,
-               meter: CycleMeter | None = None):
+               meter: CycleMeter | None = None, planned: bool = False):
     """The live loop's decisions against a simulated rotator; returns (cmd_t, az, el), plan.
 
     With ``meter`` the core's per-cycle calls (and the status the live loop shows each cycle)
-    are timed in CPU time; the commands are the same either way."""
+    are timed in CPU time; the commands are the same either way. ``planned``: with the
+    whole-pass schedule (StreamSettings.planned_schedule), else as ``tracker track`` runs."""
     plan = plan_pass(track, spec, station, current=(spec.park_az_deg, spec.park_el_deg))
     core = TrackCore(plan, track, spec, station,
-                     StreamSettings(deadband_deg=deadband_deg, cycle_s=cycle_s))
+                     StreamSettings(deadband_deg=deadband_deg, cycle_s=cycle_s,
+                                    planned_schedule=planned))
     t = min(core.preposition_t_s, float(track.t_s[0])) - cycle_s
     truth = MotorModel(spec, spec.park_az_deg, spec.park_el_deg, t)
     cmds = []
@@ -125,63 +137,83 @@ def fly_gpredict(track, spec, station, threshold_deg: float = 5.0, cycle_s: floa
     return cmds, plan
 
 
+def _rest_start(t_s: np.ndarray, path_deg: np.ndarray, weight: np.ndarray, bound_deg: float,
+                start_deg: float | None) -> tuple[float, int] | None:
+    """Where one axis rests at AOS and the starts that took (the pre-position): on the AOS
+    point (``start_deg`` None); on ``start_deg`` (park) if that is within the bound at AOS;
+    else, after one start, on the integer point held longest from AOS. None: no point is."""
+    if start_deg is None:
+        return float(np.round(path_deg[0])), 0
+    if weight[0] * abs(start_deg - path_deg[0]) <= bound_deg:
+        return float(start_deg), 0
+    qs = np.arange(np.floor(path_deg[0]) - 12.0, np.ceil(path_deg[0]) + 13.0)
+    off = weight[None, :] * np.abs(qs[:, None] - path_deg[None, :]) > bound_deg
+    leave = np.where(off.any(axis=1), np.argmax(off, axis=1), len(t_s))
+    if not (leave > 0).any():
+        return None
+    return float(qs[int(np.argmax(leave))]), 1
+
+
 def axis_start_bound(t_s: np.ndarray, path_deg: np.ndarray, weight: np.ndarray, rate_deg_s: float,
-                     start_delay_s: float, bound_deg: float, cycle_s: float = 0.5
-                     ) -> int | None:
+                     start_delay_s: float, bound_deg: float, cycle_s: float = 0.5,
+                     start_deg: float | None = None) -> int | None:
     """Fewest motor starts one axis needs to keep ``weight * |antenna - path|`` within
-    ``bound_deg`` (None: it cannot), found greedily with full knowledge of the future:
-    command as late as the 0.5 s cycle allows, to the integer target held longest.
+    ``bound_deg`` (None: it cannot), knowing the future (:func:`tracker.schedule.axis_schedule`).
 
-    An optimistic bound for the live loop: it knows the future, the other axis is assumed
-    perfect (the great-circle error is at least each axis's share of it: elevation error,
-    and azimuth error times cos(el)), and the antenna starts at rest on the AOS point.
+    An optimistic bound for the live loop: the other axis is assumed perfect (the
+    great-circle error is at least each axis's share of it: elevation error, and azimuth
+    error times cos(el)). The antenna starts at rest on the AOS point, or (``start_deg``:
+    where it rests before the pass, park) pre-positioned to the point held longest.
     """
-    dt = float(t_s[1] - t_s[0])
-    n, i, starts = len(t_s), 0, 0
-    p = float(np.round(path_deg[0]))
-    step = max(1, round(cycle_s / dt))
-    while True:
-        bad = np.flatnonzero(weight[i:] * np.abs(p - path_deg[i:]) > bound_deg)
-        if len(bad) == 0:
-            return starts
-        j = i + int(bad[0])
-        qs = np.arange(np.floor(path_deg[j]) - 12.0, np.ceil(path_deg[j]) + 13.0)
-        best = None
-        for k in range(j, i - 1, -step):          # latest command time first
-            tk = t_s[k] + start_delay_s
-            run = np.clip((t_s[None, i:] - tk) * rate_deg_s, 0.0, np.abs(qs - p)[:, None])
-            pos = p + np.sign(qs - p)[:, None] * run
-            off = weight[None, i:] * np.abs(pos - path_deg[None, i:]) > bound_deg
-            leave = np.where(off.any(axis=1), np.argmax(off, axis=1), n - i) + i
-            arrive = tk + np.abs(qs - p) / rate_deg_s
-            good = (leave >= n) | (t_s[np.minimum(leave, n - 1)] > arrive)
-            if good.any():
-                q = int(np.argmax(np.where(good, leave, -1)))
-                best = (float(qs[q]), int(leave[q]), float(arrive[q]))
-                break
-        if best is None:
-            return None
-        starts += 1
-        p, leave, arrive = best
-        if leave >= n:
-            return starts
-        i = min(int(np.ceil((arrive - t_s[0]) / dt)), n - 1)
+    rest = _rest_start(t_s, path_deg, weight, bound_deg, start_deg)
+    if rest is None:
+        return None
+    cmds = axis_schedule(t_s, path_deg, weight, rate_deg_s, start_delay_s, bound_deg, rest[0],
+                         max(1, round(cycle_s / float(t_s[1] - t_s[0]))))
+    return None if cmds is None else rest[1] + len(cmds)
 
 
-def start_bound(track, spec, station, bound_deg: float) -> int | None:
-    """:func:`axis_start_bound` summed over both axes on the planner's path, AOS..LOS."""
+def _pass_axes(track, spec, station):
+    """The planner's path over AOS..LOS: (path, times, az, el, the azimuth's weight cos el)."""
     plan = plan_pass(track, spec, station, current=(spec.park_az_deg, spec.park_el_deg))
     path = MountPath.exact_from_plan(plan, None, spec)
     aos_s, los_s = pass_window(track, station)
     ts = np.arange(aos_s, los_s + 1e-9, SAMPLE_S)
     if len(ts) < 2:
-        return 0
+        return None
     az, el = path.mount_at(ts)
-    n_az = axis_start_bound(ts, az, np.abs(np.cos(np.radians(el))), spec.az_rate_deg_s,
-                            spec.start_delay_s, bound_deg)
+    return path, ts, az, el, np.abs(np.cos(np.radians(el)))
+
+
+def start_bound(track, spec, station, bound_deg: float, from_park: bool = False) -> int | None:
+    """:func:`axis_start_bound` summed over both axes on the planner's path, AOS..LOS
+    (``from_park``: the pre-position from park counted, as the policies' starts count it)."""
+    axes = _pass_axes(track, spec, station)
+    if axes is None:
+        return 0
+    _path, ts, az, el, w = axes
+    n_az = axis_start_bound(ts, az, w, spec.az_rate_deg_s, spec.start_delay_s, bound_deg,
+                            start_deg=spec.park_az_deg if from_park else None)
     n_el = axis_start_bound(ts, el, np.ones_like(el), spec.el_rate_deg_s, spec.start_delay_s,
-                            bound_deg)
+                            bound_deg, start_deg=spec.park_el_deg if from_park else None)
     return None if n_az is None or n_el is None else n_az + n_el
+
+
+def joint_starts(track, spec, station, bound_deg: float) -> int | None:
+    """Motor starts of :func:`tracker.schedule.plan_schedule` (great-circle error within
+    ``bound_deg``) from park: each axis pre-positioned as :func:`start_bound` does, then the
+    whole pass planned for both axes. None when no candidate keeps the bound."""
+    axes = _pass_axes(track, spec, station)
+    if axes is None:
+        return 0
+    path, ts, az, el, w = axes
+    rest_az = _rest_start(ts, az, w, bound_deg, spec.park_az_deg)
+    rest_el = _rest_start(ts, el, np.ones_like(el), bound_deg, spec.park_el_deg)
+    if rest_az is None or rest_el is None:
+        return None
+    motor = MotorModel(spec, rest_az[0], rest_el[0], float(ts[0]))
+    found = plan_schedule(path, motor.az, motor.el, float(ts[0]), float(ts[-1]), bound_deg)
+    return None if found is None else rest_az[1] + rest_el[1] + found.starts
 
 
 def measure(track, spec, station, cmds, t_start: float) -> dict:
@@ -205,109 +237,266 @@ def measure(track, spec, station, cmds, t_start: float) -> dict:
             "starts": int(starts_az + starts_el), "commands": len(cmds)}
 
 
-def summarise(rows: list[dict], followable: np.ndarray, bound: np.ndarray) -> dict:
-    """``bound``: per pass, the planner's predicted max error plus the deadband."""
+def fly_satnogs(track, spec, station, threshold_deg: float = 4.0, cycle_s: float = 3.0,
+                flip_el_deg: float | None = 75.0, t_start: float | None = None):
+    """A SatNOGS-client-style loop: every ``cycle_s`` it reads the rotator back and, when
+    either axis is more than ``threshold_deg`` from where the satellite is *now* (no lead),
+    sends that position. Azimuth is a plain 0-360 bearing (no overlap). With a flip elevation
+    and a pass culminating at or above it, positions after culmination are mirrored about the
+    culmination point (azimuth and elevation alike, elevation running past 90), so the
+    antenna goes over the top instead of swinging round. Returns the commands (t, az, el)."""
+    _aos_s, los_s = pass_window(track, station)
+    t = float(track.t_s[0]) if t_start is None else t_start
+    truth = MotorModel(spec, spec.park_az_deg, spec.park_el_deg, t)
+    k = int(np.argmax(track.el_deg))
+    tca_s, az_tca, el_tca = (float(track.t_s[k]), float(track.az_deg[k]),
+                             float(track.el_deg[k]))
+    flip = flip_el_deg is not None and el_tca >= flip_el_deg and spec.el_max_deg >= 180
+    res = spec.resolution_deg
+    cmds = []
+    while t <= los_s:
+        az_t, el_t = track.direction_at(np.array([t]))
+        az, el = float(az_t[0]), float(el_t[0])
+        if flip and t >= tca_s:
+            az, el = (2.0 * az_tca - az) % 360.0, 2.0 * el_tca - el
+        rot_az, rot_el = _readback(truth, t)
+        if abs(az - rot_az % 360.0) > threshold_deg or abs(el - rot_el) > threshold_deg:
+            m = float(spec.frame.mech_of(az))
+            c_az = min(max(round(m / res) * res, 0.0), spec.az_span_deg)
+            c_el = min(max(round(el / res) * res, spec.el_min_deg), spec.el_max_deg)
+            truth.command(c_az, c_el, t)
+            cmds.append((t, c_az, c_el))
+        t += cycle_s
+    return cmds
+
+
+def _fly_gpredict_cmds(track, spec, station, threshold_deg, t_start):
+    return fly_gpredict(track, spec, station, threshold_deg=threshold_deg, t_start=t_start)[0]
+
+
+def _fly_satnogs_cmds(track, spec, station, threshold_deg, t_start):
+    return fly_satnogs(track, spec, station, threshold_deg=threshold_deg, t_start=t_start)
+
+
+PEERS = {"gpredict-style": _fly_gpredict_cmds, "satnogs-style": _fly_satnogs_cmds}
+THRESHOLDS_DEG = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0)
+
+
+def summarise(rows: list[dict], followable: np.ndarray, deadband_deg: float) -> dict:
+    """Error, loss and starts of one policy over the passes of ``rows``."""
     err = np.concatenate([r["err"] for r in rows])
     per_max = np.array([r["err"].max() for r in rows])
     lost = np.array([r["lost_s"] for r in rows])
+    n = len(rows)
     return {"max": float(err.max()), "p99": float(np.percentile(err, 99)),
-            "mean": float(err.mean()), "lost_s": float(lost.sum()),
-            "lost_followable_s": float(lost[followable].sum()),
+            "lost_s": float(lost.sum()), "lost_followable_s": float(lost[followable].sum()),
             "passes_lost": int(np.sum(lost > 0)),
-            "le3": float(np.mean(per_max <= 3.0)),
-            "in_bound": float(np.mean(per_max <= bound + 1e-9)),
-            "starts": sum(r["starts"] for r in rows),
-            "commands": sum(r["commands"] for r in rows)}
+            "in_db": float(np.mean(per_max <= deadband_deg + 1e-9)),
+            "in_db25": float(np.mean(per_max <= deadband_deg + 0.25 + 1e-9)),
+            "starts": sum(r["starts"] for r in rows), "starts_pp": sum(
+                r["starts"] for r in rows) / n,
+            "per_pass_starts": np.array([r["starts"] for r in rows])}
 
 
-def compare(suite, spec, deadbands: list[float]) -> tuple[dict, list[str], np.ndarray]:
-    """Fly every pass of ``suite`` with the stream policy at each deadband and with the
-    Gpredict-style loop; returns (summary per policy, stream policy names, followable).
-    ``res["lossy"]`` lists the stream policy's passes with lost seconds: (policy, target,
-    station, max el, lost s, the planner's predicted lost s, whether :func:`start_bound`
-    finds each axis able to keep within the lost-track limit knowing the future)."""
-    names = [f"stream D={d:g}" for d in deadbands]
-    rows: dict[str, list] = {n: [] for n in [*names, "gpredict-style"]}
-    cost = dict.fromkeys(rows, 0.0)
-    followable = []
-    plan_max = []
-    lossy: list[tuple] = []
+class PeerTuner:
+    """One peer policy flown over the suite at any threshold (each threshold once), and the
+    largest threshold whose p99 error is within a given one."""
+
+    def __init__(self, name: str, suite, spec, t_starts: list[float], followable: np.ndarray):
+        self.name, self.suite, self.spec = name, suite, spec
+        self.t_starts, self.followable = t_starts, followable
+        self.rows: dict[float, list[dict]] = {}
+        self.cpu_s = 0.0
+
+    def flown(self, threshold_deg: float) -> list[dict]:
+        if threshold_deg not in self.rows:
+            c0 = time.process_time()
+            fly = PEERS[self.name]
+            self.rows[threshold_deg] = [
+                measure(sp.track, self.spec, sp.station,
+                        fly(sp.track, self.spec, sp.station, threshold_deg, t0), t0)
+                for sp, t0 in zip(self.suite, self.t_starts, strict=True)]
+            self.cpu_s += time.process_time() - c0
+        return self.rows[threshold_deg]
+
+    def p99(self, threshold_deg: float) -> float:
+        return float(np.percentile(np.concatenate([r["err"] for r in self.flown(
+            threshold_deg)]), 99))
+
+    def tuned(self, p99_deg: float, deadband_deg: float, refine: int = 2) -> tuple[float, dict]:
+        """(threshold, summary): the largest threshold with p99 <= ``p99_deg`` (the grid,
+        then ``refine`` bisections toward the next grid value); the smallest grid threshold
+        when none is."""
+        grid = [th for th in THRESHOLDS_DEG]
+        ok = [th for th in grid if self.p99(th) <= p99_deg]
+        if not ok:
+            th = grid[0]
+        else:
+            th = max(ok)
+            above = [g for g in grid if g > th]
+            if above:
+                lo, hi = th, above[0]
+                for _ in range(refine):
+                    mid = round(0.5 * (lo + hi), 4)
+                    lo, hi = (mid, hi) if self.p99(mid) <= p99_deg else (lo, mid)
+                th = lo
+        return th, summarise(self.flown(th), self.followable, deadband_deg)
+
+
+EL_CLASSES_DEG = ((0.0, 10.0), (10.0, 45.0), (45.0, 90.1))
+
+
+def _by_elevation(suite, ours: np.ndarray, bounds: list, joint: list) -> list[tuple]:
+    """Per max-elevation class: (lo, hi, passes, our starts over the bound, the joint
+    schedule's over the bound), on the passes where both references exist (nan: none)."""
+    max_el = np.array([sp.meta["max_el_deg"] for sp in suite])
+    b = np.array([np.nan if x is None else x for x in bounds], dtype=float)
+    j = np.array([np.nan if x is None else x for x in joint], dtype=float)
+    out = []
+    for lo, hi in EL_CLASSES_DEG:
+        sel = (max_el >= lo) & (max_el < hi) & np.isfinite(b) & (b > 0)
+        both = sel & np.isfinite(j)
+        out.append((lo, hi, int(sel.sum()),
+                    float(ours[sel].sum() / b[sel].sum()) if sel.any() else float("nan"),
+                    float(j[both].sum() / b[both].sum()) if both.any() else float("nan")))
+    return out
+
+
+def compare(suite, spec, deadbands: list[float], peers: bool = True, joint: bool = True,
+            schedule: bool = False) -> dict:
+    """Fly every pass of ``suite`` with the stream policy at each deadband; per deadband the
+    clairvoyant bound and (``joint``) the joint schedule's starts, and (``peers``) each peer policy
+    tuned to the stream policy's p99 error. Returns a result per deadband plus the lossy
+    stream passes (policy, target, station, max el, lost s, planner-predicted lost s,
+    whether :func:`start_bound` finds each axis able to keep within the lost-track limit)."""
+    rows: dict[float, list] = {d: [] for d in deadbands}
+    cpu = dict.fromkeys(deadbands, 0.0)
+    sched_rows: dict[float, list] = {d: [] for d in deadbands}
+    sched_cpu = dict.fromkeys(deadbands, 0.0)
+    followable, t_starts, lossy = [], [], []
     for sp in suite:
         tr, st = sp.track, sp.station
-        t_start = None
-        for name, d in zip(names, deadbands, strict=True):
-            t1 = time.perf_counter()
+        for d in deadbands:
+            c0 = time.process_time()
             cmds, plan, _t = fly_stream(tr, spec, st, d)
             t_start = min(plan.preposition_t_s, float(tr.t_s[0])) - 0.5
-            rows[name].append(measure(tr, spec, st, cmds, t_start))
-            cost[name] += time.perf_counter() - t1
-        plan_max.append(plan.max_error_deg)
-        t2 = time.perf_counter()
-        gcmds, _gplan = fly_gpredict(tr, spec, st, t_start=t_start)
-        rows["gpredict-style"].append(measure(tr, spec, st, gcmds, t_start))
-        cost["gpredict-style"] += time.perf_counter() - t2
+            rows[d].append(measure(tr, spec, st, cmds, t_start))
+            cpu[d] += time.process_time() - c0
+            if schedule:
+                c0 = time.process_time()
+                acmds, _plan, _t = fly_stream(tr, spec, st, d, planned=True)
+                sched_rows[d].append(measure(tr, spec, st, acmds, t_start))
+                sched_cpu[d] += time.process_time() - c0
+            if rows[d][-1]["lost_s"] > 0:
+                lossy.append((f"stream D={d:g}", sp.meta["target"], sp.meta["station"],
+                              sp.meta["max_el_deg"], rows[d][-1]["lost_s"],
+                              float(plan.lost_track_s),
+                              start_bound(tr, spec, st, LOST_DEG) is not None))
         followable.append(plan.lost_track_s == 0)
-        meta = sp.meta
-        for name in names:
-            lost_s = rows[name][-1]["lost_s"]
-            if lost_s > 0:
-                # Knowing the future, can each axis alone keep within the lost-track limit?
-                # (None: no: the rotator cannot physically follow this pass.)
-                starts = start_bound(tr, spec, st, LOST_DEG)
-                lossy.append((name, meta["target"], meta["station"], meta["max_el_deg"],
-                              lost_s, float(plan.lost_track_s), starts is not None))
+        t_starts.append(t_start)
     followable = np.array(followable)
-    plan_max = np.array(plan_max)
-    bounds = dict(zip(names, deadbands, strict=True))
-    res = {k: summarise(v, followable, plan_max + bounds.get(k, 5.0)) for k, v in rows.items()}
-    for k in res:
-        res[k]["cost"] = cost[k]
-    res["lossy"] = lossy
-    return res, names, followable
+    tuners = {name: PeerTuner(name, suite, spec, t_starts, followable)
+              for name in (PEERS if peers else ())}
+    out: dict = {"deadbands": {}, "lossy": lossy, "followable": followable, "cpu": cpu}
+    for d in deadbands:
+        r = summarise(rows[d], followable, d)
+        r["cpu_s"] = cpu[d]
+        bounds = [start_bound(sp.track, spec, sp.station, d, from_park=True) for sp in suite]
+        feasible = np.array([b is not None for b in bounds])
+        r["bound_pp"] = float(np.mean([b for b in bounds if b is not None])) if any(
+            feasible) else float("nan")
+        r["stream_feasible_pp"] = float(np.mean(r["per_pass_starts"][feasible])) if any(
+            feasible) else float("nan")
+        r["bound_passes"] = int(feasible.sum())
+        refs = [joint_starts(sp.track, spec, sp.station, d) if joint else None
+                for sp in suite]
+        ok = np.array([x is not None for x in refs]) & feasible
+        r["joint_pp"] = float(np.mean([x for x, f in zip(refs, ok, strict=True) if f])) \
+            if ok.any() else float("nan")
+        r["stream_joint_pp"] = float(np.mean(r["per_pass_starts"][ok])) if ok.any() \
+            else float("nan")
+        r["by_el"] = _by_elevation(suite, r["per_pass_starts"], bounds, refs)
+        if schedule:
+            a = summarise(sched_rows[d], followable, d)
+            a["cpu_s"] = sched_cpu[d]
+            a["x_bound"] = float(np.mean(a["per_pass_starts"][feasible])) / r["bound_pp"] \
+                if any(feasible) else float("nan")
+            r["schedule"] = a
+        r["peers"] = {name: tu.tuned(r["p99"], d) for name, tu in tuners.items()}
+        out["deadbands"][d] = r
+    out["peer_cpu"] = {name: tu.cpu_s for name, tu in tuners.items()}
+    return out
 
 
-def print_results(res: dict, names: list[str], followable: np.ndarray) -> None:
-    """The side-by-side table and, per stream deadband, the three targets: no lost seconds on
-    followable passes, max error <= 3 deg on >= 99 % of passes, motor starts vs Gpredict's."""
-    n = len(followable)
-    lossy = res.pop("lossy", [])
-    labels = [
-        ("passes", lambda r: f"{n}"),
-        ("max error deg", lambda r: f"{r['max']:.2f}"),
-        ("p99 error deg", lambda r: f"{r['p99']:.2f}"),
-        ("mean error deg", lambda r: f"{r['mean']:.2f}"),
-        ("lost s (>5 deg, all)", lambda r: f"{r['lost_s']:.1f}"),
-        ("lost s, followable", lambda r: f"{r['lost_followable_s']:.1f}"),
-        ("passes with loss", lambda r: f"{r['passes_lost']}"),
-        ("passes max<=3 deg %", lambda r: f"{100 * r['le3']:.1f}"),
-        ("max<=plan+deadband %", lambda r: f"{100 * r['in_bound']:.1f}"),
-        ("motor starts", lambda r: f"{r['starts']}"),
-        ("starts per pass", lambda r: f"{r['starts'] / n:.1f}"),
-        ("commands sent", lambda r: f"{r['commands']}"),
-        ("sim ms per pass", lambda r: f"{1000 * r['cost'] / n:.1f}"),
-    ]
-    print(f"\n{'policy':<24}" + "".join(f"{k:>17}" for k in res))
-    for label, fmt in labels:
-        print(f"{label:<24}" + "".join(f"{fmt(r):>17}" for r in res.values()))
-    print(f"followable passes (planner predicts no loss): {int(followable.sum())} of {n}")
-    for name, target, station, max_el, lost_s, plan_lost_s, feasible in lossy:
+def print_results(res: dict, n_passes: int) -> None:
+    """Per deadband: our loop, the clairvoyant bound, and the peers tuned to our p99."""
+    followable = res["followable"]
+    print(f"\npasses: {n_passes}; followable (planner predicts no loss): "
+          f"{int(followable.sum())}")
+    print("\nstream policy (tracker.stream.TrackCore + tracker.aim, as tracker track runs it), "
+          "per deadband:")
+    print(f"{'D deg':>6}{'lost s':>8}{'lost fol.':>10}{'in D %':>8}{'in D+.25%':>10}"
+          f"{'max':>7}{'p99':>7}{'starts/pass':>12}{'bound':>7}{'x bound':>8}"
+          f"{'joint':>7}{'x joint':>8}{'cpu s':>7}")
+    for d, r in res["deadbands"].items():
+        print(f"{d:>6g}{r['lost_s']:>8.1f}{r['lost_followable_s']:>10.1f}"
+              f"{100 * r['in_db']:>8.1f}{100 * r['in_db25']:>10.1f}{r['max']:>7.2f}"
+              f"{r['p99']:>7.2f}{r['starts_pp']:>12.1f}{r['bound_pp']:>7.1f}"
+              f"{r['stream_feasible_pp'] / r['bound_pp']:>8.2f}{r['joint_pp']:>7.1f}"
+              f"{r['stream_joint_pp'] / r['joint_pp']:>8.2f}{r['cpu_s']:>7.1f}")
+    print("bound: fewest starts per pass (pre-position from park included) with each axis "
+          "alone within D, knowing the future (start_bound; passes where it is feasible); "
+          "joint: a whole-pass schedule knowing the future that keeps the great-circle error "
+          "within D (tracker.schedule; a schedule that exists, not a bound); "
+          "x: our starts on the same passes over it")
+    if any("schedule" in r for r in res["deadbands"].values()):
+        print("with the whole-pass schedule (StreamSettings(planned_schedule=True)), same run:")
+        for d, r in res["deadbands"].items():
+            a = r["schedule"]
+            print(f"{d:>6g}{a['lost_s']:>8.1f}{a['lost_followable_s']:>10.1f}"
+                  f"{100 * a['in_db']:>8.1f}{100 * a['in_db25']:>10.1f}{a['max']:>7.2f}"
+                  f"{a['p99']:>7.2f}{a['starts_pp']:>12.1f}{r['bound_pp']:>7.1f}"
+                  f"{a['x_bound']:>8.2f}{'':>15}{a['cpu_s']:>7.1f}   "
+                  f"starts with/without {a['starts_pp'] / r['starts_pp']:.3f}")
+    print("starts over the bound by max elevation (ours | the joint schedule's):")
+    for d, r in res["deadbands"].items():
+        print(f"  D={d:g}: " + "; ".join(
+            f"{lo:g}-{min(hi, 90):g} deg ({n}): {mine:.2f} | {ref:.2f}"
+            for lo, hi, n, mine, ref in r["by_el"]))
+    peers = [n for n in PEERS if any(n in r["peers"] for r in res["deadbands"].values())]
+    if peers:
+        print("\npeer policies tuned to the stream policy's p99 error (largest threshold "
+              "whose p99 is within it):")
+        print(f"{'D deg':>6}{'policy':>16}{'thr deg':>9}{'p99':>7}{'max':>7}{'lost s':>8}"
+              f"{'lossy':>6}{'in D+.25%':>10}{'starts/pass':>12}{'ours x':>8}")
+        for d, r in res["deadbands"].items():
+            for name in peers:
+                th, pr = r["peers"][name]
+                print(f"{d:>6g}{name:>16}{th:>9.3g}{pr['p99']:>7.2f}{pr['max']:>7.2f}"
+                      f"{pr['lost_s']:>8.1f}{pr['passes_lost']:>6}{100 * pr['in_db25']:>10.1f}"
+                      f"{pr['starts_pp']:>12.1f}{r['starts_pp'] / pr['starts_pp']:>8.2f}")
+        print("a peer whose p99 stays above ours at its smallest threshold (0.5 deg) shows "
+              "that threshold: its p99 is set by the passes it loses (lossy: passes with "
+              "error > 5 deg), e.g. a 0/360 crossing swung round without the overlap")
+        print("cpu s per peer (all thresholds flown): " + ", ".join(
+            f"{k} {v:.1f}" for k, v in res["peer_cpu"].items()))
+    for name, target, station, max_el, lost_s, plan_lost_s, feasible in res["lossy"]:
         why = ("the planner predicts loss too" if plan_lost_s > 0 else
                "FOLLOWABLE by the planner's prediction")
-        bound = ("feasible: each axis alone can keep the planner's path within 5 deg "
-                 "knowing the future" if feasible else
-                 "INFEASIBLE: an axis cannot keep the planner's path within 5 deg even "
-                 "knowing the future")
+        bound = ("feasible knowing the future" if feasible else
+                 "INFEASIBLE: an axis cannot keep within 5 deg even knowing the future")
         print(f"  lossy {name}: {target} from {station}, max el {max_el:.1f}: lost "
               f"{lost_s:.2f} s; planner predicts {plan_lost_s:.1f} s ({why}); clairvoyant "
               f"bound: {bound}")
-    g = res["gpredict-style"]
-    for name in names:
-        s = res[name]
-        print(f"{name}: no lost s on followable passes: "
-              f"{'yes' if s['lost_followable_s'] == 0 else 'NO'}; max <= 3 deg on >= 99 % of "
-              f"passes: {'yes' if s['le3'] >= 0.99 else 'NO'} ({100 * s['le3']:.1f} %); "
-              f"motor starts vs gpredict-style: {s['starts'] / g['starts']:.2f}x; "
-              f"sim cost vs gpredict-style: {s['cost'] / max(g['cost'], 1e-9):.0f}x")
+    print()
+    for d, r in res["deadbands"].items():
+        reached = [r["lost_followable_s"] == 0, r["in_db25"] >= 0.99,
+                   r["stream_feasible_pp"] <= 1.15 * r["bound_pp"]]
+        print(f"D={d:g}: 0 lost s on followable passes: {'yes' if reached[0] else 'NO'}; "
+              f">= 99 % within D+0.25: {'yes' if reached[1] else 'NO'} "
+              f"({100 * r['in_db25']:.1f} %); starts <= 1.15x bound: "
+              f"{'yes' if reached[2] else 'NO'} "
+              f"({r['stream_feasible_pp'] / r['bound_pp']:.2f}x)")
 
 
 def main(argv=None) -> int:
@@ -315,16 +504,19 @@ def main(argv=None) -> int:
     ap.add_argument("--days", type=float, default=1.0)
     ap.add_argument("--max-sats", type=int, default=30,
                     help="satellites per group (0 = all)")
-    ap.add_argument("--deadband", type=float, nargs="+", default=[3.0, 5.0],
+    ap.add_argument("--deadband", type=float, nargs="+", default=[2.0, 3.0, 4.0, 5.0],
                     help="deadbands (great-circle deg) to run the stream policy at")
     ap.add_argument("--rotator", default="G-5500")
     ap.add_argument("--mains-hz", type=int, default=50, choices=(50, 60))
     ap.add_argument("--overhead", type=int, default=24)
-    ap.add_argument("--sample", type=int, default=0,
+    ap.add_argument("--sample", type=int, default=100,
                     help="fly only this many passes spread evenly over the suite (0 = all)")
-    ap.add_argument("--bound-deg", type=float, default=3.0,
-                    help="also print the fewest motor starts any policy needs for this max "
-                         "error (0 = skip)")
+    ap.add_argument("--no-peers", action="store_true",
+                    help="skip the peer policies (Gpredict-style, SatNOGS-style)")
+    ap.add_argument("--schedule", action="store_true",
+                    help="also fly the live loop with the whole-pass schedule: the ratio")
+    ap.add_argument("--no-joint", action="store_true",
+                    help="skip the clairvoyant joint schedule (the costliest reference)")
     args = ap.parse_args(argv)
     spec = preset(args.rotator, args.mains_hz)
     t0 = time.perf_counter()
@@ -340,16 +532,11 @@ def main(argv=None) -> int:
     print(f"suite: {real} real passes ({args.days:g} d, {args.max_sats or 'all'} sats/group, "
           f"3 stations) + {len(suite) - real} forced overhead; built in "
           f"{time.perf_counter() - t0:.1f} s")
-    res, names, followable = compare(suite, spec, args.deadband)
-    print_results(res, names, followable)
-    if args.bound_deg > 0:
-        b = [start_bound(sp.track, spec, sp.station, args.bound_deg) for sp in suite]
-        ok = [x for x in b if x is not None]
-        g = res["gpredict-style"]["starts"] / len(suite)
-        print(f"lower bound for max error <= {args.bound_deg:g} deg (each axis alone, knowing "
-              f"the future, 0.5 s cycle, integer targets, no pre-position): "
-              f"{np.mean(ok):.1f} tracking starts per pass ({len(ok)} of {len(b)} passes "
-              f"feasible); gpredict-style {g:.1f} starts per pass incl. pre-position")
+    c0, w0 = time.process_time(), time.perf_counter()
+    res = compare(suite, spec, args.deadband, peers=not args.no_peers,
+                  joint=not args.no_joint, schedule=args.schedule)
+    print_results(res, len(suite))
+    print(f"took {time.perf_counter() - w0:.0f} s wall, {time.process_time() - c0:.0f} s CPU")
     return 0
 
 

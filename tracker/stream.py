@@ -46,9 +46,16 @@ from tracker.geometry import (
     raise_to_mask,
 )
 from tracker.mount import MotorModel, RotatorSpec
+from tracker.schedule import PassSchedule, plan_schedule
 from tracker.skytrack import SkyTrack, angle_between_deg, interp1_rows
 from tracker.stall import AxisWatch, moving_axis, stall_error
 from tracker.station import Station
+
+# What TrackCore._planned answers when the aim policy, not the schedule, decides.
+_AIM = object()
+# The whole-pass schedule is planned for passes whose mount elevation stays within 45 deg of
+# the horizon (either side of the zenith on a flip path).
+SCHEDULE_MAX_SIN_EL = math.sin(math.radians(45.0))
 
 
 class Phase(str, Enum):
@@ -86,6 +93,10 @@ class StreamSettings:
     # rarely helps and costs a second or more, so only a longer run of them counts.
     garbled_before_lost: int = 10
     aim_step_s: float = 0.5
+    # Plan the pass's moves before AOS knowing the whole pass (tracker.schedule) and follow
+    # them while the read-back agrees. Off by default: on the benchmark's passes it saved
+    # no motor starts over the aim policy (within +-3 %, benchmarks/streaming.py --schedule).
+    planned_schedule: bool = False
     park_timeout_s: float = 180.0
 
 
@@ -260,6 +271,10 @@ class TrackCore:
         self._az_command_t_s = -math.inf        # when the azimuth was last told a new target
         self._resend_due = False
         self._inconsistent_since_s: float | None = None
+        # The whole-pass schedule (tracker.schedule), planned on the first settled cycle.
+        self._schedule: PassSchedule | None = None
+        self._schedule_i = 0
+        self._schedule_tried = not (self.settings.planned_schedule and spec.has_elevation)
 
     # Read-back ---------------------------------------------------------------------------
 
@@ -515,6 +530,10 @@ class TrackCore:
             settled = self._phase_commanded is Phase.TRACK or (
                 self._phase_commanded is Phase.PREPOSITION
                 and self._move_i >= len(self.pre_moves))
+            if settled and (self._schedule is not None or not self._schedule_tried):
+                planned = self._planned(t_s, lookahead)
+                if planned is not _AIM:
+                    return planned
             if settled and self._quiet(t_s, level, lookahead):
                 return None
             aim = choose_aim(self.path, self.motor.az, self.motor.el, t_s, band,
@@ -565,6 +584,63 @@ class TrackCore:
         if j > 0 and t_s - pt[j - 1] < pt[j] - t_s:
             return j - 1
         return j
+
+    def _planned(self, t_s: float, lookahead_s: float) -> Command | object | None:
+        """The whole-pass schedule's move due now, None to hold, or ``_AIM`` when the aim
+        policy decides: no schedule (not wanted, none keeps the band, a motor was moving
+        when it would have been planned), or the schedule was dropped because the belief
+        (the read-back's) left it, a move came late or a guard changed one. Planned once a
+        pass, on the first settled cycle with both motors at rest (just before AOS); once
+        dropped the aim policy decides the rest of the pass."""
+        if self._schedule is None:
+            if self._schedule_tried or self.motor.moving(t_s):
+                return _AIM
+            self._schedule_tried = True
+            self._schedule = self._plan_schedule(t_s, lookahead_s)
+            self._schedule_i = 0
+            if self._schedule is None:
+                return _AIM
+        sch = self._schedule
+        res = self.spec.resolution_deg
+        az, el = self.motor.position(t_s)
+        want_az, want_el = sch.expected(t_s)
+        if t_s > sch.end_s or abs(az - want_az) > 1.5 * res or abs(el - want_el) > 1.5 * res:
+            self._schedule = None
+            return _AIM
+        # A move goes out on the cycle nearest its planned instant (a real clock's cycles
+        # drift off the planned ones): up to half a cycle early or late.
+        half = 0.5 * self.settings.cycle_s
+        i = self._schedule_i
+        if i >= len(sch.t_s) or sch.t_s[i] > t_s + half + 1e-6:
+            return None
+        self._schedule_i = i + 1
+        cmd = self._safe(sch.az_m_deg[i], sch.el_deg[i], "track")
+        if t_s - sch.t_s[i] > half + 1e-6 or cmd.clamped:
+            self._schedule = None
+            return _AIM
+        return cmd
+
+    def _plan_schedule(self, t_s: float, lookahead_s: float) -> PassSchedule | None:
+        """:func:`~tracker.schedule.plan_schedule` from now to LOS or to where the path
+        turns fast (there the loop follows the plan's own commands)."""
+        if self.motor is None or self.motor.el is None:
+            return None
+        cycle = self.settings.cycle_s
+        end_s = self.los_s
+        t = t_s
+        while t <= end_s:
+            if self._fast(t, lookahead_s):
+                end_s = t - cycle
+                break
+            t += cycle
+        # The axes share the deadband as e_az * cos(el) and e_el: a split that holds while
+        # cos(el) changes little within the deadband. Higher up it does not, and there the
+        # aim policy measured fewer starts (benchmarks/streaming.py, by max elevation).
+        _az, el = self.path.mount_at(np.arange(t_s, end_s + cycle, cycle))
+        if el is None or np.max(np.abs(np.sin(np.radians(el)))) > SCHEDULE_MAX_SIN_EL:
+            return None
+        return plan_schedule(self.path, self.motor.az, self.motor.el, t_s, end_s,
+                             self._band(), cycle)
 
     def _band(self) -> float:
         s = self.settings
@@ -703,6 +779,7 @@ class TrackCore:
     def _interrupt(self) -> None:
         """The commanded motion was cut (reconnect, all-stop): the current phase's move is
         sent again. Called repeatedly while the port is gone: only the first call records."""
+        self._schedule = None     # the motion it planned from was cut: the aim policy goes on
         if self._phase_commanded is not None:
             seq = self._phase_commanded in (Phase.PREPOSITION, Phase.PARK)
             self._resume = (self._phase_commanded, max(self._move_i - 1, 0)) if seq else None
