@@ -351,3 +351,39 @@ def test_keyhole_sweep_is_followed_as_planned_without_loss():
     sweep = np.array(el_cmds)
     sweep = sweep[(sweep > 60.0) & (sweep < 120.0)]
     assert len(sweep) > 20 and np.all(np.diff(sweep) >= 0.0)
+
+
+def test_a_staircase_step_cut_by_an_all_stop_is_sent_again_on_the_next_cycle():
+    """Mid-sweep of a keyhole pass the rotator is stopped and the loop resyncs (as after a
+    reconnect): the step the motors were sent to is not reached, so the next cycle sends it
+    again. Only a step the motors are still sent to is left alone."""
+    from tle.catalog import Catalog
+    from tracker.passes import find_passes
+    from tracker.planner import plan_pass
+    from tracker.targets import resolve_target
+
+    station = Station("munich", 48.15, 11.57, 520.0)
+    target = resolve_target("FOX-1CLIFF", Catalog.default)
+    day = datetime(2026, 8, 22, 20, 0, tzinfo=timezone.utc)
+    track = find_passes(target, station, day, day.replace(hour=21))[0].track(step_s=1.0,
+                                                                             pad_s=60.0)
+    plan = plan_pass(track, SPEC, station, current=(SPEC.park_az_deg, SPEC.park_el_deg))
+    assert plan.mode == "keyhole"
+    clock = ManualClock(datetime.fromtimestamp(plan.preposition_t_s - 5.25, timezone.utc))
+    fake = FakeRotator(SPEC, clock, SPEC.park_az_deg, SPEC.park_el_deg)
+    core = TrackCore(plan, track, SPEC, station, StreamSettings(deadband_deg=3.0))
+    cut: dict = {}
+
+    def on_status(st):
+        if (not cut and st.command_el_deg is not None and 80.0 < st.command_el_deg < 100.0
+                and fake.model.moving(st.t_s)):
+            cut.update(t_s=st.t_s, commands=st.commands, last=core.last_command)
+            fake.stop()
+            core.resync()
+        elif cut and "next" not in cut:
+            cut["next"] = (st.commands, core.last_command)
+    run_pass(core, Link(lambda: fake, SPEC), clock, on_status=on_status)
+    assert cut, "the sweep was never reached"
+    commands, last = cut["next"]
+    assert commands == cut["commands"] + 1                 # sent on the very next cycle
+    assert (last.az_m_deg, last.el_deg) == (cut["last"].az_m_deg, cut["last"].el_deg)

@@ -515,14 +515,16 @@ class TrackCore:
             el = self._plan_el[i] if self.spec.has_elevation else None
             cmd = self._safe(self._plan_az[i], el, "track")
             self._hold_until_s = -math.inf
-            last = self.last_command
-            if self._staircase and last is not None and last.aim is None and abs(
-                    cmd.az_m_deg - last.az_m_deg) < 1e-9 and (cmd.el_deg is None or (
-                    last.el_deg is not None and abs(cmd.el_deg - last.el_deg) < 1e-9)):
-                # The step nearest now (or the limit a guard holds it to) has gone out
-                # already, and the antenna may have reached it and stopped: sending it again
-                # would only restart the motor. A command that did not move it is the stall
-                # watch's to re-send.
+            motor = self.motor
+            if self._staircase and self._phase_commanded is Phase.TRACK and abs(
+                    motor.az.target_deg - cmd.az_m_deg) < 1e-9 and (
+                    cmd.el_deg is None or motor.el is None
+                    or abs(motor.el.target_deg - cmd.el_deg) < 1e-9):
+                # The step nearest now (or the limit a guard holds it to) is what the motors
+                # are already sent to, and the antenna may have reached it and stopped:
+                # sending it again would only restart the motor. After an all-stop or a
+                # resync the belief's target is where the antenna stands, so the step goes
+                # out again; a command that did not move it is the stall watch's to re-send.
                 return None
         else:
             # After the whole pre-position (which already leads into the pass) the antenna
@@ -575,8 +577,8 @@ class TrackCore:
 
     def _plan_index_near(self, t_s: float) -> int:
         """Index of the plan's command whose time is nearest ``t_s`` (the later one on a
-        tie): each goes out within half a plan step of the time the planner gave it, the
-        timing its prediction assumes, and never late."""
+        tie): each goes out within half a plan step of the time the planner gave it, early
+        or late, the timing its prediction assumes."""
         pt = self._plan_t
         j = bisect_left(pt, t_s)
         if j >= len(pt):
@@ -949,8 +951,9 @@ class PassResult:
         head = f"joined {self.joined_late_s:.0f} s after AOS"
         if self.acquired_at >= len(self.errors_deg):
             return f"{head}; never on target"
-        caught_s = (self.error_t_s[self.acquired_at] - self.error_t_s[0]
-                    if len(self.error_t_s) == len(self.errors_deg) else 0.0)
+        if len(self.error_t_s) != len(self.errors_deg):     # readings without their times
+            return f"{head}; error counted from the first reading on target"
+        caught_s = self.error_t_s[self.acquired_at] - self.error_t_s[0]
         return f"{head}; on target {caught_s:.0f} s later, error counted from then"
 
 

@@ -354,3 +354,11 @@ def test_streamed_parts_are_the_whole_table(amateur):
             assert p.errors == whole.errors
             assert {**p.stats, "chunks": 0} == {**whole.stats, "chunks": 0}
             assert (p.start, p.end, p.names) == (whole.start, whole.end, whole.names)
+
+
+@pytest.mark.parametrize("memory_mb", [0.0, -1.0, float("nan"), float("inf")])
+def test_an_impossible_memory_budget_is_a_clear_error(amateur, memory_mb):
+    for finder in (find_passes_batch, lambda *a, **k: list(iter_passes_batch(*a, **k))):
+        with pytest.raises(ConfigError, match=r"memory_mb .* is invalid"):
+            finder(amateur[0][:2], amateur[1][:2], [DELFT], START, START + timedelta(hours=6),
+                   memory_mb=memory_mb)

@@ -380,7 +380,7 @@ def test_a_pass_joined_under_way_counts_its_error_from_acquisition(catalog):
                                                            tzinfo=timezone.utc))
     report = st.run_until(datetime(2026, 8, 22, 13, 25, tzinfo=timezone.utc))
     (o,) = _done(report)
-    assert o.reason.startswith("joined 3") and "acquisition" in o.reason
+    assert o.reason.startswith("joined 3") and "on target" in o.reason
     assert o.measured_max_error_deg is not None and o.measured_max_error_deg < 6.0
 
 
@@ -414,6 +414,6 @@ def test_a_table_pass_joined_under_way_resumes_from_the_point_due(catalog):
                                                           tzinfo=timezone.utc))
     report = st.run_until(datetime(2026, 8, 22, 13, 25, tzinfo=timezone.utc))
     (o,) = _done(report)
-    assert o.reason.startswith("joined 3") and "acquisition" in o.reason
+    assert o.reason.startswith("joined 3") and "on target" in o.reason
     assert o.measured_max_error_deg is not None and o.measured_max_error_deg < 2.0
     assert not st.said("resync")          # started on the point due, not caught up later

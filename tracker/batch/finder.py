@@ -1208,6 +1208,9 @@ def _passes_in_parts(satrecs, names, stations, start, end, min_el_deg, *, step_s
         raise ConfigError("no stations given")
     if not (10.0 <= step_s <= 600.0):
         raise ConfigError(f"step_s = {step_s!r} is invalid; allowed: 10 to 600 seconds")
+    if not (math.isfinite(memory_mb) and memory_mb > 0.0):
+        raise ConfigError(f"memory_mb = {memory_mb!r} is invalid; give a working-set budget "
+                          f"in MB above 0")
     blocks = time_blocks(start, end, block_days)
     start, end = _to_utc(start), _to_utc(end)
     kwargs = dict(step_s=step_s, tol_s=tol_s, memory_mb=memory_mb)

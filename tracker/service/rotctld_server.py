@@ -67,7 +67,7 @@ POLL_S = 0.25             # how often a move under the stall watch is read back
 # so a client that never sends a newline cannot grow the server's memory.
 MAX_LINE_BYTES = 1024
 # A plain decimal: Python's float() would also take "1_0" (as 10), "inf" and "nan".
-_DECIMAL_RE = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+_DECIMAL_RE = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 
 EventSink = Callable[..., None]
 

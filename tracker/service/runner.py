@@ -52,7 +52,7 @@ if TYPE_CHECKING:  # pragma: no cover - typing only
     from tracker.service.elements import ElementKeeper
     from tracker.service.plan import PlannedPass, RollingSchedule
     from tracker.station import Station
-    from tracker.stream import Status, StreamSettings
+    from tracker.stream import PassResult, Status, StreamSettings
 
 # The longest single wait: the loop looks at stop requests, reloads and refreshes this often.
 NAP_S = 60.0
@@ -583,28 +583,26 @@ class StationService:
             raise _CutShort()
         res = results[0]
         outcome.commands, outcome.reconnects = res.commands, res.reconnects
-        self._measured(p, outcome, list(res.errors_deg), joined_s)
+        self._measured(p, outcome, res, joined_s)
 
-    def _measured(self, p: PlannedPass, outcome: PassOutcome, errors: list[float],
+    def _measured(self, p: PlannedPass, outcome: PassOutcome, result: PassResult,
                   joined_s: float) -> None:
         """The pass's measured max error. Joined under way (a restart, a controller back
         late), the slew to catch the target is not the tracking's error: it is counted from
         the first reading on target, and the reason says so."""
-        from tracker.stream import acquisition_index
-
-        late_s = joined_s - p.pass_.aos.timestamp()
-        if late_s > 0 and errors:
-            errors = errors[acquisition_index(errors, self.stream.deadband_deg):]
-            outcome.reason = (f"joined {late_s:.0f} s after AOS; error counted from "
-                              f"acquisition" + ("" if errors else " (never acquired)"))
-        if errors:
-            outcome.measured_max_error_deg = float(max(errors))
+        result.count_from_acquisition(joined_s - p.pass_.aos.timestamp(),
+                                      self.stream.deadband_deg)
+        if result.joined_late_s > 0.0 and result.errors_deg:
+            outcome.reason = result.joined_note()
+        if math.isfinite(result.max_error_deg):
+            outcome.measured_max_error_deg = float(result.max_error_deg)
 
     def _run_table(self, p: PlannedPass, track: Any, watch: _PassWatch,
                    outcome: PassOutcome) -> None:
         from tracker.planner import park_position
         from tracker.session import EffectiveLimits
         from tracker.steptable import compile_pass
+        from tracker.stream import PassResult
         from tracker.upload import TableRunner, resume_schedule
 
         driver = self._active = self.connect()
@@ -627,7 +625,10 @@ class StationService:
                                  progress=watch.progress, on_reading=watch.reading)
             report = runner.run(tables)
             outcome.commands = sum(len(t) for t in tables) + len(tables)
-            self._measured(p, outcome, list(report.errors_deg), joined_s)
+            self._measured(p, outcome, PassResult(
+                commands=outcome.commands, reconnects=0,
+                max_error_deg=max(report.errors_deg, default=float("nan")),
+                errors_deg=list(report.errors_deg)), joined_s)
             if self._park_after(p):
                 park_m, park_el = park_position(spec, self.station)
                 park = (float(spec.frame.wire_of(park_m)),
