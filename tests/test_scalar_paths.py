@@ -124,19 +124,27 @@ def _old_needs_command(path, az_axis, el_axis, t0_s, deadband_deg, lookahead_s, 
     return bool(np.max(err) > deadband_deg)
 
 
+def _motor_near(rng, path, off_deg: float, command_deg: float) -> tuple[float, MotorModel]:
+    """A random time ``t0`` on ``path`` and a motor resting about ``off_deg`` off the path
+    there, half the time on its way to a target about ``command_deg`` off, commanded up to
+    2 s before ``t0``."""
+    t0 = float(rng.uniform(path.start_s, path.end_s + 2.0))
+    az0, el0 = path.mount_at(t0)
+    motor = MotorModel(SPEC, float(az0 + rng.normal(0, off_deg)),
+                       float(np.clip(el0 + rng.normal(0, off_deg), 0, 180)), t0 - 2.0)
+    if rng.random() < 0.5:
+        motor.command(float(az0 + rng.normal(0, command_deg)),
+                      float(np.clip(el0 + rng.normal(0, command_deg), 0, 180)),
+                      t0 - rng.uniform(0, 2))
+    return t0, motor
+
+
 @pytest.mark.parametrize("path", _paths())
 def test_needs_command_decides_as_the_array_version(path):
     rng = np.random.default_rng(14)
     decided = []
     for _ in range(1500):
-        t0 = float(rng.uniform(path.start_s, path.end_s + 2.0))
-        az0, el0 = path.mount_at(t0)
-        motor = MotorModel(SPEC, float(az0 + rng.normal(0, 3)),
-                           float(np.clip(el0 + rng.normal(0, 3), 0, 180)), t0 - 2.0)
-        if rng.random() < 0.5:
-            motor.command(float(az0 + rng.normal(0, 5)), float(np.clip(el0 + rng.normal(0, 5),
-                                                                       0, 180)),
-                          t0 - rng.uniform(0, 2))
+        t0, motor = _motor_near(rng, path, off_deg=3.0, command_deg=5.0)
         band = float(rng.uniform(1.0, 6.0))
         look = float(rng.uniform(0.0, 2.0))
         new = needs_command(path, motor.az, motor.el, t0, band, look)
@@ -152,14 +160,7 @@ def test_quiet_until_keeps_its_promise(path):
     rng = np.random.default_rng(16)
     spans = []
     for _ in range(300):
-        t0 = float(rng.uniform(path.start_s, path.end_s + 2.0))
-        az0, el0 = path.mount_at(t0)
-        motor = MotorModel(SPEC, float(az0 + rng.normal(0, 2)),
-                           float(np.clip(el0 + rng.normal(0, 2), 0, 180)), t0 - 2.0)
-        if rng.random() < 0.5:
-            motor.command(float(az0 + rng.normal(0, 3)), float(np.clip(el0 + rng.normal(0, 3),
-                                                                       0, 180)),
-                          t0 - rng.uniform(0, 2))
+        t0, motor = _motor_near(rng, path, off_deg=2.0, command_deg=3.0)
         band = float(rng.uniform(1.0, 6.0))
         until = quiet_until_s(path, motor.az, motor.el, t0, band, 1.0)
         if until is None:

@@ -6,7 +6,7 @@ GS-232B emulator is in test_stream_e2e.py.
 
 from __future__ import annotations
 
-from datetime import datetime, timezone
+from datetime import datetime, timedelta, timezone
 
 import numpy as np
 import pytest
@@ -248,23 +248,34 @@ def test_safe_target_keeps_limits_and_mask():
     assert safe_target(spec90, Station(), 10.0, 120.0)[1] == 90.0
 
 
-def test_near_overhead_pass_stays_within_plan_error_and_deadband():
-    """CUBESAT XI-V over Munich, max el 86 deg (bundled elements): near the zenith the
-    azimuth must turn nearly as fast as the motor; there the loop follows the plan's led
-    commands (in the benchmark suite, holding in the deadband there once built a lag that
-    took a > 5 deg slew to make up)."""
+MUNICH = Station("munich", 48.15, 11.57, 520.0)
+FOX_NIGHT = datetime(2026, 8, 22, 20, 0, tzinfo=timezone.utc)   # FOX-1CLIFF's 85 deg keyhole
+
+
+def _bundled_pass(name: str, after: datetime, current=(SPEC.park_az_deg, SPEC.park_el_deg)):
+    """(pass, 1 s track, plan from ``current``) of the first pass of a bundled target over
+    Munich in the half hour (or hour) after ``after``."""
     from tle.catalog import Catalog
     from tracker.passes import find_passes
     from tracker.planner import plan_pass
     from tracker.targets import resolve_target
 
-    station = Station("munich", 48.15, 11.57, 520.0)
-    target = resolve_target("CUBESAT XI-V", Catalog.default)
-    day = datetime(2026, 8, 22, 2, 30, tzinfo=timezone.utc)
-    p = find_passes(target, station, day, day.replace(hour=3))[0]
-    assert p.max_el_deg > 85.0
+    target = resolve_target(name, Catalog.default)
+    p = find_passes(target, MUNICH, after, after + timedelta(hours=1))[0]
     track = p.track(step_s=1.0, pad_s=60.0)
-    plan = plan_pass(track, SPEC, station, current=(0.0, 0.0))
+    return p, track, plan_pass(track, SPEC, MUNICH, current=current)
+
+
+def test_near_overhead_pass_stays_within_plan_error_and_deadband():
+    """CUBESAT XI-V over Munich, max el 86 deg (bundled elements): near the zenith the
+    azimuth must turn nearly as fast as the motor; there the loop follows the plan's led
+    commands (in the benchmark suite, holding in the deadband there once built a lag that
+    took a > 5 deg slew to make up)."""
+    station = MUNICH
+    p, track, plan = _bundled_pass("CUBESAT XI-V",
+                                   datetime(2026, 8, 22, 2, 30, tzinfo=timezone.utc),
+                                   current=(0.0, 0.0))
+    assert p.max_el_deg > 85.0
     clock = ManualClock(datetime.fromtimestamp(plan.preposition_t_s - 5, timezone.utc))
     fake = FakeRotator(SPEC, clock, 0.0, 0.0)
     core = TrackCore(plan, track, SPEC, station, StreamSettings(deadband_deg=3.0))
@@ -316,18 +327,11 @@ def test_keyhole_sweep_is_followed_as_planned_without_loss():
     step, which aims behind the antenna) and sends each command within half a step of its
     planned time, so the error stays the planner's (in the pass suite it was 5.25 deg: 8 s
     lost)."""
-    from tle.catalog import Catalog
-    from tracker.passes import find_passes
-    from tracker.planner import LOST_THRESHOLD_DEG, plan_pass
-    from tracker.targets import resolve_target
+    from tracker.planner import LOST_THRESHOLD_DEG
 
-    station = Station("munich", 48.15, 11.57, 520.0)
-    target = resolve_target("FOX-1CLIFF", Catalog.default)
-    day = datetime(2026, 8, 22, 20, 0, tzinfo=timezone.utc)
-    p = find_passes(target, station, day, day.replace(hour=21))[0]
+    station = MUNICH
+    p, track, plan = _bundled_pass("FOX-1CLIFF", FOX_NIGHT)
     assert p.max_el_deg > 84.0
-    track = p.track(step_s=1.0, pad_s=60.0)
-    plan = plan_pass(track, SPEC, station, current=(SPEC.park_az_deg, SPEC.park_el_deg))
     assert plan.mode == "keyhole" and plan.lost_track_s == 0.0
     assert plan.max_error_deg > LOST_THRESHOLD_DEG - 0.2      # little room: timing matters
     clock = ManualClock(datetime.fromtimestamp(plan.preposition_t_s - 5.25, timezone.utc))
@@ -357,17 +361,8 @@ def test_a_staircase_step_cut_by_an_all_stop_is_sent_again_on_the_next_cycle():
     """Mid-sweep of a keyhole pass the rotator is stopped and the loop resyncs (as after a
     reconnect): the step the motors were sent to is not reached, so the next cycle sends it
     again. Only a step the motors are still sent to is left alone."""
-    from tle.catalog import Catalog
-    from tracker.passes import find_passes
-    from tracker.planner import plan_pass
-    from tracker.targets import resolve_target
-
-    station = Station("munich", 48.15, 11.57, 520.0)
-    target = resolve_target("FOX-1CLIFF", Catalog.default)
-    day = datetime(2026, 8, 22, 20, 0, tzinfo=timezone.utc)
-    track = find_passes(target, station, day, day.replace(hour=21))[0].track(step_s=1.0,
-                                                                             pad_s=60.0)
-    plan = plan_pass(track, SPEC, station, current=(SPEC.park_az_deg, SPEC.park_el_deg))
+    station = MUNICH
+    _p, track, plan = _bundled_pass("FOX-1CLIFF", FOX_NIGHT)
     assert plan.mode == "keyhole"
     clock = ManualClock(datetime.fromtimestamp(plan.preposition_t_s - 5.25, timezone.utc))
     fake = FakeRotator(SPEC, clock, SPEC.park_az_deg, SPEC.park_el_deg)
