@@ -203,7 +203,10 @@ def test_predict_all_is_predict_per_target(moving):
             axis.command(float(rng.uniform(0, 450)), 99.5)
         targets = np.unique(np.round(rng.uniform(0, 450, 12)))
         before = copy.copy(axis.__dict__)
-        pos, arr, starts = _predict_all(axis, targets, 100.0, ts)
+        positions, arr, starts = _predict_all(axis, targets, 100.0, ts)
+        pos = positions(0, len(ts))
+        assert np.array_equal(np.concatenate([positions(0, 7), positions(7, len(ts))], axis=1),
+                              pos)
         assert axis.__dict__ == before
         for k, v in enumerate(targets):
             p, a, s = _predict(axis, float(v), 100.0, ts)

@@ -75,28 +75,41 @@ def _quantise(axis: AxisMotor, targets_deg: np.ndarray) -> np.ndarray:
     """:meth:`AxisMotor.quantise` of each of ``targets_deg`` (the same rounding: half to
     even, then the limits)."""
     res = axis.resolution_deg
-    return np.clip(np.round(np.asarray(targets_deg, dtype=float) / res) * res, axis.min_deg,
-                   axis.max_deg)
+    # np.minimum(np.maximum(...)) is np.clip's result at a fraction of its call cost.
+    return np.minimum(np.maximum(np.round(np.asarray(targets_deg, dtype=float) / res) * res,
+                                 axis.min_deg), axis.max_deg)
+
+
+# ``f(i0, i1)``: values over the samples ``ts[i0:i1]`` (computed when asked for).
+Columns = Callable[[int, int], np.ndarray]
 
 
 def _predict_all(axis: AxisMotor, targets_deg: np.ndarray, t0_s: float, ts: np.ndarray
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`_predict` for each of ``targets_deg``: positions ``(k, n)``, arrival times and
-    motor starts ``(k,)``. An axis at rest takes :func:`~tracker.mount.drive_axis`'s closed
-    form for one command, for all targets at once; a running (or jammed) one steps each."""
+                 ) -> tuple[Columns, np.ndarray, np.ndarray]:
+    """:func:`_predict` for each of ``targets_deg``: ``positions(i0, i1)`` (the positions
+    ``(k, i1 - i0)`` over ``ts[i0:i1]``), arrival times and motor starts ``(k,)``. An axis at
+    rest takes :func:`~tracker.mount.drive_axis`'s closed form for one command, for all
+    targets at once and only over the columns asked for; a running (or jammed) one steps
+    each."""
     if axis.jammed or axis.moving(t0_s):
         sims = [_predict(axis, float(v), t0_s, ts) for v in targets_deg]
-        return (np.array([p for p, _a, _s in sims]), np.array([a for _p, a, _s in sims]),
+        pos_all = np.array([p for p, _a, _s in sims])
+        return (lambda i0, i1: pos_all[:, i0:i1], np.array([a for _p, a, _s in sims]),
                 np.array([s for _p, _a, s in sims]))
     p0 = float(axis.position(t0_s))
     cmd = _quantise(axis, targets_deg)
     step = np.abs(cmd - p0)
     moving = step > 1e-9
     arrival = t0_s + np.where(moving, axis.start_delay_s, 0.0) + step / axis.rate_deg_s
-    pos = move_from_rest(p0, cmd[:, None], ts[None, :] - t0_s, axis.rate_deg_s,
-                         axis.start_delay_s)
-    pos[:, ts < t0_s] = p0
-    return pos, arrival, moving.astype(int)
+    rate_deg_s, delay_s, col = axis.rate_deg_s, axis.start_delay_s, cmd[:, None]
+
+    def positions(i0: int, i1: int) -> np.ndarray:
+        t = ts[i0:i1]
+        pos = move_from_rest(p0, col, t[None, :] - t0_s, rate_deg_s, delay_s)
+        pos[:, t < t0_s] = p0
+        return pos
+
+    return positions, arrival, moving.astype(int)
 
 
 def _at(path: MountPath, t_s: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -201,49 +214,77 @@ def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t
     ts = np.arange(t0_s, max(t_end, t0_s) + 1e-9, step_s)
     if len(ts) < 2:
         ts = np.array([t0_s, t0_s + step_s])
-    target_dir = path.target_enu(ts)                       # (n, 3)
-    cand_az, cand_el = _at(path, ts)
+    # The samples are computed in the blocks the errors are (``_blocks``), only as far as
+    # the candidates and their errors need them.
+    dirs: dict[tuple[int, int], np.ndarray] = {}
+
+    def target_dir(i0: int, i1: int) -> np.ndarray:           # (i1 - i0, 3)
+        if (i0, i1) not in dirs:
+            dirs[i0, i1] = path.target_enu(ts[i0:i1])
+        return dirs[i0, i1]
+
     # Candidates beyond where the target will be once it has moved well past the deadband
     # cannot be the best; cut them to keep the loop cheap.
-    cur_dir = path.target_enu(t0_s)
+    cur_dir = target_dir(*_blocks(len(ts))[0])[0]             # ts[0] is t0_s
     here = pointing_enu(az_axis.position(t0_s),
                         el_axis.position(t0_s) if el_axis is not None else 0.0,
                         path.stop_bearing_deg)
     lag_deg = float(angle_between_deg(here, cur_dir))
-    reach = angle_between_deg(target_dir, cur_dir) <= 2.5 * deadband_deg + lag_deg + 2.0
-    n_cand = max(1, int(np.argmin(reach)) if not reach.all() else len(ts))
-    q_az = _quantise(az_axis, cand_az[:n_cand])
-    q_el = _quantise(el_axis, cand_el[:n_cand]) if el_axis is not None else np.zeros(n_cand)
+    reach_deg = 2.5 * deadband_deg + lag_deg + 2.0
+    n_cand = len(ts)
+    for i0, i1 in _blocks(len(ts)):
+        beyond = np.flatnonzero(angle_between_deg(target_dir(i0, i1), cur_dir) > reach_deg)
+        if len(beyond):
+            n_cand = max(1, i0 + int(beyond[0]))
+            break
+    cand_az, cand_el = _at(path, ts[:n_cand])
+    q_az = _quantise(az_axis, cand_az)
+    q_el = _quantise(el_axis, cand_el) if el_axis is not None else np.zeros(n_cand)
     # Each axis is its own relay: a move that leaves one axis alone saves a motor start, so
     # candidates include moving only azimuth or only elevation (the other keeps its target).
     keep_az = az_axis.target_deg
     keep_el = el_axis.target_deg if el_axis is not None else 0.0
-    c_t = ts[:n_cand]
-    pairs = [(q_az, q_el, c_t)]
+    # The first of each distinct (az, el), in candidate order, but not the targets the axes
+    # already have (unless that is all there is). A candidate equal to the one before it in
+    # its group is never a first: dropping those leaves a few to compare one by one.
+    moves_az = np.empty(n_cand, dtype=bool)
+    moves_az[0] = True
+    np.not_equal(q_az[1:], q_az[:-1], out=moves_az[1:])
+    moves_el = np.empty(n_cand, dtype=bool)
+    moves_el[0] = True
+    np.not_equal(q_el[1:], q_el[:-1], out=moves_el[1:])
+    c_ts = ts[:n_cand]
+    both = np.flatnonzero(moves_az | moves_el)
+    triples = list(zip(q_az[both].tolist(), q_el[both].tolist(), c_ts[both].tolist(),
+                       strict=True))
     if el_axis is not None:
-        pairs += [(q_az, np.full(n_cand, keep_el), c_t), (np.full(n_cand, keep_az), q_el, c_t)]
-    c_az = np.concatenate([p[0] for p in pairs])
-    c_el = np.concatenate([p[1] for p in pairs])
-    c_t = np.concatenate([p[2] for p in pairs])
-    noop = (np.abs(c_az - keep_az) < 1e-9) & (np.abs(c_el - keep_el) < 1e-9)
-    if noop.all():
-        noop[:] = False
-    # The first of each distinct (az, el), in candidate order (a pair as one complex number:
-    # a 1-d unique, whose stable sort gives the first occurrence).
-    _, first = np.unique((c_az + 1j * c_el)[~noop], return_index=True)
-    first = np.flatnonzero(~noop)[np.sort(first)]
-    c_az, c_el, c_t = c_az[first], c_el[first], c_t[first]
+        only_az, only_el = np.flatnonzero(moves_az), np.flatnonzero(moves_el)
+        triples += [(a, keep_el, t) for a, t in zip(q_az[only_az].tolist(),
+                                                    c_ts[only_az].tolist(), strict=True)]
+        triples += [(keep_az, e, t) for e, t in zip(q_el[only_el].tolist(),
+                                                    c_ts[only_el].tolist(), strict=True)]
+    first: dict[tuple[float, float], float] = {}
+    for a, e, t in triples:
+        if (a, e) not in first and (abs(a - keep_az) >= 1e-9 or abs(e - keep_el) >= 1e-9):
+            first[a, e] = t
+    if not first:
+        for a, e, t in triples:
+            first.setdefault((a, e), t)
+    c_az = np.array([a for a, _e in first])
+    c_el = np.array([e for _a, e in first])
+    c_t = np.array(list(first.values()))
 
     # The axes are independent: simulate each distinct target once per axis.
-    u_az, i_az = np.unique(c_az, return_inverse=True)
+    u_az, i_az = _unique_inverse(c_az)
     pos_az, arr_az, st_az = _predict_all(az_axis, u_az, t0_s, ts)
     arr_az, st_az = arr_az[i_az], st_az[i_az]
     if el_axis is not None:
-        u_el, i_el = np.unique(c_el, return_inverse=True)
+        u_el, i_el = _unique_inverse(c_el)
         pos_el, arr_el, st_el = _predict_all(el_axis, u_el, t0_s, ts)
         arr_el, st_el = arr_el[i_el], st_el[i_el]
     else:
-        pos_el, i_el = np.zeros((1, len(ts))), np.zeros(len(c_az), dtype=int)
+        i_el = np.zeros(len(c_az), dtype=int)
+        pos_el = lambda i0, i1: np.zeros((1, i1 - i0))  # noqa: E731
         arr_el = np.full(len(c_az), t0_s)
         st_el = np.zeros(len(c_az))
     arrival = np.maximum(arr_az, arr_el)
@@ -252,8 +293,8 @@ def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t
         min_window_s = 4.0 * step_s
 
     def err_cols(i0: int, i1: int) -> np.ndarray:                # (k, i1 - i0)
-        return pointing_error_rows_deg(pos_az[:, i0:i1], pos_el[:, i0:i1], i_az, i_el,
-                                       path.stop_bearing_deg, target_dir[i0:i1])
+        return pointing_error_rows_deg(pos_az(i0, i1), pos_el(i0, i1), i_az, i_el,
+                                       path.stop_bearing_deg, target_dir(i0, i1))
 
     hold, peak = _hold_and_peak(err_cols, ts, t0_s, arrival, deadband_deg, min_window_s,
                                 step_s)
@@ -286,8 +327,28 @@ def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t
                candidates=len(c_az), starts=int(starts[pick]))
 
 
-# Candidate errors are computed this many samples at a time, until they decide every hold.
+# Candidate errors are computed this many samples at a time, then twice as many more, ...
+# until they decide every hold.
 _ERROR_BLOCK = 32
+
+
+def _blocks(n: int) -> list[tuple[int, int]]:
+    """The column ranges ``(i0, i1)`` of ``n`` samples, in the order the errors take them:
+    ``_ERROR_BLOCK`` first, each next block doubling what is done."""
+    out, m = [], min(_ERROR_BLOCK, n)
+    out.append((0, m))
+    while m < n:
+        out.append((m, min(2 * m, n)))
+        m = out[-1][1]
+    return out
+
+
+def _unique_inverse(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(values, return_inverse=True)`` for the few candidate targets of an axis
+    (a dict, at a fraction of its call cost)."""
+    distinct = sorted(set(values.tolist()))
+    index = {v: k for k, v in enumerate(distinct)}
+    return np.array(distinct), np.array([index[v] for v in values.tolist()], dtype=np.intp)
 
 
 def _hold_and_peak(err_cols: Callable[[int, int], np.ndarray], ts: np.ndarray, t0_s: float,
@@ -301,7 +362,8 @@ def _hold_and_peak(err_cols: Callable[[int, int], np.ndarray], ts: np.ndarray, t
     # The error before the quickest candidate can arrive is the same for all of them (the
     # antenna is where it is), so it does not count in the comparison.
     t_settle = min(float(np.min(arrival)), ts[-1])
-    m = min(_ERROR_BLOCK, n)
+    blocks = iter(_blocks(n))
+    m = next(blocks)[1]
     err = err_cols(0, m)
     while True:
         # The loop commands again once the antenna, settled on its aim point, is more than
@@ -315,9 +377,8 @@ def _hold_and_peak(err_cols: Callable[[int, int], np.ndarray], ts: np.ndarray, t
         if m == n or (left.all() and ts[m] >= float(np.max(window_end)) - 1e-9
                       and ts[m] > float(np.max(arrival)) + step_s):
             break
-        m_next = min(2 * m, n)
-        err = np.concatenate([err, err_cols(m, m_next)], axis=1)
-        m = m_next
+        i0, m = next(blocks)
+        err = np.concatenate([err, err_cols(i0, m)], axis=1)
     # The sample where the error leaves the deadband ends the hold and is the next
     # command's, not this one's, unless it comes on arrival: then this aim never held.
     tm = ts[None, :m]
