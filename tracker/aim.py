@@ -233,6 +233,10 @@ def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t
     reach_deg = 2.5 * deadband_deg + lag_deg + 2.0
     n_cand = len(ts)
     for i0, i1 in _blocks(len(ts)):
+        # The target moves at most its travel bound: a block it cannot leave the reach in
+        # needs no samples (the errors may never get that far).
+        if path.target_travel_bound_deg(t0_s, float(ts[i1 - 1])) < reach_deg - _BOUND_SLACK_DEG:
+            continue
         beyond = np.flatnonzero(angle_between_deg(target_dir(i0, i1), cur_dir) > reach_deg)
         if len(beyond):
             n_cand = max(1, i0 + int(beyond[0]))
@@ -292,9 +296,9 @@ def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t
     if min_window_s is None:
         min_window_s = 4.0 * step_s
 
-    def err_cols(i0: int, i1: int) -> np.ndarray:                # (k, i1 - i0)
-        return pointing_error_rows_deg(pos_az(i0, i1), pos_el(i0, i1), i_az, i_el,
-                                       path.stop_bearing_deg, target_dir(i0, i1))
+    def err_cols(i0: int, i1: int, rows: np.ndarray) -> np.ndarray:   # (len(rows), i1 - i0)
+        return pointing_error_rows_deg(pos_az(i0, i1), pos_el(i0, i1), i_az[rows],
+                                       i_el[rows], path.stop_bearing_deg, target_dir(i0, i1))
 
     hold, peak = _hold_and_peak(err_cols, ts, t0_s, arrival, deadband_deg, min_window_s,
                                 step_s)
@@ -351,20 +355,22 @@ def _unique_inverse(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.array(distinct), np.array([index[v] for v in values.tolist()], dtype=np.intp)
 
 
-def _hold_and_peak(err_cols: Callable[[int, int], np.ndarray], ts: np.ndarray, t0_s: float,
-                   arrival: np.ndarray, deadband_deg: float, min_window_s: float,
+def _hold_and_peak(err_cols: Callable[[int, int, np.ndarray], np.ndarray], ts: np.ndarray,
+                   t0_s: float, arrival: np.ndarray, deadband_deg: float, min_window_s: float,
                    step_s: float) -> tuple[np.ndarray, np.ndarray]:
     """Each candidate's hold and peak error (module docstring) from its errors over ``ts``
-    (``err_cols(i0, i1)``: the columns ``i0:i1``). Columns are computed in blocks, only as far
-    as needed: once every candidate has left the deadband and no later sample is in any
-    window, the rest cannot change a hold or a peak."""
+    (``err_cols(i0, i1, rows)``: the columns ``i0:i1`` of the candidates ``rows``). Columns
+    are computed in blocks, only as far as needed, and a block only for the candidates it
+    can still change: once a candidate has left the deadband and no later sample is in its
+    window, the rest cannot change its hold or its peak."""
     n = len(ts)
+    k = len(arrival)
     # The error before the quickest candidate can arrive is the same for all of them (the
     # antenna is where it is), so it does not count in the comparison.
     t_settle = min(float(np.min(arrival)), ts[-1])
     blocks = iter(_blocks(n))
     m = next(blocks)[1]
-    err = err_cols(0, m)
+    err = err_cols(0, m, np.arange(k))
     while True:
         # The loop commands again once the antenna, settled on its aim point, is more than
         # the deadband off the path; a candidate that cannot arrive inside the horizon holds
@@ -374,11 +380,18 @@ def _hold_and_peak(err_cols: Callable[[int, int], np.ndarray], ts: np.ndarray, t
         next_idx = np.where(left, np.argmax(leaves, axis=1), n - 1)
         hold = np.where(arrival <= ts[-1], ts[next_idx] - t0_s, 0.0)
         window_end = np.maximum(t0_s + np.maximum(hold, min_window_s), t_settle)
-        if m == n or (left.all() and ts[m] >= float(np.max(window_end)) - 1e-9
-                      and ts[m] > float(np.max(arrival)) + step_s):
+        if m == n:
             break
+        done = left & (ts[m] >= window_end - 1e-9) & (ts[m] > arrival + step_s)
+        if done.all():
+            break
+        # A done candidate's later errors are out of its window (they count 0 in its peak)
+        # and after the sample it left at.
         i0, m = next(blocks)
-        err = np.concatenate([err, err_cols(i0, m)], axis=1)
+        block = np.zeros((k, m - i0))
+        rows = np.flatnonzero(~done)
+        block[rows] = err_cols(i0, m, rows)
+        err = np.concatenate([err, block], axis=1)
     # The sample where the error leaves the deadband ends the hold and is the next
     # command's, not this one's, unless it comes on arrival: then this aim never held.
     tm = ts[None, :m]
