@@ -333,7 +333,7 @@ def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t
 
 # Candidate errors are computed this many samples at a time, then twice as many more, ...
 # until they decide every hold.
-_ERROR_BLOCK = 32
+_ERROR_BLOCK = 64
 
 
 def _blocks(n: int) -> list[tuple[int, int]]:
