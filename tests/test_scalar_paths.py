@@ -196,12 +196,15 @@ def test_axis_at_rest_and_restarted_in_place_answer_as_before():
 @pytest.mark.parametrize("moving", [False, True])
 def test_predict_all_is_predict_per_target(moving):
     rng = np.random.default_rng(15)
-    ts = np.arange(100.0, 160.0, 0.5)
+    ts = np.arange(99.0, 160.0, 0.5)          # from before the command at 100
     for _ in range(60):
         axis = AxisMotor(0.0, 450.0, 5.0, 0.5, 1.0, float(rng.uniform(0, 450)), 90.0)
         if moving:
             axis.command(float(rng.uniform(0, 450)), 99.5)
-        targets = np.unique(np.round(rng.uniform(0, 450, 12)))
+        # Some on the way (a running axis keeps its relay closed), some behind it, and where
+        # it stands.
+        targets = np.unique(np.concatenate([np.round(rng.uniform(0, 450, 12)),
+                                            [round(axis.position(100.0))]]))
         before = copy.copy(axis.__dict__)
         positions, arr, starts = _predict_all(axis, targets, 100.0, ts)
         pos = positions(0, len(ts))

@@ -87,21 +87,41 @@ Columns = Callable[[int, int], np.ndarray]
 def _predict_all(axis: AxisMotor, targets_deg: np.ndarray, t0_s: float, ts: np.ndarray
                  ) -> tuple[Columns, np.ndarray, np.ndarray]:
     """:func:`_predict` for each of ``targets_deg``: ``positions(i0, i1)`` (the positions
-    ``(k, i1 - i0)`` over ``ts[i0:i1]``), arrival times and motor starts ``(k,)``. An axis at
-    rest takes :func:`~tracker.mount.drive_axis`'s closed form for one command, for all
-    targets at once and only over the columns asked for; a running (or jammed) one steps
-    each."""
-    if axis.jammed or axis.moving(t0_s):
+    ``(k, i1 - i0)`` over ``ts[i0:i1]``), arrival times and motor starts ``(k,)``, for all
+    targets at once and only over the columns asked for. An axis at rest takes
+    :func:`~tracker.mount.drive_axis`'s closed form for one command; a running one
+    :meth:`AxisMotor.command`'s retarget (no new start delay while it keeps its direction),
+    in the same arithmetic; a jammed one steps each."""
+    if axis.jammed:
         sims = [_predict(axis, float(v), t0_s, ts) for v in targets_deg]
         pos_all = np.array([p for p, _a, _s in sims])
         return (lambda i0, i1: pos_all[:, i0:i1], np.array([a for _p, a, _s in sims]),
                 np.array([s for _p, _a, s in sims]))
     p0 = float(axis.position(t0_s))
     cmd = _quantise(axis, targets_deg)
+    rate_deg_s, col = axis.rate_deg_s, cmd[:, None]
+    if axis.moving(t0_s):
+        was = axis.direction(t0_s)
+        seg_t0_s, _p, _target, seg_delay_s, _rate, _jammed = axis.segment()
+        dist = cmd - p0
+        new = np.where(np.abs(dist) < 1e-9, 0, np.where(dist > 0, 1, -1))
+        delay = np.where((new == was), max(0.0, seg_t0_s + seg_delay_s - t0_s),
+                         np.where(new != 0, axis.start_delay_s, 0.0))
+        arrival = t0_s + delay + np.abs(dist) / rate_deg_s
+        sign, span, wait = np.copysign(1.0, dist)[:, None], np.abs(dist)[:, None], delay[:, None]
+
+        def running(i0: int, i1: int) -> np.ndarray:
+            t = ts[i0:i1]
+            pos = p0 + sign * np.clip((t[None, :] - t0_s - wait) * rate_deg_s, 0.0, span)
+            early = t < t0_s
+            pos[:, early] = axis.position(t[early])
+            return pos
+
+        return running, arrival, ((new != 0) & (new != was)).astype(int)
     step = np.abs(cmd - p0)
     moving = step > 1e-9
-    arrival = t0_s + np.where(moving, axis.start_delay_s, 0.0) + step / axis.rate_deg_s
-    rate_deg_s, delay_s, col = axis.rate_deg_s, axis.start_delay_s, cmd[:, None]
+    arrival = t0_s + np.where(moving, axis.start_delay_s, 0.0) + step / rate_deg_s
+    delay_s = axis.start_delay_s
 
     def positions(i0: int, i1: int) -> np.ndarray:
         t = ts[i0:i1]
