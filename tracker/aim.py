@@ -250,53 +250,13 @@ def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t
                         el_axis.position(t0_s) if el_axis is not None else 0.0,
                         path.stop_bearing_deg)
     lag_deg = float(angle_between_deg(here, cur_dir))
-    reach_deg = 2.5 * deadband_deg + lag_deg + 2.0
-    n_cand = len(ts)
-    for i0, i1 in _blocks(len(ts)):
-        # The target moves at most its travel bound: a block it cannot leave the reach in
-        # needs no samples (the errors may never get that far).
-        if path.target_travel_bound_deg(t0_s, float(ts[i1 - 1])) < reach_deg - _BOUND_SLACK_DEG:
-            continue
-        beyond = np.flatnonzero(angle_between_deg(target_dir(i0, i1), cur_dir) > reach_deg)
-        if len(beyond):
-            n_cand = max(1, i0 + int(beyond[0]))
-            break
+    n_cand = _within_reach(path, ts, target_dir, cur_dir,
+                           2.5 * deadband_deg + lag_deg + 2.0)
     cand_az, cand_el = _at(path, ts[:n_cand])
     q_az = _quantise(az_axis, cand_az)
     q_el = _quantise(el_axis, cand_el) if el_axis is not None else np.zeros(n_cand)
-    # Each axis is its own relay: a move that leaves one axis alone saves a motor start, so
-    # candidates include moving only azimuth or only elevation (the other keeps its target).
-    keep_az = az_axis.target_deg
-    keep_el = el_axis.target_deg if el_axis is not None else 0.0
-    # The first of each distinct (az, el), in candidate order, but not the targets the axes
-    # already have (unless that is all there is). A candidate equal to the one before it in
-    # its group is never a first: dropping those leaves a few to compare one by one.
-    moves_az = np.empty(n_cand, dtype=bool)
-    moves_az[0] = True
-    np.not_equal(q_az[1:], q_az[:-1], out=moves_az[1:])
-    moves_el = np.empty(n_cand, dtype=bool)
-    moves_el[0] = True
-    np.not_equal(q_el[1:], q_el[:-1], out=moves_el[1:])
-    c_ts = ts[:n_cand]
-    both = np.flatnonzero(moves_az | moves_el)
-    triples = list(zip(q_az[both].tolist(), q_el[both].tolist(), c_ts[both].tolist(),
-                       strict=True))
-    if el_axis is not None:
-        only_az, only_el = np.flatnonzero(moves_az), np.flatnonzero(moves_el)
-        triples += [(a, keep_el, t) for a, t in zip(q_az[only_az].tolist(),
-                                                    c_ts[only_az].tolist(), strict=True)]
-        triples += [(keep_az, e, t) for e, t in zip(q_el[only_el].tolist(),
-                                                    c_ts[only_el].tolist(), strict=True)]
-    first: dict[tuple[float, float], float] = {}
-    for a, e, t in triples:
-        if (a, e) not in first and (abs(a - keep_az) >= 1e-9 or abs(e - keep_el) >= 1e-9):
-            first[a, e] = t
-    if not first:
-        for a, e, t in triples:
-            first.setdefault((a, e), t)
-    c_az = np.array([a for a, _e in first])
-    c_el = np.array([e for _a, e in first])
-    c_t = np.array(list(first.values()))
+    c_az, c_el, c_t = _distinct_candidates(q_az, q_el, ts[:n_cand], az_axis.target_deg,
+                                           el_axis.target_deg if el_axis is not None else None)
 
     # The axes are independent: simulate each distinct target once per axis.
     u_az, i_az = _unique_inverse(c_az)
@@ -349,6 +309,59 @@ def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t
                aim_t_s=float(c_t[pick]), hold_s=float(hold[pick]),
                peak_error_deg=float(peak[pick]), arrival_s=float(arrival[pick]),
                candidates=len(c_az), starts=int(starts[pick]))
+
+
+def _within_reach(path: MountPath, ts: np.ndarray, target_dir: Columns, cur_dir: np.ndarray,
+                  reach_deg: float) -> int:
+    """How many of ``ts`` come before the first whose target is more than ``reach_deg`` from
+    ``cur_dir`` (at least 1; all when none is)."""
+    t0_s = float(ts[0])
+    for i0, i1 in _blocks(len(ts)):
+        # The target moves at most its travel bound: a block it cannot leave the reach in
+        # needs no samples (the errors may never get that far).
+        if path.target_travel_bound_deg(t0_s, float(ts[i1 - 1])) < reach_deg - _BOUND_SLACK_DEG:
+            continue
+        beyond = np.flatnonzero(angle_between_deg(target_dir(i0, i1), cur_dir) > reach_deg)
+        if len(beyond):
+            return max(1, i0 + int(beyond[0]))
+    return len(ts)
+
+
+def _distinct_candidates(q_az: np.ndarray, q_el: np.ndarray, c_ts: np.ndarray, keep_az: float,
+                         keep_el: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The candidate ``(az, el, aim time)`` rows from the quantised path points ``q_az``,
+    ``q_el`` at ``c_ts``: each point, then (with an elevation axis, ``keep_el`` not None)
+    each moving only azimuth, then only elevation (the other keeps its target: one relay
+    click instead of two). The first of each distinct (az, el), in that order, but not the
+    targets the axes already have (unless that is all there is)."""
+    # A candidate equal to the one before it in its group is never a first: dropping those
+    # leaves a few to compare one by one.
+    moves_az = np.empty(len(q_az), dtype=bool)
+    moves_az[0] = True
+    np.not_equal(q_az[1:], q_az[:-1], out=moves_az[1:])
+    moves_el = np.empty(len(q_el), dtype=bool)
+    moves_el[0] = True
+    np.not_equal(q_el[1:], q_el[:-1], out=moves_el[1:])
+    both = np.flatnonzero(moves_az | moves_el)
+    triples = list(zip(q_az[both].tolist(), q_el[both].tolist(), c_ts[both].tolist(),
+                       strict=True))
+    if keep_el is not None:
+        only_az, only_el = np.flatnonzero(moves_az), np.flatnonzero(moves_el)
+        triples += [(a, keep_el, t) for a, t in zip(q_az[only_az].tolist(),
+                                                    c_ts[only_az].tolist(), strict=True)]
+        triples += [(keep_az, e, t) for e, t in zip(q_el[only_el].tolist(),
+                                                    c_ts[only_el].tolist(), strict=True)]
+    else:
+        keep_el = 0.0
+    first: dict[tuple[float, float], float] = {}
+    for a, e, t in triples:
+        if (a, e) not in first and (abs(a - keep_az) >= 1e-9 or abs(e - keep_el) >= 1e-9):
+            first[a, e] = t
+    if not first:
+        for a, e, t in triples:
+            first.setdefault((a, e), t)
+    return (np.array([a for a, _e in first]), np.array([e for _a, e in first]),
+            np.array(list(first.values())))
 
 
 # Candidate errors are computed this many samples at a time, then twice as many more, ...
