@@ -105,12 +105,13 @@ def _predict_all(axis: AxisMotor, targets_deg: np.ndarray, t0_s: float, ts: np.n
         seg_t0_s, _p, _target, seg_delay_s, _rate, _jammed = axis.segment()
         dist = cmd - p0
         new = np.where(np.abs(dist) < 1e-9, 0, np.where(dist > 0, 1, -1))
-        delay = np.where((new == was), max(0.0, seg_t0_s + seg_delay_s - t0_s),
+        delay = np.where(new == was, max(0.0, seg_t0_s + seg_delay_s - t0_s),
                          np.where(new != 0, axis.start_delay_s, 0.0))
         arrival = t0_s + delay + np.abs(dist) / rate_deg_s
         sign, span, wait = np.copysign(1.0, dist)[:, None], np.abs(dist)[:, None], delay[:, None]
 
         def running(i0: int, i1: int) -> np.ndarray:
+            # AxisMotor.position's operations in its order: the same numbers as stepping.
             t = ts[i0:i1]
             pos = p0 + sign * np.clip((t[None, :] - t0_s - wait) * rate_deg_s, 0.0, span)
             early = t < t0_s
