@@ -573,7 +573,6 @@ class StationService:
                                 settings, events=watch.event, on_status=watch.status,
                                 first=p.pass_)
         self._active = follower
-        joined_s = self.clock.timestamp()
         try:
             results = follower.run(1, should_stop=self._should_stop)
         finally:
@@ -583,15 +582,13 @@ class StationService:
             raise _CutShort()
         res = results[0]
         outcome.commands, outcome.reconnects = res.commands, res.reconnects
-        self._measured(p, outcome, res, joined_s)
+        self._measured(outcome, res)     # counted from acquisition by PassFollower.run
 
-    def _measured(self, p: PlannedPass, outcome: PassOutcome, result: PassResult,
-                  joined_s: float) -> None:
-        """The pass's measured max error. Joined under way (a restart, a controller back
-        late), the slew to catch the target is not the tracking's error: it is counted from
-        the first reading on target, and the reason says so."""
-        result.count_from_acquisition(joined_s - p.pass_.aos.timestamp(),
-                                      self.stream.deadband_deg)
+    @staticmethod
+    def _measured(outcome: PassOutcome, result: PassResult) -> None:
+        """The pass's measured max error, as ``result`` counts it: joined under way (a
+        restart, a controller back late), from the first reading on target, and the reason
+        says so (:meth:`PassResult.count_from_acquisition`)."""
         if result.joined_late_s > 0.0 and result.errors_deg:
             outcome.reason = result.joined_note()
         if math.isfinite(result.max_error_deg):
@@ -625,10 +622,12 @@ class StationService:
                                  progress=watch.progress, on_reading=watch.reading)
             report = runner.run(tables)
             outcome.commands = sum(len(t) for t in tables) + len(tables)
-            self._measured(p, outcome, PassResult(
-                commands=outcome.commands, reconnects=0,
-                max_error_deg=max(report.errors_deg, default=float("nan")),
-                errors_deg=list(report.errors_deg)), joined_s)
+            result = PassResult(commands=outcome.commands, reconnects=0,
+                                max_error_deg=max(report.errors_deg, default=float("nan")),
+                                errors_deg=list(report.errors_deg))
+            result.count_from_acquisition(joined_s - p.pass_.aos.timestamp(),
+                                          self.stream.deadband_deg)
+            self._measured(outcome, result)
             if self._park_after(p):
                 park_m, park_el = park_position(spec, self.station)
                 park = (float(spec.frame.wire_of(park_m)),
