@@ -205,6 +205,12 @@ def quiet_until_s(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None
     # An axis on its target stays there: no need to ask where it will be.
     az_runs = az_axis.target_deg != az0
     el_runs = el_axis is not None and el_axis.target_deg != el0
+    if not az_runs and not el_runs:
+        # Standing still: the path's samples bound the error far ahead (MountPath).
+        within_s = path.fixed_mount_within_s(az0, el0, t0_s, deadband_deg - _BOUND_SLACK_DEG,
+                                             t0_s + horizon_s + window_s)
+        until = min(within_s - window_s, t0_s + horizon_s)
+        return until if until >= t0_s else None
     until, ahead_s = None, 0.0
     while ahead_s <= horizon_s:
         t = t0_s + ahead_s + window_s

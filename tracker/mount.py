@@ -102,8 +102,9 @@ class MountFrame:
         report their own scale, so each reading names up to two positions."""
         if self.wire_takes_bearing:
             return self.mech_candidates(wire_az_deg % 360.0)
+        top = self.az_span_deg + 2.0
         out = [m for m in (wire_az_deg - 360.0, wire_az_deg, wire_az_deg + 360.0)
-               if -2.0 <= m <= self.az_span_deg + 2.0]
+               if -2.0 <= m <= top]
         return out or [min(max(wire_az_deg, 0.0), self.az_span_deg)]
 
     def nearest_mech_of_wire(self, wire_az_deg: float, belief_m_deg: float | None = None
@@ -112,13 +113,20 @@ class MountFrame:
         believed to be). Without a belief: the controller's own scale is trusted (a 450 deg
         controller reports 0-450), and of a bearing the lowest mechanical azimuth."""
         cands = self.mechs_of_wire(wire_az_deg)
+        best = cands[0]
         if len(cands) == 1:
-            return cands[0]
+            return best
         if belief_m_deg is None:
             if self.wire_takes_bearing:
-                return cands[0]
+                return best
             belief_m_deg = wire_az_deg
-        return min(cands, key=lambda m: abs(m - belief_m_deg))
+        # min(cands, key=distance) without a call per candidate (once a live-loop cycle)
+        best_off = abs(best - belief_m_deg)
+        for m in cands[1:]:
+            off = abs(m - belief_m_deg)
+            if off < best_off:
+                best, best_off = m, off
+        return best
 
 
 @dataclass(frozen=True)
@@ -418,6 +426,11 @@ class AxisMotor:
         if self.jammed or self._p0 == self._target:
             return False
         return not abs(self._target - self.position(t_s)) < 1e-9
+
+    def rests_on(self, position_deg: float) -> bool:
+        """True if the axis stands on ``position_deg`` with that as its target (exactly, not
+        jammed): nothing it does depends on time then."""
+        return self._p0 == position_deg and self._target == position_deg and not self.jammed
 
     def arrival_s(self) -> float:
         """Time at which the current target is (or was) reached."""

@@ -163,10 +163,15 @@ class AxisWatch:
         come back unseen): restart the expectation from here."""
         expect = self.expect
         assert expect is not None, "only called while an expectation runs"
-        # In place: on a healthy pass this runs every cycle (motion seen, or on target).
-        restart_axis(expect, readback_deg, expect.target_deg, t_s, expect.moving(t_s))
         self.ref_t_s, self.ref_pos_deg = t_s, readback_deg
-        self._new_segment(t_s)
+        if expect.rests_on(readback_deg):
+            # Most cycles of a healthy pass: on target, as the cycle before. Restarting it
+            # would change nothing its positions depend on.
+            self.seg_t_s, self._seg_pos_deg = t_s, readback_deg
+        else:
+            # In place: on a healthy pass this runs every cycle (motion seen).
+            restart_axis(expect, readback_deg, expect.target_deg, t_s, expect.moving(t_s))
+            self._new_segment(t_s)
         self.carried_deg = 0.0
         self.still_since_s = None
         if seen and self.send_times:

@@ -38,8 +38,11 @@ from tracker.errors import (
     TrackerError,
 )
 from tracker.geometry import (
+    MountLook,
     MountPath,
     boresight_look,
+    look_error_deg,
+    mount_look,
     move_clears_mask,
     pointing_enu,
     pointing_error_deg,
@@ -200,6 +203,14 @@ class TrackCore:
         self.spec = spec
         self.station = station
         self.settings = settings or StreamSettings(deadband_deg=spec.deadband_deg)
+        # Asked every cycle and fixed for the pass.
+        self._frame = spec.frame
+        self._has_el = spec.has_elevation
+        s = self.settings
+        self._band_deg = max(s.deadband_deg - s.margin_deg, 0.5 * s.deadband_deg)
+        self._lookahead_s = s.cycle_s + spec.start_delay_s
+        # (read-back, its bearing, its mount_look) for the status
+        self._look: tuple[tuple[float, float | None], float, MountLook | None] | None = None
         self.path = MountPath.exact_from_plan(plan, None, spec)
         # Where the path needs the motors to run most of the time (near the zenith), the
         # deadband saves no relay clicks - commands in the running direction start nothing -
@@ -318,7 +329,7 @@ class TrackCore:
         expected_az = float(self.motor.az.position(t_s)) if self.motor is not None else None
         belief = expected_az if expected_az is not None else (
             self.antenna[0] if self.antenna else None)
-        m_az = spec.frame.nearest_mech_of_wire(wire_az_deg, belief)
+        m_az = self._frame.nearest_mech_of_wire(wire_az_deg, belief)
         early = False
         if self._last_wire_az is None or abs(wire_az_deg - self._last_wire_az) >= 0.5:
             self._wire_still_since_s = t_s
@@ -343,7 +354,7 @@ class TrackCore:
             if at_target:
                 m_az, early = at_target[0], True
         el = None
-        if spec.has_elevation:
+        if self._has_el:
             el = float(wire_el_deg if wire_el_deg is not None else 0.0)
         prev, prev_t_s = self.antenna, self._antenna_t_s
         self.antenna, self._antenna_t_s = (m_az, el), t_s
@@ -502,13 +513,13 @@ class TrackCore:
             return None
         # TRACK
         s = self.settings
-        band = self._band()
+        band = self._band_deg
         level = band if t_s >= self._hold_until_s else max(band, self._hold_level_deg)
         # Move before the error reaches the deadband, but no earlier than needed: every second
         # of early warning moves the next aim point back by the path's travel in that time.
         # Once a motor runs it outruns the target (faster paths are followed below), so only
         # the wait until it starts has to be foreseen: one cycle and the start delay.
-        lookahead = s.cycle_s + self.spec.start_delay_s
+        lookahead = self._lookahead_s
         if self._fast(t_s, lookahead):
             i = (self._plan_index_near(t_s) if self._staircase
                  else min(bisect_left(self._plan_t, t_s), len(self._plan_t) - 1))
@@ -645,8 +656,7 @@ class TrackCore:
                              self._band(), cycle)
 
     def _band(self) -> float:
-        s = self.settings
-        return max(s.deadband_deg - s.margin_deg, 0.5 * s.deadband_deg)
+        return self._band_deg
 
     def _lead_in(self, t_s: float, last: Command, horizon_s: float = 120.0) -> Command:
         """The last pre-position move, aimed ahead on the path: resting there the antenna
@@ -806,12 +816,20 @@ class TrackCore:
         err = bearing = None
         if ant is not None:
             el = ant[1] if ant[1] is not None else 0.0
-            bearing = float(self.spec.bearing_of(ant[0]))
+            # The read-back changes far less often than the cycles come: its bearing and
+            # boresight are kept while it stays (on floats, pointing_error_deg's own path).
+            look = self._look
+            if look is None or look[0] != ant:
+                fl = isinstance(ant[0], float) and isinstance(el, float)
+                look = self._look = (ant, float(self.spec.bearing_of(ant[0])),
+                                     mount_look(self.spec, ant[0], el) if fl else None)
+            bearing = look[1]
             # an azimuth-only beam's elevation is set by hand: only azimuth is ours to get
             # right, as in the planner's prediction
             if self.phase is not Phase.PARK and self.phase is not Phase.DONE:
                 # after LOS the antenna leaves the target on purpose: no pointing error
-                err = float(pointing_error_deg(self.spec, ant[0], el, (taz, tel)))
+                err = (look_error_deg(look[2], taz, tel) if look[2] is not None else
+                       float(pointing_error_deg(self.spec, ant[0], el, (taz, tel))))
         span = max(self.los_s - self.aos_s, 1e-9)
         cmd = self.last_command
         return Status(t_s, self.phase, self.mode, taz, tel,
