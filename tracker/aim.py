@@ -34,9 +34,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from tracker.geometry import MountPath, pointing_enu, pointing_error_rows_deg
+from tracker.geometry import MountPath, pointing_error_rows_deg
 from tracker.mount import AxisMotor, drive_axis, move_from_rest
-from tracker.skytrack import angle_between_deg
+from tracker.skytrack import angle_between_deg, angle_between_scalar_deg, azel_to_enu_scalar
 
 # What one command costs besides its motor starts, in starts: the bytes and the read-back
 # disturbance of a command that starts nothing (a retarget of a running motor).
@@ -113,9 +113,11 @@ def _predict_all(axis: AxisMotor, targets_deg: np.ndarray, t0_s: float, ts: np.n
         def running(i0: int, i1: int) -> np.ndarray:
             # AxisMotor.position's operations in its order: the same numbers as stepping.
             t = ts[i0:i1]
-            pos = p0 + sign * np.clip((t[None, :] - t0_s - wait) * rate_deg_s, 0.0, span)
-            early = t < t0_s
-            pos[:, early] = axis.position(t[early])
+            pos = p0 + sign * np.minimum(np.maximum((t[None, :] - t0_s - wait) * rate_deg_s,
+                                                    0.0), span)
+            if len(t) and t[0] < t0_s:      # (samples are ascending)
+                early = t < t0_s
+                pos[:, early] = axis.position(t[early])
             return pos
 
         return running, arrival, ((new != 0) & (new != was)).astype(int)
@@ -127,7 +129,8 @@ def _predict_all(axis: AxisMotor, targets_deg: np.ndarray, t0_s: float, ts: np.n
     def positions(i0: int, i1: int) -> np.ndarray:
         t = ts[i0:i1]
         pos = move_from_rest(p0, col, t[None, :] - t0_s, rate_deg_s, delay_s)
-        pos[:, t < t0_s] = p0
+        if len(t) and t[0] < t0_s:      # (samples are ascending)
+            pos[:, t < t0_s] = p0
         return pos
 
     return positions, arrival, moving.astype(int)
@@ -253,10 +256,10 @@ def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t
     # Candidates beyond where the target will be once it has moved well past the deadband
     # cannot be the best; cut them to keep the loop cheap.
     cur_dir = target_dir(*_blocks(len(ts))[0])[0]             # ts[0] is t0_s
-    here = pointing_enu(az_axis.position(t0_s),
-                        el_axis.position(t0_s) if el_axis is not None else 0.0,
-                        path.stop_bearing_deg)
-    lag_deg = float(angle_between_deg(here, cur_dir))
+    here = azel_to_enu_scalar(
+        (float(az_axis.position(t0_s)) + path.stop_bearing_deg) % 360.0,
+        float(el_axis.position(t0_s)) if el_axis is not None else 0.0)
+    lag_deg = angle_between_scalar_deg(here, cur_dir.tolist())
     n_cand = _within_reach(path, ts, target_dir, cur_dir,
                            2.5 * deadband_deg + lag_deg + 2.0)
     cand_az, cand_el = _at(path, ts[:n_cand])
@@ -342,22 +345,21 @@ def _distinct_candidates(q_az: np.ndarray, q_el: np.ndarray, c_ts: np.ndarray, k
     click instead of two). The first of each distinct (az, el), in that order, but not the
     targets the axes already have (unless that is all there is)."""
     # A candidate equal to the one before it in its group is never a first: dropping those
-    # leaves a few to compare one by one.
-    moves_az = np.empty(len(q_az), dtype=bool)
-    moves_az[0] = True
-    np.not_equal(q_az[1:], q_az[:-1], out=moves_az[1:])
-    moves_el = np.empty(len(q_el), dtype=bool)
-    moves_el[0] = True
-    np.not_equal(q_el[1:], q_el[:-1], out=moves_el[1:])
-    both = np.flatnonzero(moves_az | moves_el)
-    triples = list(zip(q_az[both].tolist(), q_el[both].tolist(), c_ts[both].tolist(),
-                       strict=True))
+    # leaves a few to compare one by one (a few dozen points: lists, not numpy calls).
+    triples, only_az, only_el = [], [], []
+    prev_a = prev_e = None
+    for a, e, t in zip(q_az.tolist(), q_el.tolist(), c_ts.tolist(), strict=True):
+        new_a, new_e = a != prev_a, e != prev_e
+        if new_a or new_e:
+            triples.append((a, e, t))
+        if new_a:
+            only_az.append((a, keep_el, t))
+        if new_e:
+            only_el.append((keep_az, e, t))
+        prev_a, prev_e = a, e
     if keep_el is not None:
-        only_az, only_el = np.flatnonzero(moves_az), np.flatnonzero(moves_el)
-        triples += [(a, keep_el, t) for a, t in zip(q_az[only_az].tolist(),
-                                                    c_ts[only_az].tolist(), strict=True)]
-        triples += [(keep_az, e, t) for e, t in zip(q_el[only_el].tolist(),
-                                                    c_ts[only_el].tolist(), strict=True)]
+        triples += only_az
+        triples += only_el
     else:
         keep_el = 0.0
     first: dict[tuple[float, float], float] = {}
@@ -411,18 +413,24 @@ def _hold_and_peak(err_cols: Callable[[int, int, np.ndarray], np.ndarray], ts: n
     blocks = iter(_blocks(n))
     m = next(blocks)[1]
     err = err_cols(0, m, np.arange(k))
+    # Per candidate, fixed over the blocks: the samples from its arrival on, whether it
+    # arrives within the horizon, and the end of its slew plus a step.
+    arrived = ts[None, :] >= arrival[:, None]
+    arrives = arrival <= ts[-1]
+    slew_end = arrival + step_s
     while True:
         # The loop commands again once the antenna, settled on its aim point, is more than
         # the deadband off the path; a candidate that cannot arrive inside the horizon holds
         # nothing.
-        leaves = (ts[None, :m] >= arrival[:, None]) & (err > deadband_deg)
-        left = leaves.any(axis=1)
-        next_idx = np.where(left, np.argmax(leaves, axis=1), n - 1)
-        hold = np.where(arrival <= ts[-1], ts[next_idx] - t0_s, 0.0)
+        leaves = arrived[:, :m] & (err > deadband_deg)
+        next_idx = np.argmax(leaves, axis=1)
+        left = leaves[np.arange(k), next_idx]
+        next_idx[~left] = n - 1
+        hold = np.where(arrives, ts[next_idx] - t0_s, 0.0)
         window_end = np.maximum(t0_s + np.maximum(hold, min_window_s), t_settle)
         if m == n:
             break
-        done = left & (ts[m] >= window_end - 1e-9) & (ts[m] > arrival + step_s)
+        done = left & (ts[m] >= window_end - 1e-9) & (ts[m] > slew_end)
         if done.all():
             break
         # A done candidate's later errors are out of its window (they count 0 in its peak)
@@ -436,7 +444,7 @@ def _hold_and_peak(err_cols: Callable[[int, int, np.ndarray], np.ndarray], ts: n
     # command's, not this one's, unless it comes on arrival: then this aim never held.
     tm = ts[None, :m]
     in_window = (tm >= t_settle) & (
-        (tm < window_end[:, None] - 1e-9) | (tm <= arrival[:, None] + step_s))
+        (tm < window_end[:, None] - 1e-9) | (tm <= slew_end[:, None]))
     return hold, np.max(np.where(in_window, err, 0.0), axis=1)
 
 

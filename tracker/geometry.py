@@ -415,9 +415,18 @@ class MountPath:
             return math.inf if self.error_deg(t0_s, az_m_deg, el_deg) <= limit_deg else t0_s
         start_s, err_a = t0_s, self.error_deg(t0_s, az_m_deg, el_deg)
         j = max(j, 0)           # before the first sample the target stands at it
+        # The samples' errors from this mount position, kept while it is asked about (a
+        # mount at rest is, cycle after cycle).
+        memo = self._fixed_errors
+        if memo[0] != (az_m_deg, el_deg):
+            memo[0] = (az_m_deg, el_deg)
+            memo[1].clear()
+        errs = memo[1]
         while j < last:
             t_b = ts[j + 1]
-            err_b = self.error_deg(t_b, az_m_deg, el_deg)
+            err_b = errs.get(j + 1)
+            if err_b is None:
+                err_b = errs[j + 1] = self.error_deg(t_b, az_m_deg, el_deg)
             if 0.5 * (err_a + err_b + (cum[j + 1] - cum[j])) > limit_deg:
                 return start_s
             if t_b >= stop_s:
@@ -425,6 +434,12 @@ class MountPath:
             start_s, err_a = t_b, err_b
             j += 1
         return math.inf
+
+    @cached_property
+    def _fixed_errors(self) -> list:
+        """``[(az, el), {sample index: error}]`` of :meth:`fixed_mount_within_s`'s last mount
+        position."""
+        return [None, {}]
 
     def _target_enu_scalar(self, t_s: float) -> tuple[float, float, float]:
         """:meth:`target_enu` at one float time, on floats."""
@@ -451,8 +466,11 @@ class MountPath:
             az, el = self.mount_at(t_s)
             return pointing_enu(az, np.zeros_like(az) if el is None else el,
                                 self.stop_bearing_deg)
-        v = np.stack([np.interp(t_s, self.t_s, col) for col in self._sky_columns], axis=-1)
-        return v / np.linalg.norm(v, axis=-1, keepdims=True)
+        v = np.empty((*np.shape(t_s), 3))
+        for k, col in enumerate(self._sky_columns):
+            v[..., k] = np.interp(t_s, self.t_s, col)
+        # np.linalg.norm's own arithmetic for a vector norm, without its checks
+        return v / np.sqrt(np.add.reduce(v * v, axis=-1, keepdims=True))
 
     @cached_property
     def _sky_columns(self) -> tuple[np.ndarray, ...]:

@@ -112,6 +112,17 @@ class MountFrame:
         """The one of :meth:`mechs_of_wire` nearest ``belief_m_deg`` (where the antenna is
         believed to be). Without a belief: the controller's own scale is trusted (a 450 deg
         controller reports 0-450), and of a bearing the lowest mechanical azimuth."""
+        if not self.wire_takes_bearing and belief_m_deg is not None:
+            # Once a live-loop cycle: mechs_of_wire's candidates, nearest first found, inline.
+            top = self.az_span_deg + 2.0
+            best, best_off = None, math.inf
+            for m in (wire_az_deg - 360.0, wire_az_deg, wire_az_deg + 360.0):
+                if -2.0 <= m <= top:
+                    off = abs(m - belief_m_deg)
+                    if off < best_off:
+                        best, best_off = m, off
+            if best is not None:
+                return best
         cands = self.mechs_of_wire(wire_az_deg)
         best = cands[0]
         if len(cands) == 1:
@@ -530,9 +541,10 @@ def move_from_rest(start_deg: np.ndarray | float, target_deg: np.ndarray | float
     ``target_deg``: :class:`AxisMotor`'s kinematics (start delay, then constant rate),
     broadcast over any shapes."""
     dist = np.asarray(target_deg, dtype=float) - start_deg
-    moving = np.abs(dist) > 1e-9
-    travelled = np.clip((dt_s - np.where(moving, start_delay_s, 0.0)) * rate_deg_s, 0.0,
-                        np.abs(dist))
+    span = np.abs(dist)
+    # np.minimum(np.maximum(...)) is np.clip's result at a fraction of its call cost.
+    travelled = np.minimum(np.maximum(
+        (dt_s - np.where(span > 1e-9, start_delay_s, 0.0)) * rate_deg_s, 0.0), span)
     return start_deg + np.sign(dist) * travelled
 
 

@@ -186,6 +186,15 @@ class AxisWatch:
         expect = self.expect
         if expect is None or self.ref_t_s is None:
             return None
+        if (readback_deg == self.ref_pos_deg and not self.send_times and not self.copy_times
+                and expect.rests_on(readback_deg)):
+            # Most cycles of a healthy pass: still on target, as the cycle before, nothing
+            # sent since: what _moved would do, minus restarting an axis that rests there.
+            self.ref_t_s = self.seg_t_s = t_s
+            self._seg_pos_deg = readback_deg
+            self.carried_deg = 0.0
+            self.still_since_s = self._told_t_s = None
+            return None
         ref_deg, target_deg = self.ref_pos_deg, expect.target_deg
         step_deg = resolution_deg - 1e-9
         moved = abs(readback_deg - ref_deg)
@@ -246,8 +255,9 @@ class AxisWatch:
         if self.expect is None or self.ref_t_s is None:
             return False
         since = self.send_times[-1] if self.send_times else self.ref_t_s
-        expected = self.carried_deg + self._segment_deg(t_s)
-        return t_s > since and expected >= resolution_deg - 1e-9
+        if not t_s > since:      # (motion was seen, or a command sent, just now)
+            return False
+        return self.carried_deg + self._segment_deg(t_s) >= resolution_deg - 1e-9
 
     def had_time_since(self, t_s: float, sent_t_s: float) -> bool:
         """Since ``sent_t_s`` the axis had the time to show motion from rest."""

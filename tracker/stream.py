@@ -418,14 +418,21 @@ class TrackCore:
         Until then ask for a copy (:attr:`_resend_due`)."""
         s = self.settings
         res = self.spec.resolution_deg
-        quota = 1 + s.stall_resends
         w_az, w_el = self._watch["az"], self._watch["el"]
-        checked = []
-        for name, watch, other, pos in (("azimuth", w_az, w_el, self.antenna[0]),
-                                        ("elevation", w_el, w_az, self.antenna[1])):
-            if pos is not None:
-                checked.append((name, watch, other,
-                                watch.check(t_s, pos, res, s.stall_travel_deg)))
+        az, el = self.antenna
+        stuck_az = w_az.check(t_s, az, res, s.stall_travel_deg)
+        stuck_el = None if el is None else w_el.check(t_s, el, res, s.stall_travel_deg)
+        if (stuck_az is None and stuck_el is None and not w_az.send_times
+                and not w_el.send_times):
+            # Most cycles: nothing to judge; a copy is due only if motion is overdue.
+            self._resend_due = self.last_command is not None and (
+                w_az.motion_overdue(t_s, res)
+                or (el is not None and w_el.motion_overdue(t_s, res)))
+            return
+        quota = 1 + s.stall_resends
+        checked = [("azimuth", w_az, w_el, stuck_az)]
+        if el is not None:
+            checked.append(("elevation", w_el, w_az, stuck_el))
         overdue = []
         for name, watch, other, stuck_s in checked:
             if not watch.send_times:
