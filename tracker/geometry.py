@@ -422,11 +422,16 @@ class MountPath:
             memo[0] = (az_m_deg, el_deg)
             memo[1].clear()
         errs = memo[1]
+        here = None
         while j < last:
             t_b = ts[j + 1]
             err_b = errs.get(j + 1)
             if err_b is None:
-                err_b = errs[j + 1] = self.error_deg(t_b, az_m_deg, el_deg)
+                # error_deg at the sample's own time, from the sample itself
+                if here is None:
+                    here = azel_to_enu_scalar((az_m_deg + self.stop_bearing_deg) % 360.0,
+                                              el_deg)
+                err_b = errs[j + 1] = angle_between_scalar_deg(here, self._sample_enu(j + 1))
             if 0.5 * (err_a + err_b + (cum[j + 1] - cum[j])) > limit_deg:
                 return start_s
             if t_b >= stop_s:
@@ -440,6 +445,18 @@ class MountPath:
         """``[(az, el), {sample index: error}]`` of :meth:`fixed_mount_within_s`'s last mount
         position."""
         return [None, {}]
+
+    def _sample_enu(self, j: int) -> tuple[float, float, float]:
+        """:meth:`_target_enu_scalar` at the time of sample ``j`` (kept once computed)."""
+        dirs = self._sample_dirs
+        v = dirs[j]
+        if v is None:
+            v = dirs[j] = self._target_enu_scalar(self._columns[0][j])
+        return v
+
+    @cached_property
+    def _sample_dirs(self) -> list[tuple[float, float, float] | None]:
+        return [None] * len(self.t_s)
 
     def _target_enu_scalar(self, t_s: float) -> tuple[float, float, float]:
         """:meth:`target_enu` at one float time, on floats."""
