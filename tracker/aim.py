@@ -345,21 +345,22 @@ def _distinct_candidates(q_az: np.ndarray, q_el: np.ndarray, c_ts: np.ndarray, k
     click instead of two). The first of each distinct (az, el), in that order, but not the
     targets the axes already have (unless that is all there is)."""
     # A candidate equal to the one before it in its group is never a first: dropping those
-    # leaves a few to compare one by one (a few dozen points: lists, not numpy calls).
-    triples, only_az, only_el = [], [], []
-    prev_a = prev_e = None
-    for a, e, t in zip(q_az.tolist(), q_el.tolist(), c_ts.tolist(), strict=True):
-        new_a, new_e = a != prev_a, e != prev_e
-        if new_a or new_e:
-            triples.append((a, e, t))
-        if new_a:
-            only_az.append((a, keep_el, t))
-        if new_e:
-            only_el.append((keep_az, e, t))
-        prev_a, prev_e = a, e
+    # leaves a few to compare one by one.
+    moves_az = np.empty(len(q_az), dtype=bool)
+    moves_az[0] = True
+    np.not_equal(q_az[1:], q_az[:-1], out=moves_az[1:])
+    moves_el = np.empty(len(q_el), dtype=bool)
+    moves_el[0] = True
+    np.not_equal(q_el[1:], q_el[:-1], out=moves_el[1:])
+    both = np.flatnonzero(moves_az | moves_el)
+    triples = list(zip(q_az[both].tolist(), q_el[both].tolist(), c_ts[both].tolist(),
+                       strict=True))
     if keep_el is not None:
-        triples += only_az
-        triples += only_el
+        only_az, only_el = np.flatnonzero(moves_az), np.flatnonzero(moves_el)
+        triples += [(a, keep_el, t) for a, t in zip(q_az[only_az].tolist(),
+                                                    c_ts[only_az].tolist(), strict=True)]
+        triples += [(keep_az, e, t) for e, t in zip(q_el[only_el].tolist(),
+                                                    c_ts[only_el].tolist(), strict=True)]
     else:
         keep_el = 0.0
     first: dict[tuple[float, float], float] = {}
