@@ -425,9 +425,10 @@ class TrackCore:
         if (stuck_az is None and stuck_el is None and not w_az.send_times
                 and not w_el.send_times):
             # Most cycles: nothing to judge; a copy is due only if motion is overdue.
+            # (an axis whose motion was just seen has none overdue: skip asking)
             self._resend_due = self.last_command is not None and (
-                w_az.motion_overdue(t_s, res)
-                or (el is not None and w_el.motion_overdue(t_s, res)))
+                (w_az.ref_t_s != t_s and w_az.motion_overdue(t_s, res))
+                or (el is not None and w_el.ref_t_s != t_s and w_el.motion_overdue(t_s, res)))
             return
         quota = 1 + s.stall_resends
         checked = [("azimuth", w_az, w_el, stuck_az)]
