@@ -1,8 +1,9 @@
 """Streaming benchmark: the live loop's pointing judged at equal accuracy, on a simulated G-5500.
 
 Run: ``python benchmarks/streaming.py [--sample 100] [--deadband 2 3 4 5] [--days 1]
-[--max-sats 30] [--no-peers] [--no-joint]`` (the whole 1-day suite: ``--sample 0``; the 7-day
-suite: ``--days 7 --max-sats 0 --sample N``; ``--sample`` flies N passes spread evenly)
+[--max-sats 30] [--no-peers] [--no-joint] [--workers N]`` (the whole 1-day suite:
+``--sample 0``; the 7-day suite: ``--days 7 --max-sats 0 --sample N``; ``--sample`` flies N
+passes spread evenly; ``--workers`` shares the passes among N processes, the same results)
 
 Every policy flies the passes of the pass suite (benchmarks/passsuite.py) against the same
 simulated rotator (THE motor model, tracker.mount, G-5500 at 50 Hz rates), starting parked:
@@ -29,7 +30,7 @@ error within D (:func:`joint_starts`). Beside it the two peers, each tuned to th
 policy's p99 error at that D (the largest threshold whose p99 is within it,
 :class:`PeerTuner`), with their starts. Each stream pass with lost seconds is listed with the
 planner's predicted loss and whether :func:`start_bound` at the lost-track limit finds it
-followable at all. CPU time is printed beside wall time. The decision cost per cycle alone:
+followable at all. CPU time (summed over the workers) is printed beside wall time. The decision cost per cycle alone:
 benchmarks/decision_cost.py.
 """
 
