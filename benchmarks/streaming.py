@@ -30,8 +30,8 @@ error within D (:func:`joint_starts`). Beside it the two peers, each tuned to th
 policy's p99 error at that D (the largest threshold whose p99 is within it,
 :class:`PeerTuner`), with their starts. Each stream pass with lost seconds is listed with the
 planner's predicted loss and whether :func:`start_bound` at the lost-track limit finds it
-followable at all. CPU time (summed over the workers) is printed beside wall time. The decision cost per cycle alone:
-benchmarks/decision_cost.py.
+followable at all. CPU time (summed over the workers) is printed beside wall time. The
+decision cost per cycle alone: benchmarks/decision_cost.py.
 """
 
 from __future__ import annotations

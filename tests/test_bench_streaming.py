@@ -9,10 +9,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 
-import streaming  # noqa: E402
-from passsuite import overhead_passes  # noqa: E402
+import streaming
+from passsuite import overhead_passes
 
-from tracker.mount import preset  # noqa: E402
+from tracker.mount import preset
 
 
 def _max_el(sp, offset_deg: float) -> float:
@@ -27,7 +27,8 @@ def test_pass_map_in_workers_is_the_map_in_one_process_in_order():
     try:
         assert shared.pool is not None
         assert shared.map(_max_el, args) == alone.map(_max_el, args)
-        assert alone.map(_max_el, args) == [_max_el(sp, a) for sp, (a,) in zip(suite, args)]
+        expected = [_max_el(sp, a) for sp, (a,) in zip(suite, args, strict=True)]
+        assert alone.map(_max_el, args) == expected
     finally:
         shared.close()
     assert shared.pool is None

@@ -204,7 +204,6 @@ def quiet_until_s(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None
         return None
     az0 = az_axis.position(t0_s)
     el0 = el_axis.position(t0_s) if el_axis is not None else 0.0
-    room = deadband_deg - _BOUND_SLACK_DEG - path.error_deg(t0_s, az0, el0)
     # An axis on its target stays there: no need to ask where it will be.
     az_runs = az_axis.target_deg != az0
     el_runs = el_axis is not None and el_axis.target_deg != el0
@@ -212,9 +211,11 @@ def quiet_until_s(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None
         # Standing still: the path's samples bound the error far ahead (MountPath).
         within_s = path.fixed_mount_within_s(az0, el0, t0_s, deadband_deg - _BOUND_SLACK_DEG,
                                              t0_s + horizon_s + window_s)
-        until = min(within_s - window_s, t0_s + horizon_s)
-        return until if until >= t0_s else None
-    until, ahead_s = None, 0.0
+        rest_until = min(within_s - window_s, t0_s + horizon_s)
+        return rest_until if rest_until >= t0_s else None
+    room = deadband_deg - _BOUND_SLACK_DEG - path.error_deg(t0_s, az0, el0)
+    until: float | None = None
+    ahead_s = 0.0
     while ahead_s <= horizon_s:
         t = t0_s + ahead_s + window_s
         growth = path.target_travel_bound_deg(t0_s, t)
