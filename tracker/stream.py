@@ -326,7 +326,9 @@ class TrackCore:
             self.untrusted = self.settings.settle_readings
             return "controller_off"
         # The belief: the motor model, else the last read-back, else the reading's own scale.
-        expected_az = float(self.motor.az.position(t_s)) if self.motor is not None else None
+        motor = self.motor
+        contradiction_deg = self.settings.contradiction_deg
+        expected_az = float(motor.az.position(t_s)) if motor is not None else None
         belief = expected_az if expected_az is not None else (
             self.antenna[0] if self.antenna else None)
         m_az = self._frame.nearest_mech_of_wire(wire_az_deg, belief)
@@ -341,15 +343,15 @@ class TrackCore:
         still_s = t_s - self._wire_still_since_s
         still = still_s > 0.0 and (self._wire_still_since_s > self._az_command_t_s
                                    or still_s >= spec.start_delay_s + 1.5)
-        if self.motor is not None and (
-                abs(m_az - expected_az) > self.settings.contradiction_deg
-                or (still and self.motor.az.moving(t_s))):
+        if motor is not None and (
+                abs(m_az - expected_az) > contradiction_deg
+                or (still and motor.az.moving(t_s))):
             # Far from the belief (or standing still while believed moving), but the reading
             # names the commanded target: it arrived sooner than believed (the start was
             # guessed on the wrong side of the overlap; the controller knew better). Take it,
             # instead of distrusting a good rotator.
             at_target = [m for m in spec.frame.mechs_of_wire(wire_az_deg)
-                         if abs(m - self.motor.az.target_deg) < 0.5
+                         if abs(m - motor.az.target_deg) < 0.5
                          and abs(m - m_az) > 180.0]
             if at_target:
                 m_az, early = at_target[0], True
@@ -377,7 +379,7 @@ class TrackCore:
             expected_az = m_az
         off_az = abs(m_az - expected_az)
         off_el = 0.0 if el is None else abs(el - float(self.motor.el.position(t_s)))
-        if max(off_az, off_el) > self.settings.contradiction_deg:
+        if off_az > contradiction_deg or off_el > contradiction_deg:
             # Not where it can be if it obeyed us: someone turned it by hand, the controller
             # was recalibrated, or it folded its scale. Stop believing; wait for it to settle.
             el_said = "" if wire_el_deg is None else f" el {wire_el_deg:.0f}"
