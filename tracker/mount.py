@@ -13,6 +13,7 @@ implementation, so predictions and the emulator's read-back agree by constructio
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field, replace
 from functools import cached_property
@@ -372,6 +373,9 @@ def preset(name: str, mains_hz: int = 60) -> RotatorSpec:
 
 # Motor model ----------------------------------------------------------------------------------
 
+# AxisMotor.stamp: a new number at every change of a segment, in any axis.
+_STAMPS = itertools.count()
+
 
 class AxisMotor:
     """One rate-limited axis, in its own degrees (mechanical azimuth or elevation).
@@ -396,6 +400,9 @@ class AxisMotor:
         self._p0 = float(position_deg)  # position at _t0
         self._target = float(position_deg)
         self._delay = 0.0
+        # Renewed whenever what the positions follow from may change (a copy keeps it, as it
+        # keeps the segment): equal stamps, equal segments (AxisMotor.segment), cheaply.
+        self.stamp = next(_STAMPS)
 
     def quantise(self, target_deg: float) -> float:
         q = round(float(target_deg) / self.resolution_deg) * self.resolution_deg
@@ -460,6 +467,7 @@ class AxisMotor:
         else:
             delay = self.start_delay_s if new != 0 else 0.0
         self._t0, self._p0, self._target, self._delay = float(t_s), float(p), target, delay
+        self.stamp = next(_STAMPS)
         return target
 
     def segment(self) -> tuple[float, float, float, float, float, bool]:
@@ -473,10 +481,12 @@ class AxisMotor:
         self._t0 = float(t_s)
         self._p0 = self._target = float(position_deg)
         self._delay = 0.0
+        self.stamp = next(_STAMPS)
 
     def stop(self, t_s: float) -> None:
         p = self.position(t_s)
         self._t0, self._p0, self._target, self._delay = float(t_s), float(p), float(p), 0.0
+        self.stamp = next(_STAMPS)
 
     def set_rate(self, rate_deg_s: float, t_s: float) -> None:
         """Change speed now (GS-232 X1..X4 takes effect even during rotation)."""
@@ -488,6 +498,7 @@ class AxisMotor:
         self.rate_deg_s = float(rate_deg_s)
         self._t0, self._p0, self._target, self._delay = float(t_s), float(p), target, \
             remaining_delay
+        self.stamp = next(_STAMPS)
 
     def jam(self, t_s: float, jammed: bool = True) -> None:
         """Fault injection: the axis stops turning (motor stalled, brake stuck)."""
@@ -496,6 +507,7 @@ class AxisMotor:
         if not jammed:
             self._target, self._delay = float(p), 0.0
         self.jammed = jammed
+        self.stamp = next(_STAMPS)
 
 
 class MotorModel:
@@ -654,3 +666,4 @@ def _rest_at(axis: AxisMotor, position_deg: float, t_s: float) -> None:
     """Put ``axis`` at rest on ``position_deg`` at ``t_s`` (a known, reached target)."""
     axis.stop(t_s)
     axis._p0 = axis._target = position_deg
+    axis.stamp = next(_STAMPS)

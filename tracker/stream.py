@@ -274,7 +274,7 @@ class TrackCore:
         self._resume: tuple[Phase, int] | None = None
         self._hold_until_s = -math.inf
         self._hold_level_deg = self.settings.deadband_deg
-        # (from, until, level, motor segments): needs_command is False all along (_quiet).
+        # (from, until, level, motor stamps): needs_command is False all along (_quiet).
         self._quiet_span: tuple[float, float, float, tuple] | None = None
         self._park_sent_s: float | None = None
         self._last_wire_az: float | None = None
@@ -580,10 +580,11 @@ class TrackCore:
     def _quiet(self, t_s: float, level_deg: float, lookahead_s: float) -> bool:
         """``not needs_command(...)``: the antenna, left alone, stays within ``level_deg``
         for the look-ahead. Proved by a bound for a while ahead (:func:`quiet_until_s`), the
-        answer is kept until then, as long as the belief of the motors does not change."""
+        answer is kept until then, as long as the belief of the motors does not change (their
+        :attr:`~tracker.mount.AxisMotor.stamp`)."""
         motor = self.motor
         assert motor is not None, "only asked with a belief"
-        key = (motor.az.segment(), None if motor.el is None else motor.el.segment())
+        key = (motor.az.stamp, None if motor.el is None else motor.el.stamp)
         q = self._quiet_span
         if q is not None and q[0] <= t_s <= q[1] and level_deg >= q[2] and key == q[3]:
             return True
