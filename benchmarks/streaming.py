@@ -411,6 +411,7 @@ class PassMap:
         if self.pool is not None:
             self.pool.shutdown()
             self.pool = None
+            _set_worker_suite([])
 
 
 def cpu_s_with_children() -> float:
