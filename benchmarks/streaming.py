@@ -455,11 +455,14 @@ def _fly_peer_pass(sp, spec, name: str, threshold_deg: float, t_start: float
     return row, time.process_time() - c0
 
 
-def _pass_references(sp, spec, deadband_deg: float, joint: bool) -> tuple:
-    """The clairvoyant references of one pass at one deadband: (start_bound from park,
-    joint_starts or None)."""
-    return (start_bound(sp.track, spec, sp.station, deadband_deg, from_park=True),
-            joint_starts(sp.track, spec, sp.station, deadband_deg) if joint else None)
+def _pass_bound(sp, spec, deadband_deg: float) -> int | None:
+    """:func:`start_bound` of one pass (from park) at one deadband."""
+    return start_bound(sp.track, spec, sp.station, deadband_deg, from_park=True)
+
+
+def _pass_joint(sp, spec, deadband_deg: float, joint: bool) -> int | None:
+    """:func:`joint_starts` of one pass at one deadband (None without ``joint``)."""
+    return joint_starts(sp.track, spec, sp.station, deadband_deg) if joint else None
 
 
 def compare(suite, spec, deadbands: list[float], peers: bool = True, joint: bool = True,
@@ -502,15 +505,14 @@ def _compare(suite, spec, deadbands: list[float], peers: bool, joint: bool, sche
     for d in deadbands:
         r = summarise(rows[d], followable, d)
         r["cpu_s"] = cpu[d]
-        references = passes.map(_pass_references, [(spec, d, joint)] * len(suite))
-        bounds = [b for b, _ref in references]
+        bounds = passes.map(_pass_bound, [(spec, d)] * len(suite))
         feasible = np.array([b is not None for b in bounds])
         r["bound_pp"] = float(np.mean([b for b in bounds if b is not None])) if any(
             feasible) else float("nan")
         r["stream_feasible_pp"] = float(np.mean(r["per_pass_starts"][feasible])) if any(
             feasible) else float("nan")
         r["bound_passes"] = int(feasible.sum())
-        refs = [ref for _b, ref in references]
+        refs = passes.map(_pass_joint, [(spec, d, joint)] * len(suite))
         ok = np.array([x is not None for x in refs]) & feasible
         r["joint_pp"] = float(np.mean([x for x, f in zip(refs, ok, strict=True) if f])) \
             if ok.any() else float("nan")
