@@ -1,8 +1,9 @@
 """Streaming benchmark: the live loop's pointing judged at equal accuracy, on a simulated G-5500.
 
 Run: ``python benchmarks/streaming.py [--sample 100] [--deadband 2 3 4 5] [--days 1]
-[--max-sats 30] [--no-peers] [--no-joint]`` (the whole 1-day suite: ``--sample 0``; the 7-day
-suite: ``--days 7 --max-sats 0 --sample N``; ``--sample`` flies N passes spread evenly)
+[--max-sats 30] [--no-peers] [--no-joint] [--workers N]`` (the whole 1-day suite:
+``--sample 0``; the 7-day suite: ``--days 7 --max-sats 0 --sample N``; ``--sample`` flies N
+passes spread evenly; ``--workers`` shares the passes among N processes, the same results)
 
 Every policy flies the passes of the pass suite (benchmarks/passsuite.py) against the same
 simulated rotator (THE motor model, tracker.mount, G-5500 at 50 Hz rates), starting parked:
@@ -29,15 +30,18 @@ error within D (:func:`joint_starts`). Beside it the two peers, each tuned to th
 policy's p99 error at that D (the largest threshold whose p99 is within it,
 :class:`PeerTuner`), with their starts. Each stream pass with lost seconds is listed with the
 planner's predicted loss and whether :func:`start_bound` at the lost-track limit finds it
-followable at all. CPU time is printed beside wall time. The decision cost per cycle alone:
-benchmarks/decision_cost.py.
+followable at all. CPU time (summed over the workers) is printed beside wall time. The
+decision cost per cycle alone: benchmarks/decision_cost.py.
 """
 
 from __future__ import annotations
 
 import argparse
+import multiprocessing
+import resource
 import sys
 import time
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -302,21 +306,19 @@ class PeerTuner:
     """One peer policy flown over the suite at any threshold (each threshold once), and the
     largest threshold whose p99 error is within a given one."""
 
-    def __init__(self, name: str, suite, spec, t_starts: list[float], followable: np.ndarray):
-        self.name, self.suite, self.spec = name, suite, spec
+    def __init__(self, name: str, passes: PassMap, spec, t_starts: list[float],
+                 followable: np.ndarray):
+        self.name, self.passes, self.spec = name, passes, spec
         self.t_starts, self.followable = t_starts, followable
         self.rows: dict[float, list[dict]] = {}
         self.cpu_s = 0.0
 
     def flown(self, threshold_deg: float) -> list[dict]:
         if threshold_deg not in self.rows:
-            c0 = time.process_time()
-            fly = PEERS[self.name]
-            self.rows[threshold_deg] = [
-                measure(sp.track, self.spec, sp.station,
-                        fly(sp.track, self.spec, sp.station, threshold_deg, t0), t0)
-                for sp, t0 in zip(self.suite, self.t_starts, strict=True)]
-            self.cpu_s += time.process_time() - c0
+            got = self.passes.map(_fly_peer_pass, [(self.spec, self.name, threshold_deg, t0)
+                                                   for t0 in self.t_starts])
+            self.rows[threshold_deg] = [row for row, _cpu in got]
+            self.cpu_s += sum(cpu for _row, cpu in got)
         return self.rows[threshold_deg]
 
     def p99(self, threshold_deg: float) -> float:
@@ -362,54 +364,155 @@ def _by_elevation(suite, ours: np.ndarray, bounds: list, joint: list) -> list[tu
     return out
 
 
+# Flying passes in parallel -------------------------------------------------------------------
+# Every pass is flown on its own, so the suite's passes can be shared among worker processes;
+# results come back in the suite's order, the same as flown in one process.
+
+# The suite of the PassMap a forked worker was started for (tasks name passes by index).
+_WORKER_SUITE: list = []
+
+
+def _set_worker_suite(suite: list) -> None:
+    global _WORKER_SUITE
+    _WORKER_SUITE = suite
+
+
+def _on_pass(task: tuple):
+    fn, i, args = task
+    return fn(_WORKER_SUITE[i], *args)
+
+
+class PassMap:
+    """``map(fn, args)``: ``[fn(suite[i], *args[i]) ...]`` over the suite's passes, in order,
+    in ``workers`` processes (1: in this one). :meth:`close` ends the workers; their CPU
+    time is then in :func:`cpu_s_with_children`."""
+
+    def __init__(self, suite: list, workers: int = 1):
+        self.suite = suite
+        self.pool: ProcessPoolExecutor | None = None
+        if workers > 1 and len(suite) > 1:
+            # A forked worker inherits the suite; elsewhere each gets a copy once.
+            fork = "fork" in multiprocessing.get_all_start_methods()
+            ctx = multiprocessing.get_context("fork" if fork else "spawn")
+            if fork:
+                _set_worker_suite(suite)
+            self.pool = ProcessPoolExecutor(
+                workers, mp_context=ctx, initializer=None if fork else _set_worker_suite,
+                initargs=() if fork else (suite,))
+            self.chunk = max(1, len(suite) // (8 * workers))
+
+    def map(self, fn, args: list[tuple]) -> list:
+        if self.pool is None:
+            return [fn(sp, *a) for sp, a in zip(self.suite, args, strict=True)]
+        tasks = [(fn, i, a) for i, a in enumerate(args)]
+        return list(self.pool.map(_on_pass, tasks, chunksize=self.chunk))
+
+    def close(self) -> None:
+        if self.pool is not None:
+            self.pool.shutdown()
+            self.pool = None
+            _set_worker_suite([])
+
+
+def cpu_s_with_children() -> float:
+    """CPU time of this process and of its ended worker processes."""
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + kids.ru_utime + kids.ru_stime
+
+
+def _fly_pass(sp, spec, deadbands: list[float], schedule: bool) -> dict:
+    """One pass flown by the stream policy at each deadband (and with the whole-pass
+    schedule): the measured rows, their CPU time, and the pass if it lost track."""
+    tr, st = sp.track, sp.station
+    out: dict = {"rows": {}, "cpu": {}, "sched_rows": {}, "sched_cpu": {}, "lossy": []}
+    for d in deadbands:
+        c0 = time.process_time()
+        cmds, plan, _t = fly_stream(tr, spec, st, d)
+        t_start = min(plan.preposition_t_s, float(tr.t_s[0])) - 0.5
+        row = out["rows"][d] = measure(tr, spec, st, cmds, t_start)
+        out["cpu"][d] = time.process_time() - c0
+        if schedule:
+            c0 = time.process_time()
+            acmds, _plan, _t = fly_stream(tr, spec, st, d, planned=True)
+            out["sched_rows"][d] = measure(tr, spec, st, acmds, t_start)
+            out["sched_cpu"][d] = time.process_time() - c0
+        if row["lost_s"] > 0:
+            out["lossy"].append((f"stream D={d:g}", sp.meta["target"], sp.meta["station"],
+                                 sp.meta["max_el_deg"], row["lost_s"],
+                                 float(plan.lost_track_s),
+                                 start_bound(tr, spec, st, LOST_DEG) is not None))
+    out["followable"] = plan.lost_track_s == 0
+    out["t_start"] = t_start
+    return out
+
+
+def _fly_peer_pass(sp, spec, name: str, threshold_deg: float, t_start: float
+                   ) -> tuple[dict, float]:
+    """One pass flown by a peer policy at one threshold: its measured row and CPU time."""
+    c0 = time.process_time()
+    cmds = PEERS[name](sp.track, spec, sp.station, threshold_deg, t_start)
+    row = measure(sp.track, spec, sp.station, cmds, t_start)
+    return row, time.process_time() - c0
+
+
+def _pass_bound(sp, spec, deadband_deg: float) -> int | None:
+    """:func:`start_bound` of one pass (from park) at one deadband."""
+    return start_bound(sp.track, spec, sp.station, deadband_deg, from_park=True)
+
+
+def _pass_joint(sp, spec, deadband_deg: float, joint: bool) -> int | None:
+    """:func:`joint_starts` of one pass at one deadband (None without ``joint``)."""
+    return joint_starts(sp.track, spec, sp.station, deadband_deg) if joint else None
+
+
 def compare(suite, spec, deadbands: list[float], peers: bool = True, joint: bool = True,
-            schedule: bool = False) -> dict:
+            schedule: bool = False, workers: int = 1) -> dict:
     """Fly every pass of ``suite`` with the stream policy at each deadband; per deadband the
     clairvoyant bound and (``joint``) the joint schedule's starts, and (``peers``) each peer policy
     tuned to the stream policy's p99 error. Returns a result per deadband plus the lossy
     stream passes (policy, target, station, max el, lost s, planner-predicted lost s,
-    whether :func:`start_bound` finds each axis able to keep within the lost-track limit)."""
+    whether :func:`start_bound` finds each axis able to keep within the lost-track limit).
+    ``workers`` processes share the passes (the same results as one)."""
+    passes = PassMap(suite, workers)
+    try:
+        return _compare(suite, spec, deadbands, peers, joint, schedule, passes)
+    finally:
+        passes.close()
+
+
+def _compare(suite, spec, deadbands: list[float], peers: bool, joint: bool, schedule: bool,
+             passes: PassMap) -> dict:
+    """:func:`compare` with the passes flown through ``passes``."""
     rows: dict[float, list] = {d: [] for d in deadbands}
     cpu = dict.fromkeys(deadbands, 0.0)
     sched_rows: dict[float, list] = {d: [] for d in deadbands}
     sched_cpu = dict.fromkeys(deadbands, 0.0)
     followable, t_starts, lossy = [], [], []
-    for sp in suite:
-        tr, st = sp.track, sp.station
+    for flown in passes.map(_fly_pass, [(spec, deadbands, schedule)] * len(suite)):
         for d in deadbands:
-            c0 = time.process_time()
-            cmds, plan, _t = fly_stream(tr, spec, st, d)
-            t_start = min(plan.preposition_t_s, float(tr.t_s[0])) - 0.5
-            rows[d].append(measure(tr, spec, st, cmds, t_start))
-            cpu[d] += time.process_time() - c0
+            rows[d].append(flown["rows"][d])
+            cpu[d] += flown["cpu"][d]
             if schedule:
-                c0 = time.process_time()
-                acmds, _plan, _t = fly_stream(tr, spec, st, d, planned=True)
-                sched_rows[d].append(measure(tr, spec, st, acmds, t_start))
-                sched_cpu[d] += time.process_time() - c0
-            if rows[d][-1]["lost_s"] > 0:
-                lossy.append((f"stream D={d:g}", sp.meta["target"], sp.meta["station"],
-                              sp.meta["max_el_deg"], rows[d][-1]["lost_s"],
-                              float(plan.lost_track_s),
-                              start_bound(tr, spec, st, LOST_DEG) is not None))
-        followable.append(plan.lost_track_s == 0)
-        t_starts.append(t_start)
+                sched_rows[d].append(flown["sched_rows"][d])
+                sched_cpu[d] += flown["sched_cpu"][d]
+        lossy += flown["lossy"]
+        followable.append(flown["followable"])
+        t_starts.append(flown["t_start"])
     followable = np.array(followable)
-    tuners = {name: PeerTuner(name, suite, spec, t_starts, followable)
+    tuners = {name: PeerTuner(name, passes, spec, t_starts, followable)
               for name in (PEERS if peers else ())}
     out: dict = {"deadbands": {}, "lossy": lossy, "followable": followable, "cpu": cpu}
     for d in deadbands:
         r = summarise(rows[d], followable, d)
         r["cpu_s"] = cpu[d]
-        bounds = [start_bound(sp.track, spec, sp.station, d, from_park=True) for sp in suite]
+        bounds = passes.map(_pass_bound, [(spec, d)] * len(suite))
         feasible = np.array([b is not None for b in bounds])
         r["bound_pp"] = float(np.mean([b for b in bounds if b is not None])) if any(
             feasible) else float("nan")
         r["stream_feasible_pp"] = float(np.mean(r["per_pass_starts"][feasible])) if any(
             feasible) else float("nan")
         r["bound_passes"] = int(feasible.sum())
-        refs = [joint_starts(sp.track, spec, sp.station, d) if joint else None
-                for sp in suite]
+        refs = passes.map(_pass_joint, [(spec, d, joint)] * len(suite))
         ok = np.array([x is not None for x in refs]) & feasible
         r["joint_pp"] = float(np.mean([x for x, f in zip(refs, ok, strict=True) if f])) \
             if ok.any() else float("nan")
@@ -517,6 +620,8 @@ def main(argv=None) -> int:
                     help="also fly the live loop with the whole-pass schedule: the ratio")
     ap.add_argument("--no-joint", action="store_true",
                     help="skip the clairvoyant joint schedule (the costliest reference)")
+    ap.add_argument("--workers", type=int, default=1,
+                    help="fly the passes in this many processes (the same results as 1)")
     args = ap.parse_args(argv)
     spec = preset(args.rotator, args.mains_hz)
     t0 = time.perf_counter()
@@ -532,11 +637,12 @@ def main(argv=None) -> int:
     print(f"suite: {real} real passes ({args.days:g} d, {args.max_sats or 'all'} sats/group, "
           f"3 stations) + {len(suite) - real} forced overhead; built in "
           f"{time.perf_counter() - t0:.1f} s")
-    c0, w0 = time.process_time(), time.perf_counter()
+    c0, w0 = cpu_s_with_children(), time.perf_counter()
     res = compare(suite, spec, args.deadband, peers=not args.no_peers,
-                  joint=not args.no_joint, schedule=args.schedule)
+                  joint=not args.no_joint, schedule=args.schedule, workers=args.workers)
     print_results(res, len(suite))
-    print(f"took {time.perf_counter() - w0:.0f} s wall, {time.process_time() - c0:.0f} s CPU")
+    print(f"took {time.perf_counter() - w0:.0f} s wall, {cpu_s_with_children() - c0:.0f} s CPU "
+          f"(summed over {max(args.workers, 1)} worker{'s' if args.workers > 1 else ''})")
     return 0
 
 

@@ -1,5 +1,6 @@
 """Rotator specs, presets and the one motor model (AxisMotor / drive_axis)."""
 
+import copy
 import re
 from pathlib import Path
 
@@ -276,3 +277,26 @@ def test_top_command_is_one_step_short_of_a_bearing_taking_controllers_stop():
     assert south.wire_of(south.top_command_deg(1.0)) == 179.0
     assert MountFrame(360.0, 180.0).top_command_deg(1.0) == 360.0      # takes mechanical
     assert MountFrame(450.0, 0.0).top_command_deg(1.0) == 450.0
+
+
+def test_axis_stamp_changes_with_every_change_of_its_segment():
+    """TrackCore keeps a proof while the motors' stamps stay: every way an axis's segment
+    changes renews the stamp; a copy shares it (and its segment) until either changes."""
+    from tracker.mount import AxisMotor, drive_axis
+
+    a = AxisMotor(0.0, 450.0, 5.0, 0.5, 1.0, 100.0, 0.0)
+    seen = {a.stamp}
+    for change in (lambda: a.command(150.0, 1.0), lambda: a.stop(3.0),
+                   lambda: a.set_rate(3.0, 4.0), lambda: a.jam(5.0),
+                   lambda: a.jam(6.0, jammed=False), lambda: a.rest_at(90.0, 7.0),
+                   lambda: drive_axis(a, [8.0, 9.0], [95.0, 120.0], [8.0, 9.0, 20.0])):
+        segment = a.segment()
+        change()
+        assert a.stamp not in seen, segment
+        seen.add(a.stamp)
+    b = copy.copy(a)
+    assert b.stamp == a.stamp and b.segment() == a.segment()
+    b.command(10.0, 30.0)
+    assert b.stamp != a.stamp
+    asked = (a.position(40.0), a.moving(40.0), a.direction(40.0))   # asking changes nothing
+    assert asked and a.stamp in seen

@@ -270,3 +270,48 @@ def test_raise_to_mask_float_path_agrees_with_the_array_path(spec, station):
     assert all(isinstance(g, float) for g in got)
     assert np.array_equal(np.array(got), ref)
     assert np.any(ref != el)                        # some were raised (or lowered over the top)
+
+
+@pytest.mark.parametrize("path", _paths())
+def test_fixed_mount_within_s_bounds_every_error_until_the_time_it_gives(path):
+    rng = np.random.default_rng(18)
+    reached = []
+    for _ in range(200):
+        t0 = float(rng.uniform(path.start_s - 5.0, path.end_s + 5.0))
+        az0, el0 = path.mount_at(min(max(t0, path.start_s), path.end_s))
+        az, el = float(az0 + rng.normal(0, 2.0)), float(np.clip(el0 + rng.normal(0, 2.0),
+                                                                0, 180))
+        limit = float(rng.uniform(1.0, 6.0))
+        stop = t0 + float(rng.uniform(5.0, 120.0))
+        got = path.fixed_mount_within_s(az, el, t0, limit, stop)
+        assert got >= t0
+        assert path.fixed_mount_within_s(az, el, t0, limit, stop) == got   # kept errors
+        if path.error_deg(t0, az, el) > limit:
+            assert got == t0
+        if got == t0:
+            continue
+        end = min(got, stop, path.end_s + 5.0)
+        ts = np.arange(t0, end + 1e-9, 0.05)
+        assert np.all(path.error_deg(ts, np.full(len(ts), az), np.full(len(ts), el))
+                      <= limit + 1e-9)
+        reached.append(end - t0)
+    assert max(reached) >= 15.0       # spans far past what the error now alone shows
+
+
+@pytest.mark.parametrize("path", _paths())
+def test_quiet_until_at_rest_keeps_its_promise_far_ahead(path):
+    rng = np.random.default_rng(19)
+    spans = []
+    for _ in range(150):
+        t0 = float(rng.uniform(path.start_s, path.end_s))
+        az0, el0 = path.mount_at(t0)
+        motor = MotorModel(SPEC, float(az0 + rng.normal(0, 1.0)),
+                           float(np.clip(el0 + rng.normal(0, 1.0), 0, 180)), t0 - 2.0)
+        band = float(rng.uniform(2.0, 6.0))
+        until = quiet_until_s(path, motor.az, motor.el, t0, band, 1.0)
+        if until is None:
+            continue
+        spans.append(until - t0)
+        for t in np.arange(t0, until + 1e-9, 0.25):
+            assert not needs_command(path, motor.az, motor.el, float(t), band, 1.0)
+    assert len(spans) >= 20 and max(spans) >= 10.0

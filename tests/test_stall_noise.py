@@ -270,3 +270,28 @@ def test_a_rotator_still_slewing_after_a_contradiction_is_trusted_again():
     with pytest.raises(ReadbackError):
         for k in range(60):
             core.observe(t0 + 60.0 + 0.5 * k, float(k * 37 % 360), 10.0)
+
+
+def test_watch_on_target_as_before_is_the_same_as_restarting_it():
+    """A read-back still on the target of an axis at rest (most cycles) leaves the watch as
+    the general path (motion seen or on target: restart the expectation) would."""
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        pos = float(rng.integers(0, 450))
+        axis = AxisMotor(0.0, 450.0, 5.0, 0.5, 1.0, pos, 0.0)
+        t = float(rng.uniform(1.0, 50.0))
+        quick, general = AxisWatch(), AxisWatch()
+        for w in (quick, general):
+            w.start(axis, 0.0, pos)          # asked for no travel: on target
+            w.check(0.5, pos, 1.0, 2.0)      # settles on it (the general path)
+        assert quick.expect.rests_on(pos) and quick.ref_pos_deg == pos
+        assert quick.check(t, pos, 1.0, 2.0) is None
+        general._moved(t, pos, seen=False)
+        expect_q, expect_g = quick.__dict__.pop("expect"), general.__dict__.pop("expect")
+        assert quick.__dict__ == general.__dict__
+        for dt in (0.0, 1.0, 30.0):
+            assert expect_q.position(t + dt) == expect_g.position(t + dt)
+            assert expect_q.moving(t + dt) == expect_g.moving(t + dt)
+        assert expect_q.target_deg == expect_g.target_deg
+        quick.expect, general.expect = expect_q, expect_g
+        assert quick.motion_overdue(t + 1.0, 1.0) == general.motion_overdue(t + 1.0, 1.0)

@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 
 from tracker.clock import ManualClock
 from tracker.errors import PortLostError, StallError
+from tracker.geometry import pointing_error_deg
 from tracker.mount import preset
 from tracker.skytrack import angular_separation_deg
 from tracker.station import HorizonMask, Station
@@ -93,6 +94,19 @@ def test_a_pass_completes_within_the_deadband_and_parks():
     assert 10 <= res.commands <= 70
     stops = [t for t, what in rig.stamps if what == "S"]
     assert len(stops) == 1 and not rig.fake.model.moving(stops[0])   # parked, then S
+
+
+def test_status_error_and_bearing_are_pointing_error_deg_of_the_readback():
+    """The status keeps the read-back's look while it stays: the same numbers as asking
+    pointing_error_deg every cycle, for every read-back the pass showed."""
+    rig = Rig()
+    rig.run()
+    rows = [s for s in rig.status if s.error_deg is not None]
+    assert len({(s.antenna_az_m_deg, s.antenna_el_deg) for s in rows}) > 20
+    for s in rows:
+        assert s.error_deg == pointing_error_deg(
+            SPEC, s.antenna_az_m_deg, s.antenna_el_deg, (s.target_az_deg, s.target_el_deg))
+        assert s.antenna_bearing_deg == SPEC.bearing_of(s.antenna_az_m_deg)
 
 
 def test_stay_after_pass_sends_no_park():

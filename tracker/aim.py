@@ -34,9 +34,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from tracker.geometry import MountPath, pointing_enu, pointing_error_rows_deg
+from tracker.geometry import MountPath, pointing_error_rows_deg
 from tracker.mount import AxisMotor, drive_axis, move_from_rest
-from tracker.skytrack import angle_between_deg
+from tracker.skytrack import angle_between_deg, angle_between_scalar_deg, azel_to_enu_scalar
 
 # What one command costs besides its motor starts, in starts: the bytes and the read-back
 # disturbance of a command that starts nothing (a retarget of a running motor).
@@ -113,9 +113,11 @@ def _predict_all(axis: AxisMotor, targets_deg: np.ndarray, t0_s: float, ts: np.n
         def running(i0: int, i1: int) -> np.ndarray:
             # AxisMotor.position's operations in its order: the same numbers as stepping.
             t = ts[i0:i1]
-            pos = p0 + sign * np.clip((t[None, :] - t0_s - wait) * rate_deg_s, 0.0, span)
-            early = t < t0_s
-            pos[:, early] = axis.position(t[early])
+            pos = p0 + sign * np.minimum(np.maximum((t[None, :] - t0_s - wait) * rate_deg_s,
+                                                    0.0), span)
+            if len(t) and t[0] < t0_s:      # (samples are ascending)
+                early = t < t0_s
+                pos[:, early] = axis.position(t[early])
             return pos
 
         return running, arrival, ((new != 0) & (new != was)).astype(int)
@@ -127,7 +129,8 @@ def _predict_all(axis: AxisMotor, targets_deg: np.ndarray, t0_s: float, ts: np.n
     def positions(i0: int, i1: int) -> np.ndarray:
         t = ts[i0:i1]
         pos = move_from_rest(p0, col, t[None, :] - t0_s, rate_deg_s, delay_s)
-        pos[:, t < t0_s] = p0
+        if len(t) and t[0] < t0_s:      # (samples are ascending)
+            pos[:, t < t0_s] = p0
         return pos
 
     return positions, arrival, moving.astype(int)
@@ -201,11 +204,18 @@ def quiet_until_s(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None
         return None
     az0 = az_axis.position(t0_s)
     el0 = el_axis.position(t0_s) if el_axis is not None else 0.0
-    room = deadband_deg - _BOUND_SLACK_DEG - path.error_deg(t0_s, az0, el0)
     # An axis on its target stays there: no need to ask where it will be.
     az_runs = az_axis.target_deg != az0
     el_runs = el_axis is not None and el_axis.target_deg != el0
-    until, ahead_s = None, 0.0
+    if not az_runs and not el_runs:
+        # Standing still: the path's samples bound the error far ahead (MountPath).
+        within_s = path.fixed_mount_within_s(az0, el0, t0_s, deadband_deg - _BOUND_SLACK_DEG,
+                                             t0_s + horizon_s + window_s)
+        rest_until = min(within_s - window_s, t0_s + horizon_s)
+        return rest_until if rest_until >= t0_s else None
+    room = deadband_deg - _BOUND_SLACK_DEG - path.error_deg(t0_s, az0, el0)
+    until: float | None = None
+    ahead_s = 0.0
     while ahead_s <= horizon_s:
         t = t0_s + ahead_s + window_s
         growth = path.target_travel_bound_deg(t0_s, t)
@@ -247,10 +257,10 @@ def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t
     # Candidates beyond where the target will be once it has moved well past the deadband
     # cannot be the best; cut them to keep the loop cheap.
     cur_dir = target_dir(*_blocks(len(ts))[0])[0]             # ts[0] is t0_s
-    here = pointing_enu(az_axis.position(t0_s),
-                        el_axis.position(t0_s) if el_axis is not None else 0.0,
-                        path.stop_bearing_deg)
-    lag_deg = float(angle_between_deg(here, cur_dir))
+    here = azel_to_enu_scalar(
+        (float(az_axis.position(t0_s)) + path.stop_bearing_deg) % 360.0,
+        float(el_axis.position(t0_s)) if el_axis is not None else 0.0)
+    lag_deg = angle_between_scalar_deg(here, cur_dir.tolist())
     n_cand = _within_reach(path, ts, target_dir, cur_dir,
                            2.5 * deadband_deg + lag_deg + 2.0)
     cand_az, cand_el = _at(path, ts[:n_cand])
@@ -405,18 +415,24 @@ def _hold_and_peak(err_cols: Callable[[int, int, np.ndarray], np.ndarray], ts: n
     blocks = iter(_blocks(n))
     m = next(blocks)[1]
     err = err_cols(0, m, np.arange(k))
+    # Per candidate, fixed over the blocks: the samples from its arrival on, whether it
+    # arrives within the horizon, and the end of its slew plus a step.
+    arrived = ts[None, :] >= arrival[:, None]
+    arrives = arrival <= ts[-1]
+    slew_end = arrival + step_s
     while True:
         # The loop commands again once the antenna, settled on its aim point, is more than
         # the deadband off the path; a candidate that cannot arrive inside the horizon holds
         # nothing.
-        leaves = (ts[None, :m] >= arrival[:, None]) & (err > deadband_deg)
-        left = leaves.any(axis=1)
-        next_idx = np.where(left, np.argmax(leaves, axis=1), n - 1)
-        hold = np.where(arrival <= ts[-1], ts[next_idx] - t0_s, 0.0)
+        leaves = arrived[:, :m] & (err > deadband_deg)
+        next_idx = np.argmax(leaves, axis=1)
+        left = leaves[np.arange(k), next_idx]
+        next_idx[~left] = n - 1
+        hold = np.where(arrives, ts[next_idx] - t0_s, 0.0)
         window_end = np.maximum(t0_s + np.maximum(hold, min_window_s), t_settle)
         if m == n:
             break
-        done = left & (ts[m] >= window_end - 1e-9) & (ts[m] > arrival + step_s)
+        done = left & (ts[m] >= window_end - 1e-9) & (ts[m] > slew_end)
         if done.all():
             break
         # A done candidate's later errors are out of its window (they count 0 in its peak)
@@ -430,7 +446,7 @@ def _hold_and_peak(err_cols: Callable[[int, int, np.ndarray], np.ndarray], ts: n
     # command's, not this one's, unless it comes on arrival: then this aim never held.
     tm = ts[None, :m]
     in_window = (tm >= t_settle) & (
-        (tm < window_end[:, None] - 1e-9) | (tm <= arrival[:, None] + step_s))
+        (tm < window_end[:, None] - 1e-9) | (tm <= slew_end[:, None]))
     return hold, np.max(np.where(in_window, err, 0.0), axis=1)
 
 

@@ -46,6 +46,10 @@ if TYPE_CHECKING:  # pragma: no cover - typing only
     from tracker.station import Station
 
 
+# Unit vectors the scalar MountPath.error_deg keeps per path (each of its two memos).
+_MEMO_SIZE = 256
+
+
 # Where a mount points ------------------------------------------------------------------------
 
 
@@ -85,11 +89,7 @@ def pointing_error_deg(spec: RotatorSpec, ant_az_m_deg: float | ArrayLike,
     if isinstance(ant_az_m_deg, float) and isinstance(target, tuple) and isinstance(
             target[0], float) and isinstance(target[1], float) and (
             ant_el_deg is None or isinstance(ant_el_deg, float)):
-        b = spec.bearing_of(ant_az_m_deg)
-        if not spec.has_elevation or ant_el_deg is None:
-            return abs((b - target[0] + 180.0) % 360.0 - 180.0)
-        return angle_between_scalar_deg(
-            azel_to_enu_scalar(b, ant_el_deg), azel_to_enu_scalar(target[0], target[1]))
+        return look_error_deg(mount_look(spec, ant_az_m_deg, ant_el_deg), target[0], target[1])
     bearing = spec.bearing_of(ant_az_m_deg)
     if isinstance(target, tuple):
         target_az = np.asarray(target[0], dtype=float)
@@ -102,6 +102,27 @@ def pointing_error_deg(spec: RotatorSpec, ant_az_m_deg: float | ArrayLike,
             target_az = np.degrees(np.arctan2(target_enu[..., 0], target_enu[..., 1]))
             return np.abs(np.mod(bearing - target_az + 180.0, 360.0) - 180.0)
     return angle_between_deg(azel_to_enu(bearing, ant_el_deg), target_enu)
+
+
+MountLook = tuple[float, tuple[float, float, float] | None]
+
+
+def mount_look(spec: RotatorSpec, ant_az_m_deg: float, ant_el_deg: float | None) -> MountLook:
+    """What :func:`pointing_error_deg` needs of a mount at floats (mechanical az, el): its
+    true bearing and boresight unit vector (None where azimuth alone is judged). Kept by a
+    caller that asks about the same antenna position cycle after cycle."""
+    b = spec.bearing_of(ant_az_m_deg)
+    if not spec.has_elevation or ant_el_deg is None:
+        return b, None
+    return b, azel_to_enu_scalar(b, ant_el_deg)
+
+
+def look_error_deg(look: MountLook, target_az_deg: float, target_el_deg: float) -> float:
+    """:func:`pointing_error_deg` on floats, from the mount's :func:`mount_look`."""
+    b, here = look
+    if here is None:
+        return abs((b - target_az_deg + 180.0) % 360.0 - 180.0)
+    return angle_between_scalar_deg(here, azel_to_enu_scalar(target_az_deg, target_el_deg))
 
 
 # The horizon mask ----------------------------------------------------------------------------
@@ -324,10 +345,31 @@ class MountPath:
         a scalar path (the live loop's per-cycle checks) that gives a float."""
         if isinstance(t_s, float) and isinstance(az_m_deg, float) and isinstance(
                 el_deg, float):
-            here = azel_to_enu_scalar((az_m_deg + self.stop_bearing_deg) % 360.0, el_deg)
-            return angle_between_scalar_deg(here, self._target_enu_scalar(t_s))
+            looks, targets = self._scalar_memo
+            here = looks.get((az_m_deg, el_deg))
+            if here is None:
+                here = azel_to_enu_scalar((az_m_deg + self.stop_bearing_deg) % 360.0, el_deg)
+                if len(looks) >= _MEMO_SIZE:
+                    looks.clear()
+                looks[az_m_deg, el_deg] = here
+            there = targets.get(t_s)
+            if there is None:
+                there = self._target_enu_scalar(t_s)
+                if len(targets) >= _MEMO_SIZE:
+                    targets.clear()
+                targets[t_s] = there
+            return angle_between_scalar_deg(here, there)
         return angle_between_deg(pointing_enu(az_m_deg, el_deg, self.stop_bearing_deg),
                                  self.target_enu(t_s))
+
+    @cached_property
+    def _scalar_memo(self) -> tuple[dict[tuple[float, float], tuple[float, float, float]],
+                                    dict[float, tuple[float, float, float]]]:
+        """The scalar :meth:`error_deg`'s unit vectors already computed: of mount positions
+        (an axis at rest is asked about at the same place many times) and of the target at
+        float times (consecutive cycles ask about the same instants ahead). The same values
+        as computing them again."""
+        return {}, {}
 
     @cached_property
     def _travel_cum_deg(self) -> list[float]:
@@ -354,6 +396,68 @@ class MountPath:
         cum = self._travel_cum_deg
         return cum[j1 + 1] - cum[j0]
 
+    def fixed_mount_within_s(self, az_m_deg: float, el_deg: float, t0_s: float,
+                             limit_deg: float, stop_s: float) -> float:
+        """How long a mount standing still at ``az_m_deg``, ``el_deg`` stays within
+        ``limit_deg`` of the target from ``t0_s`` on, by a bound: every error between
+        ``t0_s`` and the time returned is at most ``limit_deg`` (``t0_s`` itself when not even
+        the error now is shown so; inf past the path's end or once ``stop_s`` is reached).
+
+        Between two samples the target moves along the arc between them (or by at most its
+        az and el steps, :meth:`target_travel_bound_deg`), so within the interval its error
+        from a fixed point is at most half the sum of the errors at both ends and the arc:
+        each interval is bounded by its ends' errors, not by all the travel since ``t0_s``."""
+        ts = self._columns[0]
+        cum = self._travel_cum_deg
+        last = len(ts) - 1
+        j = bisect_right(ts, t0_s) - 1
+        if j >= last:           # past the last sample the target stands still
+            return math.inf if self.error_deg(t0_s, az_m_deg, el_deg) <= limit_deg else t0_s
+        start_s, err_a = t0_s, self.error_deg(t0_s, az_m_deg, el_deg)
+        j = max(j, 0)           # before the first sample the target stands at it
+        # The samples' errors from this mount position, kept while it is asked about (a
+        # mount at rest is, cycle after cycle).
+        memo = self._fixed_errors
+        if memo[0] != (az_m_deg, el_deg):
+            memo[0] = (az_m_deg, el_deg)
+            memo[1].clear()
+        errs = memo[1]
+        here = None
+        while j < last:
+            t_b = ts[j + 1]
+            err_b = errs.get(j + 1)
+            if err_b is None:
+                # error_deg at the sample's own time, from the sample itself
+                if here is None:
+                    here = azel_to_enu_scalar((az_m_deg + self.stop_bearing_deg) % 360.0,
+                                              el_deg)
+                err_b = errs[j + 1] = angle_between_scalar_deg(here, self._sample_enu(j + 1))
+            if 0.5 * (err_a + err_b + (cum[j + 1] - cum[j])) > limit_deg:
+                return start_s
+            if t_b >= stop_s:
+                return math.inf
+            start_s, err_a = t_b, err_b
+            j += 1
+        return math.inf
+
+    @cached_property
+    def _fixed_errors(self) -> list:
+        """``[(az, el), {sample index: error}]`` of :meth:`fixed_mount_within_s`'s last mount
+        position."""
+        return [None, {}]
+
+    def _sample_enu(self, j: int) -> tuple[float, float, float]:
+        """:meth:`_target_enu_scalar` at the time of sample ``j`` (kept once computed)."""
+        dirs = self._sample_dirs
+        v = dirs[j]
+        if v is None:
+            v = dirs[j] = self._target_enu_scalar(self._columns[0][j])
+        return v
+
+    @cached_property
+    def _sample_dirs(self) -> list[tuple[float, float, float] | None]:
+        return [None] * len(self.t_s)
+
     def _target_enu_scalar(self, t_s: float) -> tuple[float, float, float]:
         """:meth:`target_enu` at one float time, on floats."""
         ts, az, el, sky = self._columns
@@ -379,8 +483,11 @@ class MountPath:
             az, el = self.mount_at(t_s)
             return pointing_enu(az, np.zeros_like(az) if el is None else el,
                                 self.stop_bearing_deg)
-        v = np.stack([np.interp(t_s, self.t_s, col) for col in self._sky_columns], axis=-1)
-        return v / np.linalg.norm(v, axis=-1, keepdims=True)
+        v = np.empty((*np.shape(t_s), 3))
+        for k, col in enumerate(self._sky_columns):
+            v[..., k] = np.interp(t_s, self.t_s, col)
+        # np.linalg.norm's own arithmetic for a vector norm, without its checks
+        return v / np.sqrt(np.add.reduce(v * v, axis=-1, keepdims=True))
 
     @cached_property
     def _sky_columns(self) -> tuple[np.ndarray, ...]:

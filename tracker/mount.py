@@ -13,6 +13,7 @@ implementation, so predictions and the emulator's read-back agree by constructio
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field, replace
 from functools import cached_property
@@ -102,8 +103,9 @@ class MountFrame:
         report their own scale, so each reading names up to two positions."""
         if self.wire_takes_bearing:
             return self.mech_candidates(wire_az_deg % 360.0)
+        top = self.az_span_deg + 2.0
         out = [m for m in (wire_az_deg - 360.0, wire_az_deg, wire_az_deg + 360.0)
-               if -2.0 <= m <= self.az_span_deg + 2.0]
+               if -2.0 <= m <= top]
         return out or [min(max(wire_az_deg, 0.0), self.az_span_deg)]
 
     def nearest_mech_of_wire(self, wire_az_deg: float, belief_m_deg: float | None = None
@@ -111,14 +113,32 @@ class MountFrame:
         """The one of :meth:`mechs_of_wire` nearest ``belief_m_deg`` (where the antenna is
         believed to be). Without a belief: the controller's own scale is trusted (a 450 deg
         controller reports 0-450), and of a bearing the lowest mechanical azimuth."""
+        if not self.wire_takes_bearing and belief_m_deg is not None:
+            # Once a live-loop cycle: mechs_of_wire's candidates, nearest first found, inline.
+            top = self.az_span_deg + 2.0
+            best, best_off = None, math.inf
+            for m in (wire_az_deg - 360.0, wire_az_deg, wire_az_deg + 360.0):
+                if -2.0 <= m <= top:
+                    off = abs(m - belief_m_deg)
+                    if off < best_off:
+                        best, best_off = m, off
+            if best is not None:
+                return best
         cands = self.mechs_of_wire(wire_az_deg)
+        best = cands[0]
         if len(cands) == 1:
-            return cands[0]
+            return best
         if belief_m_deg is None:
             if self.wire_takes_bearing:
-                return cands[0]
+                return best
             belief_m_deg = wire_az_deg
-        return min(cands, key=lambda m: abs(m - belief_m_deg))
+        # min(cands, key=distance) without a call per candidate (once a live-loop cycle)
+        best_off = abs(best - belief_m_deg)
+        for m in cands[1:]:
+            off = abs(m - belief_m_deg)
+            if off < best_off:
+                best, best_off = m, off
+        return best
 
 
 @dataclass(frozen=True)
@@ -353,6 +373,9 @@ def preset(name: str, mains_hz: int = 60) -> RotatorSpec:
 
 # Motor model ----------------------------------------------------------------------------------
 
+# AxisMotor.stamp: a new number at every change of a segment, in any axis.
+_STAMPS = itertools.count()
+
 
 class AxisMotor:
     """One rate-limited axis, in its own degrees (mechanical azimuth or elevation).
@@ -377,6 +400,9 @@ class AxisMotor:
         self._p0 = float(position_deg)  # position at _t0
         self._target = float(position_deg)
         self._delay = 0.0
+        # Renewed whenever what the positions follow from may change (a copy keeps it, as it
+        # keeps the segment): equal stamps, equal segments (AxisMotor.segment), cheaply.
+        self.stamp = next(_STAMPS)
 
     def quantise(self, target_deg: float) -> float:
         q = round(float(target_deg) / self.resolution_deg) * self.resolution_deg
@@ -419,6 +445,11 @@ class AxisMotor:
             return False
         return not abs(self._target - self.position(t_s)) < 1e-9
 
+    def rests_on(self, position_deg: float) -> bool:
+        """True if the axis stands on ``position_deg`` with that as its target (exactly, not
+        jammed): nothing it does depends on time then."""
+        return self._p0 == position_deg and self._target == position_deg and not self.jammed
+
     def arrival_s(self) -> float:
         """Time at which the current target is (or was) reached."""
         return self._t0 + self._delay + abs(self._target - self._p0) / self.rate_deg_s
@@ -436,6 +467,7 @@ class AxisMotor:
         else:
             delay = self.start_delay_s if new != 0 else 0.0
         self._t0, self._p0, self._target, self._delay = float(t_s), float(p), target, delay
+        self.stamp = next(_STAMPS)
         return target
 
     def segment(self) -> tuple[float, float, float, float, float, bool]:
@@ -449,10 +481,12 @@ class AxisMotor:
         self._t0 = float(t_s)
         self._p0 = self._target = float(position_deg)
         self._delay = 0.0
+        self.stamp = next(_STAMPS)
 
     def stop(self, t_s: float) -> None:
         p = self.position(t_s)
         self._t0, self._p0, self._target, self._delay = float(t_s), float(p), float(p), 0.0
+        self.stamp = next(_STAMPS)
 
     def set_rate(self, rate_deg_s: float, t_s: float) -> None:
         """Change speed now (GS-232 X1..X4 takes effect even during rotation)."""
@@ -464,6 +498,7 @@ class AxisMotor:
         self.rate_deg_s = float(rate_deg_s)
         self._t0, self._p0, self._target, self._delay = float(t_s), float(p), target, \
             remaining_delay
+        self.stamp = next(_STAMPS)
 
     def jam(self, t_s: float, jammed: bool = True) -> None:
         """Fault injection: the axis stops turning (motor stalled, brake stuck)."""
@@ -472,6 +507,7 @@ class AxisMotor:
         if not jammed:
             self._target, self._delay = float(p), 0.0
         self.jammed = jammed
+        self.stamp = next(_STAMPS)
 
 
 class MotorModel:
@@ -517,9 +553,10 @@ def move_from_rest(start_deg: np.ndarray | float, target_deg: np.ndarray | float
     ``target_deg``: :class:`AxisMotor`'s kinematics (start delay, then constant rate),
     broadcast over any shapes."""
     dist = np.asarray(target_deg, dtype=float) - start_deg
-    moving = np.abs(dist) > 1e-9
-    travelled = np.clip((dt_s - np.where(moving, start_delay_s, 0.0)) * rate_deg_s, 0.0,
-                        np.abs(dist))
+    span = np.abs(dist)
+    # np.minimum(np.maximum(...)) is np.clip's result at a fraction of its call cost.
+    travelled = np.minimum(np.maximum(
+        (dt_s - np.where(span > 1e-9, start_delay_s, 0.0)) * rate_deg_s, 0.0), span)
     return start_deg + np.sign(dist) * travelled
 
 
@@ -629,3 +666,4 @@ def _rest_at(axis: AxisMotor, position_deg: float, t_s: float) -> None:
     """Put ``axis`` at rest on ``position_deg`` at ``t_s`` (a known, reached target)."""
     axis.stop(t_s)
     axis._p0 = axis._target = position_deg
+    axis.stamp = next(_STAMPS)

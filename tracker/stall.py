@@ -163,10 +163,15 @@ class AxisWatch:
         come back unseen): restart the expectation from here."""
         expect = self.expect
         assert expect is not None, "only called while an expectation runs"
-        # In place: on a healthy pass this runs every cycle (motion seen, or on target).
-        restart_axis(expect, readback_deg, expect.target_deg, t_s, expect.moving(t_s))
         self.ref_t_s, self.ref_pos_deg = t_s, readback_deg
-        self._new_segment(t_s)
+        if expect.rests_on(readback_deg):
+            # Most cycles of a healthy pass: on target, as the cycle before. Restarting it
+            # would change nothing its positions depend on.
+            self.seg_t_s, self._seg_pos_deg = t_s, readback_deg
+        else:
+            # In place: on a healthy pass this runs every cycle (motion seen).
+            restart_axis(expect, readback_deg, expect.target_deg, t_s, expect.moving(t_s))
+            self._new_segment(t_s)
         self.carried_deg = 0.0
         self.still_since_s = None
         if seen and self.send_times:
@@ -180,6 +185,15 @@ class AxisWatch:
         """Seconds without motion when the axis counts as stalled, else None."""
         expect = self.expect
         if expect is None or self.ref_t_s is None:
+            return None
+        if (readback_deg == self.ref_pos_deg and not self.send_times and not self.copy_times
+                and expect.rests_on(readback_deg)):
+            # Most cycles of a healthy pass: still on target, as the cycle before, nothing
+            # sent since: what _moved would do, minus restarting an axis that rests there.
+            self.ref_t_s = self.seg_t_s = t_s
+            self._seg_pos_deg = readback_deg
+            self.carried_deg = 0.0
+            self.still_since_s = self._told_t_s = None
             return None
         ref_deg, target_deg = self.ref_pos_deg, expect.target_deg
         step_deg = resolution_deg - 1e-9
@@ -241,8 +255,9 @@ class AxisWatch:
         if self.expect is None or self.ref_t_s is None:
             return False
         since = self.send_times[-1] if self.send_times else self.ref_t_s
-        expected = self.carried_deg + self._segment_deg(t_s)
-        return t_s > since and expected >= resolution_deg - 1e-9
+        if not t_s > since:      # (motion was seen, or a command sent, just now)
+            return False
+        return self.carried_deg + self._segment_deg(t_s) >= resolution_deg - 1e-9
 
     def had_time_since(self, t_s: float, sent_t_s: float) -> bool:
         """Since ``sent_t_s`` the axis had the time to show motion from rest."""

@@ -38,8 +38,11 @@ from tracker.errors import (
     TrackerError,
 )
 from tracker.geometry import (
+    MountLook,
     MountPath,
     boresight_look,
+    look_error_deg,
+    mount_look,
     move_clears_mask,
     pointing_enu,
     pointing_error_deg,
@@ -200,6 +203,14 @@ class TrackCore:
         self.spec = spec
         self.station = station
         self.settings = settings or StreamSettings(deadband_deg=spec.deadband_deg)
+        # Asked every cycle and fixed for the pass.
+        self._frame = spec.frame
+        self._has_el = spec.has_elevation
+        s = self.settings
+        self._band_deg = max(s.deadband_deg - s.margin_deg, 0.5 * s.deadband_deg)
+        self._lookahead_s = s.cycle_s + spec.start_delay_s
+        # (read-back, its bearing, its mount_look) for the status
+        self._look: tuple[tuple[float, float | None], float, MountLook | None] | None = None
         self.path = MountPath.exact_from_plan(plan, None, spec)
         # Where the path needs the motors to run most of the time (near the zenith), the
         # deadband saves no relay clicks - commands in the running direction start nothing -
@@ -263,7 +274,7 @@ class TrackCore:
         self._resume: tuple[Phase, int] | None = None
         self._hold_until_s = -math.inf
         self._hold_level_deg = self.settings.deadband_deg
-        # (from, until, level, motor segments): needs_command is False all along (_quiet).
+        # (from, until, level, motor stamps): needs_command is False all along (_quiet).
         self._quiet_span: tuple[float, float, float, tuple] | None = None
         self._park_sent_s: float | None = None
         self._last_wire_az: float | None = None
@@ -315,10 +326,12 @@ class TrackCore:
             self.untrusted = self.settings.settle_readings
             return "controller_off"
         # The belief: the motor model, else the last read-back, else the reading's own scale.
-        expected_az = float(self.motor.az.position(t_s)) if self.motor is not None else None
+        motor = self.motor
+        contradiction_deg = self.settings.contradiction_deg
+        expected_az = float(motor.az.position(t_s)) if motor is not None else None
         belief = expected_az if expected_az is not None else (
             self.antenna[0] if self.antenna else None)
-        m_az = spec.frame.nearest_mech_of_wire(wire_az_deg, belief)
+        m_az = self._frame.nearest_mech_of_wire(wire_az_deg, belief)
         early = False
         if self._last_wire_az is None or abs(wire_az_deg - self._last_wire_az) >= 0.5:
             self._wire_still_since_s = t_s
@@ -330,20 +343,20 @@ class TrackCore:
         still_s = t_s - self._wire_still_since_s
         still = still_s > 0.0 and (self._wire_still_since_s > self._az_command_t_s
                                    or still_s >= spec.start_delay_s + 1.5)
-        if self.motor is not None and (
-                abs(m_az - expected_az) > self.settings.contradiction_deg
-                or (still and self.motor.az.moving(t_s))):
+        if motor is not None and (
+                abs(m_az - expected_az) > contradiction_deg
+                or (still and motor.az.moving(t_s))):
             # Far from the belief (or standing still while believed moving), but the reading
             # names the commanded target: it arrived sooner than believed (the start was
             # guessed on the wrong side of the overlap; the controller knew better). Take it,
             # instead of distrusting a good rotator.
             at_target = [m for m in spec.frame.mechs_of_wire(wire_az_deg)
-                         if abs(m - self.motor.az.target_deg) < 0.5
+                         if abs(m - motor.az.target_deg) < 0.5
                          and abs(m - m_az) > 180.0]
             if at_target:
                 m_az, early = at_target[0], True
         el = None
-        if spec.has_elevation:
+        if self._has_el:
             el = float(wire_el_deg if wire_el_deg is not None else 0.0)
         prev, prev_t_s = self.antenna, self._antenna_t_s
         self.antenna, self._antenna_t_s = (m_az, el), t_s
@@ -366,7 +379,7 @@ class TrackCore:
             expected_az = m_az
         off_az = abs(m_az - expected_az)
         off_el = 0.0 if el is None else abs(el - float(self.motor.el.position(t_s)))
-        if max(off_az, off_el) > self.settings.contradiction_deg:
+        if off_az > contradiction_deg or off_el > contradiction_deg:
             # Not where it can be if it obeyed us: someone turned it by hand, the controller
             # was recalibrated, or it folded its scale. Stop believing; wait for it to settle.
             el_said = "" if wire_el_deg is None else f" el {wire_el_deg:.0f}"
@@ -407,14 +420,22 @@ class TrackCore:
         Until then ask for a copy (:attr:`_resend_due`)."""
         s = self.settings
         res = self.spec.resolution_deg
-        quota = 1 + s.stall_resends
         w_az, w_el = self._watch["az"], self._watch["el"]
-        checked = []
-        for name, watch, other, pos in (("azimuth", w_az, w_el, self.antenna[0]),
-                                        ("elevation", w_el, w_az, self.antenna[1])):
-            if pos is not None:
-                checked.append((name, watch, other,
-                                watch.check(t_s, pos, res, s.stall_travel_deg)))
+        az, el = self.antenna
+        stuck_az = w_az.check(t_s, az, res, s.stall_travel_deg)
+        stuck_el = None if el is None else w_el.check(t_s, el, res, s.stall_travel_deg)
+        if (stuck_az is None and stuck_el is None and not w_az.send_times
+                and not w_el.send_times):
+            # Most cycles: nothing to judge; a copy is due only if motion is overdue.
+            # (an axis whose motion was just seen has none overdue: skip asking)
+            self._resend_due = self.last_command is not None and (
+                (w_az.ref_t_s != t_s and w_az.motion_overdue(t_s, res))
+                or (el is not None and w_el.ref_t_s != t_s and w_el.motion_overdue(t_s, res)))
+            return
+        quota = 1 + s.stall_resends
+        checked = [("azimuth", w_az, w_el, stuck_az)]
+        if el is not None:
+            checked.append(("elevation", w_el, w_az, stuck_el))
         overdue = []
         for name, watch, other, stuck_s in checked:
             if not watch.send_times:
@@ -502,13 +523,13 @@ class TrackCore:
             return None
         # TRACK
         s = self.settings
-        band = self._band()
+        band = self._band_deg
         level = band if t_s >= self._hold_until_s else max(band, self._hold_level_deg)
         # Move before the error reaches the deadband, but no earlier than needed: every second
         # of early warning moves the next aim point back by the path's travel in that time.
         # Once a motor runs it outruns the target (faster paths are followed below), so only
         # the wait until it starts has to be foreseen: one cycle and the start delay.
-        lookahead = s.cycle_s + self.spec.start_delay_s
+        lookahead = self._lookahead_s
         if self._fast(t_s, lookahead):
             i = (self._plan_index_near(t_s) if self._staircase
                  else min(bisect_left(self._plan_t, t_s), len(self._plan_t) - 1))
@@ -559,10 +580,11 @@ class TrackCore:
     def _quiet(self, t_s: float, level_deg: float, lookahead_s: float) -> bool:
         """``not needs_command(...)``: the antenna, left alone, stays within ``level_deg``
         for the look-ahead. Proved by a bound for a while ahead (:func:`quiet_until_s`), the
-        answer is kept until then, as long as the belief of the motors does not change."""
+        answer is kept until then, as long as the belief of the motors does not change (their
+        :attr:`~tracker.mount.AxisMotor.stamp`)."""
         motor = self.motor
         assert motor is not None, "only asked with a belief"
-        key = (motor.az.segment(), None if motor.el is None else motor.el.segment())
+        key = (motor.az.stamp, None if motor.el is None else motor.el.stamp)
         q = self._quiet_span
         if q is not None and q[0] <= t_s <= q[1] and level_deg >= q[2] and key == q[3]:
             return True
@@ -645,8 +667,7 @@ class TrackCore:
                              self._band(), cycle)
 
     def _band(self) -> float:
-        s = self.settings
-        return max(s.deadband_deg - s.margin_deg, 0.5 * s.deadband_deg)
+        return self._band_deg
 
     def _lead_in(self, t_s: float, last: Command, horizon_s: float = 120.0) -> Command:
         """The last pre-position move, aimed ahead on the path: resting there the antenna
@@ -806,12 +827,20 @@ class TrackCore:
         err = bearing = None
         if ant is not None:
             el = ant[1] if ant[1] is not None else 0.0
-            bearing = float(self.spec.bearing_of(ant[0]))
+            # The read-back changes far less often than the cycles come: its bearing and
+            # boresight are kept while it stays (on floats, pointing_error_deg's own path).
+            look = self._look
+            if look is None or look[0] != ant:
+                fl = isinstance(ant[0], float) and isinstance(el, float)
+                look = self._look = (ant, float(self.spec.bearing_of(ant[0])),
+                                     mount_look(self.spec, ant[0], el) if fl else None)
+            bearing = look[1]
             # an azimuth-only beam's elevation is set by hand: only azimuth is ours to get
             # right, as in the planner's prediction
             if self.phase is not Phase.PARK and self.phase is not Phase.DONE:
                 # after LOS the antenna leaves the target on purpose: no pointing error
-                err = float(pointing_error_deg(self.spec, ant[0], el, (taz, tel)))
+                err = (look_error_deg(look[2], taz, tel) if look[2] is not None else
+                       float(pointing_error_deg(self.spec, ant[0], el, (taz, tel))))
         span = max(self.los_s - self.aos_s, 1e-9)
         cmd = self.last_command
         return Status(t_s, self.phase, self.mode, taz, tel,
