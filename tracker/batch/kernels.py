@@ -1,0 +1,478 @@
+"""The batch finder's hot loops, each behind one name with two implementations of the same
+arithmetic: numpy (the reference, always there) and a compiled loop (numba, the optional
+``fast`` extra) that passes over the data once without temporaries.
+
+numba is imported here only, on the first call of a kernel (never by importing this module),
+and each loop is compiled once and cached on disk (``cache=True``). ``TRACKER_NUMBA=0`` in
+the environment, or :func:`use`, selects the numpy implementations.
+
+The two implementations agree to rounding: the screen (:func:`fine_screen`) runs in float32
+with numpy and in float64 compiled (the cone it tests has degrees of margin, so both keep
+every step a pass can be in); the root solver (:func:`solve_cubic`) takes the same Newton and
+bisection steps, per bracket, in both.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+EARTH_ROTATION_RAD_S = 7.292115e-5  # geometry.EARTH_ROTATION_RAD_S (the Earth's sidereal rate)
+
+_backend: str | None = None  # "numba" or "numpy", decided on the first kernel call
+_compiled: dict[str, Any] = {}
+
+
+def backend() -> str:
+    """The implementation the kernels run: "numba" when it is installed (and not switched off
+    by ``TRACKER_NUMBA=0``), else "numpy"."""
+    global _backend
+    if _backend is None:
+        _backend = "numpy"
+        if os.environ.get("TRACKER_NUMBA", "1") != "0":
+            try:
+                import numba  # noqa: F401
+            except ImportError:
+                pass
+            else:
+                _backend = "numba"
+    return _backend
+
+
+def use(name: str | None) -> str | None:
+    """Select the kernels' implementation ("numba", "numpy", or None: decide on the next
+    call as :func:`backend` does); returns the previous choice."""
+    global _backend
+    if name not in (None, "numba", "numpy"):
+        raise ValueError(f"unknown kernel implementation {name!r}; known: numba, numpy")
+    previous, _backend = _backend, name
+    return previous
+
+
+def _jit(name: str):
+    """The compiled form of the loop function ``name`` of this module (compiled on first use)."""
+    fn = _compiled.get(name)
+    if fn is None:
+        import numba
+
+        fn = _compiled[name] = numba.njit(cache=True, error_model="numpy")(globals()[name])
+    return fn
+
+
+# --- fine screening -------------------------------------------------------------------------
+
+def sub_arcs(phi, ecc, n: int, coarse_s: float):
+    """Bounds [a1, a2] (rad from the arc's start, (len(phi), n), float32) of the sub-arc each
+    of the ``n`` fine steps of coarse arcs of angle ``phi`` can sweep, for orbits of
+    eccentricity ``ecc``. float32: the cone has degrees of margin, float32 rounds at 1e-7
+    rad."""
+    f32 = np.float32
+    fine_s = coarse_s / n
+    e_eff = np.minimum(ecc + 0.002, 0.9)
+    ratio = ((1.0 + e_eff) / (1.0 - e_eff)) ** 2 * 1.01
+    w_mean = phi / coarse_s
+    w_lo, w_hi = (w_mean / ratio).astype(f32)[:, None], (w_mean * ratio).astype(f32)[:, None]
+    t_a = (np.arange(n) * fine_s).astype(f32)
+    t_b = (np.arange(1, n + 1) * fine_s).astype(f32)
+    ph_ = phi.astype(f32)[:, None]
+    a1 = np.maximum(w_lo * t_a, ph_ - w_hi * (f32(coarse_s) - t_a))
+    np.clip(a1, f32(0.0), ph_, out=a1)
+    a2 = np.minimum(w_hi * t_b, ph_ - w_lo * (f32(coarse_s) - t_b))
+    np.clip(a2, a1, ph_, out=a2)
+    return a1, a2
+
+
+def subarc_within(pa, pq, a1, a2, cos_lim):
+    """Does the sub-arc [a1, a2] (angles from A in the orbit plane, 0 <= a2 - a1 < 2 pi) come
+    within the cone around the station, i.e. does the station's largest projection on it,
+    max over a of pa cos a + pq sin a, reach ``cos_lim``? (Inputs are overwritten.)
+
+    The station's in-plane part is R (cos beta, sin beta). On the arc's middle direction m
+    (half-width w) it projects to pm = R cos(beta - m), across it to |pp| = R |sin(beta - m)|.
+    Inside the arc (|beta - m| <= w, i.e. pm >= R cos w) the largest projection is R; outside
+    it is at the nearer end, R cos(|beta - m| - w) = pm cos w + |pp| sin w. No arctangent.
+    """
+    r_in = np.sqrt(pa * pa + pq * pq)
+    mid = a1 + a2
+    mid *= 0.5
+    half = a2 - a1
+    half *= 0.5
+    cm, sm, ch, sh = np.cos(mid), np.sin(mid), np.cos(half), np.sin(half)
+    pm = pa * cm
+    pm += pq * sm
+    pq *= cm
+    pa *= sm
+    pp = np.abs(pq - pa, out=pq)
+    pp *= sh
+    pp += pm * ch
+    sub = pp >= cos_lim
+    ch *= r_in
+    sub |= (pm >= ch) & (r_in >= cos_lim)
+    return sub
+
+
+@dataclass(frozen=True)
+class StationTrack:
+    """One station's geocentric unit vector in TEME at the middle of every fine step of the
+    window: rho (cos psi, sin psi), z, with psi = GMST + longitude (float64, (K * n,))."""
+
+    psi: np.ndarray
+    rho: float
+    z: float
+
+
+def fine_screen(A, q, phi, ecc, kk, n: int, coarse_s: float, track: StationTrack, cos_lim,
+                screenable, arcs=None):
+    """(C, n) booleans: the fine steps of C candidate coarse intervals (in-plane axes A, q
+    (C, 3), arc angle phi (C,), eccentricity, interval index ``kk``, cone cosine and
+    ``screenable`` per candidate) whose sub-arc comes within the station's cone.
+    ``arcs``: :func:`sub_arcs` of the candidates when already computed."""
+    if backend() == "numba":
+        out = np.empty((len(kk), n), np.bool_)
+        _jit("_fine_screen_loop")(A, q, phi, ecc, kk, n, coarse_s, track.psi, track.rho,
+                                  track.z, cos_lim, screenable, out)
+        return out
+    f32 = np.float32
+    a1, a2 = sub_arcs(phi, ecc, n, coarse_s) if arcs is None else arcs
+    K = len(track.psi) // n
+    cp = (np.cos(track.psi) * track.rho).astype(f32).reshape(K, n)[kk]
+    sp = (np.sin(track.psi) * track.rho).astype(f32).reshape(K, n)[kk]
+    A, q = A.astype(f32), q.astype(f32)
+    pa = A[:, 0, None] * cp
+    pa += A[:, 1, None] * sp
+    pa += A[:, 2, None] * f32(track.z)
+    pq = q[:, 0, None] * cp
+    pq += q[:, 1, None] * sp
+    pq += q[:, 2, None] * f32(track.z)
+    sub = subarc_within(pa, pq, a1, a2, cos_lim.astype(f32)[:, None])
+    sub |= ~screenable[:, None]
+    return sub
+
+
+def _fine_screen_loop(A, q, phi, ecc, kk, n, coarse_s, psi, rho, z, cos_lim, screenable,
+                      out):  # pragma: no cover - compiled by numba (fine_screen's twin)
+    fine_s = coarse_s / n
+    cps = np.empty(len(psi))
+    sps = np.empty(len(psi))
+    for j in range(len(psi)):
+        cps[j] = math.cos(psi[j]) * rho
+        sps[j] = math.sin(psi[j]) * rho
+    for c in range(len(kk)):
+        if not screenable[c]:
+            out[c, :] = True
+            continue
+        e_eff = min(ecc[c] + 0.002, 0.9)
+        ratio = ((1.0 + e_eff) / (1.0 - e_eff)) ** 2 * 1.01
+        ph = phi[c]
+        w_mean = ph / coarse_s
+        w_lo, w_hi = w_mean / ratio, w_mean * ratio
+        lim = cos_lim[c]
+        a0x, a0y, a0z = A[c, 0], A[c, 1], A[c, 2] * z
+        q0x, q0y, q0z = q[c, 0], q[c, 1], q[c, 2] * z
+        base = kk[c] * n
+        for i in range(n):
+            t_a = i * fine_s
+            t_b = t_a + fine_s
+            a1 = min(max(max(w_lo * t_a, ph - w_hi * (coarse_s - t_a)), 0.0), ph)
+            a2 = min(max(min(w_hi * t_b, ph - w_lo * (coarse_s - t_b)), a1), ph)
+            cp, sp = cps[base + i], sps[base + i]
+            pa = a0x * cp + a0y * sp + a0z
+            pq = q0x * cp + q0y * sp + q0z
+            mid = 0.5 * (a1 + a2)
+            half = 0.5 * (a2 - a1)
+            cm, sm, ch = math.cos(mid), math.sin(mid), math.cos(half)
+            pm = pa * cm + pq * sm
+            if abs(pq * cm - pa * sm) * math.sin(half) + pm * ch >= lim:
+                out[c, i] = True
+            else:
+                r_in = math.sqrt(pa * pa + pq * pq)
+                out[c, i] = pm >= ch * r_in and r_in >= lim
+
+
+# --- first guesses from the samples ---------------------------------------------------------
+
+def hermite_root(f0, d0, f1, d1, h, slope: bool = False, n: int = 17):
+    """Where (fraction 0..1 of each interval) the cubic Hermite through values ``f0``, ``f1``
+    and rates ``d0``, ``d1`` at the ends of intervals ``h`` long first changes sign (its
+    slope, with ``slope``): the linear root between the first two of ``n`` samples across
+    the interval that differ in sign (the middle sample pair when none do)."""
+    s = np.linspace(0.0, 1.0, n)
+    if slope:
+        basis = np.stack([s * 0.0, s**2, s])
+    else:
+        basis = np.stack([2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s, -2 * s**3 + 3 * s**2,
+                          s**3 - s**2])
+    if backend() == "numba":
+        out = np.empty(len(f0))
+        _jit("_hermite_root_loop")(f0, d0, f1, d1, np.broadcast_to(h, np.shape(f0)), slope,
+                                   basis, s, out)
+        return out
+    if slope:
+        c1 = h * d0
+        c2 = -3 * f0 - 2 * h * d0 + 3 * f1 - h * d1
+        c3 = 2 * f0 + h * d0 - 2 * f1 + h * d1
+        p = 3 * c3[:, None] * basis[1] + 2 * c2[:, None] * s + c1[:, None]
+    else:
+        p = (f0[:, None] * basis[0] + (h * d0)[:, None] * basis[1] + f1[:, None] * basis[2]
+             + (h * d1)[:, None] * basis[3])
+    neg = p < 0
+    change = neg[:, 1:] != neg[:, :-1]
+    k = np.where(change.any(1), change.argmax(1), n // 2 - 1)
+    rows = np.arange(len(p))
+    a, b = p[rows, k], p[rows, k + 1]
+    frac = np.where(b != a, a / np.where(b != a, a - b, 1.0), 0.5)
+    return s[k] + np.clip(frac, 0.0, 1.0) * (s[k + 1] - s[k])
+
+
+def _hermite_root_loop(f0, d0, f1, d1, h, slope, basis, s, out
+                       ):  # pragma: no cover - compiled by numba (hermite_root's twin)
+    n = len(s)
+    p = np.empty(n)
+    for i in range(len(f0)):
+        c1 = c2 = c3 = 0.0
+        if slope:
+            c1 = h[i] * d0[i]
+            c2 = -3 * f0[i] - 2 * h[i] * d0[i] + 3 * f1[i] - h[i] * d1[i]
+            c3 = 2 * f0[i] + h[i] * d0[i] - 2 * f1[i] + h[i] * d1[i]
+        k = n // 2 - 1
+        for m in range(n):
+            if slope:
+                p[m] = 3 * c3 * basis[1, m] + 2 * c2 * s[m] + c1
+            else:
+                p[m] = (f0[i] * basis[0, m] + (h[i] * d0[i]) * basis[1, m]
+                        + f1[i] * basis[2, m] + (h[i] * d1[i]) * basis[3, m])
+            if m > 0 and (p[m] < 0) != (p[m - 1] < 0):
+                k = m - 1
+                break
+        a, b = p[k], p[k + 1]
+        frac = a / (a - b) if b != a else 0.5
+        if frac < 0.0:
+            frac = 0.0
+        elif frac > 1.0:
+            frac = 1.0
+        out[i] = s[k] + frac * (s[k + 1] - s[k])
+
+
+# --- refinement on the cubic interpolant ----------------------------------------------------
+
+@dataclass(frozen=True)
+class Cubic:
+    """The cubic Hermite interpolant of the TEME orbit over fine steps of ``h`` seconds, one
+    per bracket k, starting at ``t0[k]``: r(s) = ((c3 s + c2) s + c1) s + r0, s = (tau - t0)
+    / h; plus an optional first-order correction (``x_ref``, ``dr``, ``dv``: SGP4 - cubic at
+    ``x_ref``) that is zero until set."""
+
+    t0: np.ndarray
+    h: float
+    r0: np.ndarray
+    c1: np.ndarray
+    c2: np.ndarray
+    c3: np.ndarray
+    x_ref: np.ndarray
+    dr: np.ndarray
+    dv: np.ndarray
+
+    @classmethod
+    def through(cls, t0, h: float, r0, v0, r1, v1) -> Cubic:
+        d = r1 - r0
+        n = len(t0)
+        return cls(t0, h, r0, h * v0, 3 * d - h * (2 * v0 + v1), h * (v0 + v1) - 2 * d,
+                   np.zeros(n), np.zeros((n, 3)), np.zeros((n, 3)))
+
+    def __call__(self, k, tau):
+        """(r, v, a) of the uncorrected cubic of brackets ``k`` at times ``tau``."""
+        h = self.h
+        s = ((tau - self.t0[k]) / h)[:, None]
+        a0, a1, a2, a3 = self.r0[k], self.c1[k], self.c2[k], self.c3[k]
+        r = ((a3 * s + a2) * s + a1) * s + a0
+        v = ((3 * a3 * s + 2 * a2) * s + a1) / h
+        a = (6 * a3 * s + 2 * a2) / (h * h)
+        return r, v, a
+
+    def corrected(self, k, tau):
+        """Like calling it, with the correction added to r and v."""
+        r, v, a = self(k, tau)
+        r = r + self.dr[k] + self.dv[k] * (tau - self.x_ref[k])[:, None]
+        return r, v + self.dv[k], a
+
+
+@dataclass(frozen=True)
+class Sky:
+    """What turns TEME states into sin(elevation): GMST theta0 + rate * tau (rad), station
+    ECEF positions and up vectors (N, 3), sin(min elevation) per station (N,)."""
+
+    theta0: float
+    theta_rate: float
+    ecef_km: np.ndarray
+    up: np.ndarray
+    sin_min_el: np.ndarray
+
+
+def _columns(table, idx):
+    return np.take(np.ascontiguousarray(table.T), idx, axis=1)
+
+
+def topo(sky: Sky, st, tau, r, v, a=None):
+    """sin(el), d/dt and (given the acceleration ``a``) d2/dt2 of stations ``st`` (one per
+    state) at TEME states (n, 3), the station -> satellite vector (TEME components) and the
+    cosine and sine of the GMST angle; the station turns with the Earth in TEME."""
+    theta = sky.theta0 + sky.theta_rate * np.asarray(tau, dtype=float)
+    c, sn = np.cos(theta), np.sin(theta)
+    w = EARTH_ROTATION_RAD_S
+    o, u = _columns(sky.ecef_km, st), _columns(sky.up, st)
+    ox, oy = c * o[0] - sn * o[1], sn * o[0] + c * o[1]
+    ux, uy, uz = c * u[0] - sn * u[1], sn * u[0] + c * u[1], u[2]
+    dx, dy, dz = r[:, 0] - ox, r[:, 1] - oy, r[:, 2] - o[2]
+    vx, vy, vz = v[:, 0] + w * oy, v[:, 1] - w * ox, v[:, 2]  # relative velocity
+    inv = 1.0 / np.sqrt(dx * dx + dy * dy + dz * dz)
+    s = (dx * ux + dy * uy + dz * uz) * inv
+    ru1 = vx * ux + vy * uy + vz * uz + w * (dy * ux - dx * uy)
+    dist1 = (dx * vx + dy * vy + dz * vz) * inv
+    s1 = (ru1 - s * dist1) * inv
+    s2 = None
+    if a is not None:
+        w2 = w * w
+        ax, ay, az = a[:, 0] + w2 * ox, a[:, 1] + w2 * oy, a[:, 2]
+        ru2 = (ax * ux + ay * uy + az * uz + 2 * w * (vy * ux - vx * uy)
+               - w2 * (dx * ux + dy * uy))
+        dist2 = (vx * vx + vy * vy + vz * vz + dx * ax + dy * ay + dz * az
+                 - dist1 * dist1) * inv
+        s2 = (ru2 - 2 * s1 * dist1 - s * dist2) * inv
+    return s, s1, s2, (dx, dy, dz), c, sn
+
+
+def newton_sin_el(s, s1, s2, sin_min, tca: bool):
+    """(g, Newton step to g's root): g = d sin(el)/dt for a culmination, else sin(el) -
+    ``sin_min`` with a second-order step (sin(el) is curved on the scale of a grazing
+    pass)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if tca:
+            return s1, s1 / s2
+        g = s - sin_min
+        step = g / s1
+        return g, step + 0.5 * s2 * step * step / s1
+
+
+def bracketed(x, step, g, lo, hi, lo_neg):
+    """The bracket narrowed by the sign of g at x, and the Newton point x - step in it
+    (bisection when the step leaves it)."""
+    same_as_lo = (g < 0) == lo_neg
+    lo = np.where(same_as_lo, x, lo)
+    hi = np.where(same_as_lo, hi, x)
+    x_new = x - step
+    bad = ~np.isfinite(x_new) | (x_new <= lo) | (x_new >= hi)
+    return np.where(bad, 0.5 * (lo + hi), x_new), lo, hi
+
+
+def solve(evaluate, lo, hi, lo_neg, guess, tol_s: float, max_it: int = 60):
+    """Root of g in each bracket [lo, hi] (g changes sign there; ``lo_neg``: g(lo) < 0), all
+    brackets at once: Newton steps (``evaluate(k, tau) -> (g, step)``), bisection when a
+    step leaves the bracket. Stops when a step is below ``tol_s``; returns the point after
+    that last step (not evaluated; quadratically closer than the step)."""
+    tau = np.clip(guess, lo, hi)
+    lo, hi = lo.copy(), hi.copy()
+    active = np.arange(len(lo))
+    for _ in range(max_it):
+        if active.size == 0:
+            break
+        x = tau[active]
+        g, step = evaluate(active, x)
+        x_new, lo[active], hi[active] = bracketed(x, step, g, lo[active], hi[active],
+                                                  lo_neg[active])
+        tau[active] = x_new
+        done = (np.abs(x_new - x) < tol_s) | (hi[active] - lo[active] < tol_s) | (g == 0)
+        active = active[~done]
+    return tau
+
+
+def solve_cubic(sky: Sky, cubic: Cubic, k, st, lo, hi, lo_neg, guess, tol_s: float,
+                tca: bool, max_it: int = 60):
+    """:func:`solve` for culminations (``tca``) or AOS/LOS of stations ``st`` without a horizon
+    mask on the (corrected) cubic of brackets ``k``: the roots of d sin(el)/dt, or of
+    sin(el) - sin(min el)."""
+    if backend() == "numba":
+        tau = np.empty(len(lo))
+        _jit("_solve_cubic_loop")(
+            sky.theta0, sky.theta_rate, sky.ecef_km, sky.up, sky.sin_min_el, cubic.t0,
+            cubic.h, cubic.r0, cubic.c1, cubic.c2, cubic.c3, cubic.x_ref, cubic.dr, cubic.dv,
+            k, st, lo, hi, lo_neg, guess, tol_s, tca, max_it, tau)
+        return tau
+
+    def evaluate(j, tau):
+        kj = k[j]
+        r, v, a = cubic.corrected(kj, tau)
+        s, s1, s2, *_ = topo(sky, st[j], tau, r, v, a)
+        return newton_sin_el(s, s1, s2, sky.sin_min_el[st[j]], tca)
+
+    return solve(evaluate, lo, hi, lo_neg, guess, tol_s, max_it)
+
+
+def _solve_cubic_loop(theta0, theta_rate, ecef, up, sin_min_el, t0, h, r0, c1, c2, c3, x_ref,
+                      dr, dv, k, st, lo_in, hi_in, lo_neg, guess, tol_s, tca, max_it,
+                      out):  # pragma: no cover - compiled by numba (solve_cubic's twin)
+    w = EARTH_ROTATION_RAD_S
+    w2 = w * w
+    for j in range(len(lo_in)):
+        b, m = k[j], st[j]
+        lo, hi = lo_in[j], hi_in[j]
+        tau = min(max(guess[j], lo), hi)
+        for _ in range(max_it):
+            x = tau
+            # The cubic and its correction at x, per component.
+            s_ = (x - t0[b]) / h
+            dt = x - x_ref[b]
+            hh = h * h
+            rx = ((c3[b, 0] * s_ + c2[b, 0]) * s_ + c1[b, 0]) * s_ + r0[b, 0]
+            rx = rx + dr[b, 0] + dv[b, 0] * dt
+            ry = ((c3[b, 1] * s_ + c2[b, 1]) * s_ + c1[b, 1]) * s_ + r0[b, 1]
+            ry = ry + dr[b, 1] + dv[b, 1] * dt
+            rz = ((c3[b, 2] * s_ + c2[b, 2]) * s_ + c1[b, 2]) * s_ + r0[b, 2]
+            rz = rz + dr[b, 2] + dv[b, 2] * dt
+            qx = ((3 * c3[b, 0] * s_ + 2 * c2[b, 0]) * s_ + c1[b, 0]) / h + dv[b, 0]
+            qy = ((3 * c3[b, 1] * s_ + 2 * c2[b, 1]) * s_ + c1[b, 1]) / h + dv[b, 1]
+            qz = ((3 * c3[b, 2] * s_ + 2 * c2[b, 2]) * s_ + c1[b, 2]) / h + dv[b, 2]
+            gx = (6 * c3[b, 0] * s_ + 2 * c2[b, 0]) / hh
+            gy = (6 * c3[b, 1] * s_ + 2 * c2[b, 1]) / hh
+            gz = (6 * c3[b, 2] * s_ + 2 * c2[b, 2]) / hh
+            # topo(): sin(el) and its derivatives.
+            theta = theta0 + theta_rate * x
+            c, sn = math.cos(theta), math.sin(theta)
+            ox, oy, oz = (c * ecef[m, 0] - sn * ecef[m, 1], sn * ecef[m, 0] + c * ecef[m, 1],
+                          ecef[m, 2])
+            ux, uy, uz = c * up[m, 0] - sn * up[m, 1], sn * up[m, 0] + c * up[m, 1], up[m, 2]
+            dx, dy, dz = rx - ox, ry - oy, rz - oz
+            vx, vy, vz = qx + w * oy, qy - w * ox, qz
+            inv = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
+            s = (dx * ux + dy * uy + dz * uz) * inv
+            ru1 = vx * ux + vy * uy + vz * uz + w * (dy * ux - dx * uy)
+            dist1 = (dx * vx + dy * vy + dz * vz) * inv
+            s1 = (ru1 - s * dist1) * inv
+            ax, ay, az = gx + w2 * ox, gy + w2 * oy, gz
+            ru2 = (ax * ux + ay * uy + az * uz + 2 * w * (vy * ux - vx * uy)
+                   - w2 * (dx * ux + dy * uy))
+            dist2 = (vx * vx + vy * vy + vz * vz + dx * ax + dy * ay + dz * az
+                     - dist1 * dist1) * inv
+            s2 = (ru2 - 2 * s1 * dist1 - s * dist2) * inv
+            # newton_sin_el() and bracketed().
+            if tca:
+                g = s1
+                step = s1 / s2
+            else:
+                g = s - sin_min_el[m]
+                step = g / s1
+                step = step + 0.5 * s2 * step * step / s1
+            if (g < 0) == lo_neg[j]:
+                lo = x
+            else:
+                hi = x
+            x_new = x - step
+            if not math.isfinite(x_new) or x_new <= lo or x_new >= hi:
+                x_new = 0.5 * (lo + hi)
+            tau = x_new
+            if abs(x_new - x) < tol_s or hi - lo < tol_s or g == 0:
+                break
+        out[j] = tau
