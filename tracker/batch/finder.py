@@ -176,8 +176,9 @@ class _Job:
     def sky(self) -> kernels.Sky:
         """What the kernels need to turn TEME states into sin(elevation) at the stations."""
         self.theta(0.0)
-        return kernels.Sky(float(self._theta0), self._theta_rate, self.frames.ecef_km,
-                           self.frames.up, self.sin_min_el)
+        f = self.frames
+        return kernels.Sky(float(self._theta0), self._theta_rate, f.ecef_km, f.up, f.east,
+                           f.north, self.sin_min_el)
 
     @cached_property
     def sin_min_el(self) -> np.ndarray:
@@ -231,43 +232,7 @@ def _gravity(r):
     return r * (-geo.MU_KM3_S2 / (n2 * np.sqrt(n2)))[:, None]
 
 
-@dataclass
-class _Topo:
-    """sin(elevation) and its first two time derivatives (per second) at TEME states."""
-
-    s: np.ndarray
-    s1: np.ndarray
-    s2: np.ndarray | None
-    d: tuple  # station -> satellite vector, TEME components
-    c: np.ndarray  # cos/sin of the GMST angle (for azimuths)
-    sn: np.ndarray
-
-    def el_deg(self):
-        return np.degrees(np.arcsin(np.clip(self.s, -1.0, 1.0)))
-
-    def take(self, i) -> _Topo:
-        return _Topo(self.s[i], self.s1[i], None if self.s2 is None else self.s2[i],
-                     tuple(x[i] for x in self.d), self.c[i], self.sn[i])
-
-    def az_deg(self, job: _Job, st):
-        c, sn = self.c, self.sn
-        e, n = geo.station_columns(job.frames.east, st), geo.station_columns(job.frames.north, st)
-        dx, dy, dz = self.d
-        # The station's east/north axes rotated into TEME.
-        de = dx * (c * e[0] - sn * e[1]) + dy * (sn * e[0] + c * e[1])
-        dn = (dx * (c * n[0] - sn * n[1]) + dy * (sn * n[0] + c * n[1]) + dz * n[2])
-        return np.degrees(np.arctan2(de, dn)) % 360.0
-
-
-def _topo(job: _Job, st, tau, r, v, a=None) -> _Topo:
-    """sin(el), d/dt and (given the acceleration ``a``) d2/dt2 of stations ``st`` (one per
-    state) at TEME states; the station turns with the Earth in TEME. sin(el) is smooth
-    everywhere (even through the zenith), so its derivative's root is the culmination and
-    needs no arcsin."""
-    return _Topo(*kernels.topo(job.sky, st, tau, r, v, a))
-
-
-def _newton_step(job: _Job, st, t: _Topo, tca: bool):
+def _newton_step(job: _Job, st, t: kernels.Topo, tca: bool):
     """(g, Newton step to g's root) at points ``t`` (of stations ``st``), where g is
     d sin(el)/dt for a culmination and, for AOS/LOS, sin(el) - sin(horizon) (second-order
     step: sin(el) is curved on the scale of a grazing pass) or, with a horizon mask,
@@ -280,7 +245,7 @@ def _newton_step(job: _Job, st, t: _Topo, tca: bool):
             tm, sm = t.take(i), st[i]
             el = tm.el_deg()
             rate = np.degrees(tm.s1 / np.sqrt(np.maximum(1.0 - tm.s * tm.s, 1e-12)))
-            g[i] = el - job.threshold(sm, tm.az_deg(job, sm))
+            g[i] = el - job.threshold(sm, tm.az_deg(job.sky, sm))
             step[i] = g[i] / rate
     return g, step
 
@@ -309,7 +274,7 @@ def _refine(job: _Job, st, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
 
     def model(k, tau):
         r, v, a = cubic.corrected(k, tau)
-        return _topo(job, st[k], tau, r, v, a), r
+        return kernels.topo(job.sky, st[k], tau, r, v, a), r
 
     def on_cubic(k, tau, tol_s):
         """Roots on the (corrected) cubic of brackets ``k`` from ``tau``."""
@@ -320,6 +285,7 @@ def _refine(job: _Job, st, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
                              lo[k], hi[k], lo_neg[k], tau, tol_s)
 
     x = on_cubic(np.arange(n), guess, SOLVE_TOL_S)
+    newton = None if not job.masked else lambda st_k, t: _newton_step(job, st_k, t, tca)
     lo, hi = lo.copy(), hi.copy()
     tau = x.copy()
     el, az, r_out = np.zeros(n), np.zeros(n), np.zeros((n, 3))
@@ -335,31 +301,10 @@ def _refine(job: _Job, st, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
             r_s[k], v_s[k], _ = cubic(active[k], xa[k])
         # Within CORRECT_SPAN_S of xa, SGP4's state is its Taylor series with two-body
         # acceleration (J2 and lunisolar terms change it by < 1e-3: millimetres).
-        a_s = _gravity(r_s)
-        st_a = st[active]
-        g, step = _newton_step(job, st_a, _topo(job, st_a, xa, r_s, v_s, a_s), tca)
-        x1, lo[active], hi[active] = kernels.bracketed(xa, step, g, lo[active], hi[active],
-                                                       lo_neg[active])
-        near = np.flatnonzero(np.abs(x1 - xa) <= CORRECT_SPAN_S)
-        far = np.flatnonzero(np.abs(x1 - xa) > CORRECT_SPAN_S)
-        for _it in range(4):
-            if near.size == 0:
-                break
-            k = active[near]
-            dt = (x1[near] - xa[near])[:, None]
-            a_n = a_s[near]
-            r1 = r_s[near] + (v_s[near] + 0.5 * a_n * dt) * dt
-            t1 = _topo(job, st[k], x1[near], r1, v_s[near] + a_n * dt, a_n)
-            tau[k], r_out[k] = x1[near], r1
-            el[k], az[k] = t1.el_deg(), t1.az_deg(job, st[k])
-            g1, step1 = _newton_step(job, st[k], t1, tca)
-            x2, lo[k], hi[k] = kernels.bracketed(x1[near], step1, g1, lo[k], hi[k], lo_neg[k])
-            more = ~(np.abs(step1) <= job.tol_s) & (g1 != 0) & (hi[k] - lo[k] >= job.tol_s)
-            x1[near] = x2
-            leave = more & (np.abs(x2 - xa[near]) > CORRECT_SPAN_S)
-            far = np.concatenate([far, near[leave]])
-            near = near[more & ~leave]
-        far = far[ok[far]]
+        x1, far = kernels.correct(job.sky, active, xa, r_s, v_s, _gravity(r_s), st, lo, hi,
+                                  lo_neg, job.tol_s, CORRECT_SPAN_S, tca, (tau, el, az, r_out),
+                                  newton)
+        far = np.flatnonzero(far & ok)
         if far.size:
             # Far off (grazing passes): solve again on the cubic corrected by SGP4's state
             # error at xa (to first order; then good to metres over the step), like step 1.
@@ -372,7 +317,7 @@ def _refine(job: _Job, st, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
     if active.size:  # still moving after CORRECT_ROUNDS: take the last corrected point
         t1, r1 = model(active, x[active])
         tau[active], r_out[active] = x[active], r1
-        el[active], az[active] = t1.el_deg(), t1.az_deg(job, st[active])
+        el[active], az[active] = t1.el_deg(), t1.az_deg(job.sky, st[active])
     return tau, el, az, r_out
 
 

@@ -53,13 +53,23 @@ def use(name: str | None) -> str | None:
     return previous
 
 
+# Functions the loops call: compiled (in place of the Python ones, which only the loops use)
+# before the first loop is.
+_HELPERS = ("_sin_el_newton", "_bracket_step")
+
+
 def _jit(name: str):
-    """The compiled form of the loop function ``name`` of this module (compiled on first use)."""
+    """The compiled form of the loop function ``name`` of this module (compiled on first use;
+    error_model "numpy": a division by zero gives inf or nan, as in numpy)."""
     fn = _compiled.get(name)
     if fn is None:
         import numba
 
-        fn = _compiled[name] = numba.njit(cache=True, error_model="numpy")(globals()[name])
+        options = dict(cache=True, error_model="numpy")
+        if not _compiled:
+            for helper in _HELPERS:
+                globals()[helper] = numba.njit(**options)(globals()[helper])
+        fn = _compiled[name] = numba.njit(**options)(globals()[name])
     return fn
 
 
@@ -302,13 +312,15 @@ class Cubic:
 
 @dataclass(frozen=True)
 class Sky:
-    """What turns TEME states into sin(elevation): GMST theta0 + rate * tau (rad), station
-    ECEF positions and up vectors (N, 3), sin(min elevation) per station (N,)."""
+    """What turns TEME states into look angles: GMST theta0 + rate * tau (rad), station ECEF
+    positions and up, east, north unit vectors (N, 3), sin(min elevation) per station."""
 
     theta0: float
     theta_rate: float
     ecef_km: np.ndarray
     up: np.ndarray
+    east: np.ndarray
+    north: np.ndarray
     sin_min_el: np.ndarray
 
 
@@ -316,10 +328,39 @@ def _columns(table, idx):
     return np.take(np.ascontiguousarray(table.T), idx, axis=1)
 
 
-def topo(sky: Sky, st, tau, r, v, a=None):
+@dataclass
+class Topo:
+    """sin(elevation) and its first two time derivatives (per second) at TEME states."""
+
+    s: np.ndarray
+    s1: np.ndarray
+    s2: np.ndarray | None
+    d: tuple  # station -> satellite vector, TEME components
+    c: np.ndarray  # cos/sin of the GMST angle (for azimuths)
+    sn: np.ndarray
+
+    def el_deg(self):
+        return np.degrees(np.arcsin(np.clip(self.s, -1.0, 1.0)))
+
+    def take(self, i) -> Topo:
+        return Topo(self.s[i], self.s1[i], None if self.s2 is None else self.s2[i],
+                    tuple(x[i] for x in self.d), self.c[i], self.sn[i])
+
+    def az_deg(self, sky: Sky, st):
+        c, sn = self.c, self.sn
+        e, n = _columns(sky.east, st), _columns(sky.north, st)
+        dx, dy, dz = self.d
+        # The station's east/north axes rotated into TEME.
+        de = dx * (c * e[0] - sn * e[1]) + dy * (sn * e[0] + c * e[1])
+        dn = (dx * (c * n[0] - sn * n[1]) + dy * (sn * n[0] + c * n[1]) + dz * n[2])
+        return np.degrees(np.arctan2(de, dn)) % 360.0
+
+
+def topo(sky: Sky, st, tau, r, v, a=None) -> Topo:
     """sin(el), d/dt and (given the acceleration ``a``) d2/dt2 of stations ``st`` (one per
-    state) at TEME states (n, 3), the station -> satellite vector (TEME components) and the
-    cosine and sine of the GMST angle; the station turns with the Earth in TEME."""
+    state) at TEME states (n, 3); the station turns with the Earth in TEME. sin(el) is
+    smooth everywhere (even through the zenith), so its derivative's root is the culmination
+    and needs no arcsin."""
     theta = sky.theta0 + sky.theta_rate * np.asarray(tau, dtype=float)
     c, sn = np.cos(theta), np.sin(theta)
     w = EARTH_ROTATION_RAD_S
@@ -342,7 +383,7 @@ def topo(sky: Sky, st, tau, r, v, a=None):
         dist2 = (vx * vx + vy * vy + vz * vz + dx * ax + dy * ay + dz * az
                  - dist1 * dist1) * inv
         s2 = (ru2 - 2 * s1 * dist1 - s * dist2) * inv
-    return s, s1, s2, (dx, dy, dz), c, sn
+    return Topo(s, s1, s2, (dx, dy, dz), c, sn)
 
 
 def newton_sin_el(s, s1, s2, sin_min, tca: bool):
@@ -405,8 +446,8 @@ def solve_cubic(sky: Sky, cubic: Cubic, k, st, lo, hi, lo_neg, guess, tol_s: flo
     def evaluate(j, tau):
         kj = k[j]
         r, v, a = cubic.corrected(kj, tau)
-        s, s1, s2, *_ = topo(sky, st[j], tau, r, v, a)
-        return newton_sin_el(s, s1, s2, sky.sin_min_el[st[j]], tca)
+        t = topo(sky, st[j], tau, r, v, a)
+        return newton_sin_el(t.s, t.s1, t.s2, sky.sin_min_el[st[j]], tca)
 
     return solve(evaluate, lo, hi, lo_neg, guess, tol_s, max_it)
 
@@ -414,8 +455,6 @@ def solve_cubic(sky: Sky, cubic: Cubic, k, st, lo, hi, lo_neg, guess, tol_s: flo
 def _solve_cubic_loop(theta0, theta_rate, ecef, up, sin_min_el, t0, h, r0, c1, c2, c3, x_ref,
                       dr, dv, k, st, lo_in, hi_in, lo_neg, guess, tol_s, tca, max_it,
                       out):  # pragma: no cover - compiled by numba (solve_cubic's twin)
-    w = EARTH_ROTATION_RAD_S
-    w2 = w * w
     for j in range(len(lo_in)):
         b, m = k[j], st[j]
         lo, hi = lo_in[j], hi_in[j]
@@ -438,33 +477,9 @@ def _solve_cubic_loop(theta0, theta_rate, ecef, up, sin_min_el, t0, h, r0, c1, c
             gx = (6 * c3[b, 0] * s_ + 2 * c2[b, 0]) / hh
             gy = (6 * c3[b, 1] * s_ + 2 * c2[b, 1]) / hh
             gz = (6 * c3[b, 2] * s_ + 2 * c2[b, 2]) / hh
-            # topo(): sin(el) and its derivatives.
-            theta = theta0 + theta_rate * x
-            c, sn = math.cos(theta), math.sin(theta)
-            ox, oy, oz = (c * ecef[m, 0] - sn * ecef[m, 1], sn * ecef[m, 0] + c * ecef[m, 1],
-                          ecef[m, 2])
-            ux, uy, uz = c * up[m, 0] - sn * up[m, 1], sn * up[m, 0] + c * up[m, 1], up[m, 2]
-            dx, dy, dz = rx - ox, ry - oy, rz - oz
-            vx, vy, vz = qx + w * oy, qy - w * ox, qz
-            inv = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
-            s = (dx * ux + dy * uy + dz * uz) * inv
-            ru1 = vx * ux + vy * uy + vz * uz + w * (dy * ux - dx * uy)
-            dist1 = (dx * vx + dy * vy + dz * vz) * inv
-            s1 = (ru1 - s * dist1) * inv
-            ax, ay, az = gx + w2 * ox, gy + w2 * oy, gz
-            ru2 = (ax * ux + ay * uy + az * uz + 2 * w * (vy * ux - vx * uy)
-                   - w2 * (dx * ux + dy * uy))
-            dist2 = (vx * vx + vy * vy + vz * vz + dx * ax + dy * ay + dz * az
-                     - dist1 * dist1) * inv
-            s2 = (ru2 - 2 * s1 * dist1 - s * dist2) * inv
-            # newton_sin_el() and bracketed().
-            if tca:
-                g = s1
-                step = s1 / s2
-            else:
-                g = s - sin_min_el[m]
-                step = g / s1
-                step = step + 0.5 * s2 * step * step / s1
+            g, step, _s, _dx, _dy, _dz, _c, _sn = _sin_el_newton(
+                theta0, theta_rate, ecef, up, sin_min_el, m, x, (rx, ry, rz), (qx, qy, qz),
+                (gx, gy, gz), tca)
             if (g < 0) == lo_neg[j]:
                 lo = x
             else:
@@ -476,3 +491,140 @@ def _solve_cubic_loop(theta0, theta_rate, ecef, up, sin_min_el, t0, h, r0, c1, c
             if abs(x_new - x) < tol_s or hi - lo < tol_s or g == 0:
                 break
         out[j] = tau
+
+
+# --- correction from SGP4's state ------------------------------------------------------------
+
+def correct(sky: Sky, idx, xa, r_s, v_s, a_s, st, lo, hi, lo_neg, tol_s: float, span_s: float,
+            tca: bool, out: tuple, newton=None):
+    """Newton steps of brackets ``idx`` from SGP4's state (``r_s``, ``v_s``, two-body
+    acceleration ``a_s``) at ``xa``, on its Taylor series, while they stay within ``span_s``
+    of ``xa`` (at most 4 after the first); each evaluated point's time, elevation, azimuth
+    and position go to ``out`` = (tau, el, az, r) at the bracket, ``lo``/``hi`` narrow in
+    place. Returns the point after the last step per bracket and whether it left the span
+    (then the Taylor series no longer holds). ``newton(st, Topo) -> (g, step)`` replaces
+    :func:`newton_sin_el` where stations have horizon masks (numpy only)."""
+    if newton is None and backend() == "numba":
+        x1, far = np.empty(len(idx)), np.empty(len(idx), np.bool_)
+        _jit("_correct_loop")(sky.theta0, sky.theta_rate, sky.ecef_km, sky.up, sky.east,
+                              sky.north, sky.sin_min_el, idx, xa, r_s, v_s, a_s, st, lo, hi,
+                              lo_neg, tol_s, span_s, tca, *out, x1, far)
+        return x1, far
+    if newton is None:
+        def newton(st_k, t):
+            return newton_sin_el(t.s, t.s1, t.s2, sky.sin_min_el[st_k], tca)
+    tau, el, az, r_out = out
+    st_a = st[idx]
+    g, step = newton(st_a, topo(sky, st_a, xa, r_s, v_s, a_s))
+    x1, lo[idx], hi[idx] = bracketed(xa, step, g, lo[idx], hi[idx], lo_neg[idx])
+    near = np.flatnonzero(np.abs(x1 - xa) <= span_s)
+    far = np.abs(x1 - xa) > span_s
+    for _it in range(4):
+        if near.size == 0:
+            break
+        k = idx[near]
+        dt = (x1[near] - xa[near])[:, None]
+        a_n = a_s[near]
+        r1 = r_s[near] + (v_s[near] + 0.5 * a_n * dt) * dt
+        t1 = topo(sky, st[k], x1[near], r1, v_s[near] + a_n * dt, a_n)
+        tau[k], r_out[k] = x1[near], r1
+        el[k], az[k] = t1.el_deg(), t1.az_deg(sky, st[k])
+        g1, step1 = newton(st[k], t1)
+        x2, lo[k], hi[k] = bracketed(x1[near], step1, g1, lo[k], hi[k], lo_neg[k])
+        more = ~(np.abs(step1) <= tol_s) & (g1 != 0) & (hi[k] - lo[k] >= tol_s)
+        x1[near] = x2
+        leave = more & (np.abs(x2 - xa[near]) > span_s)
+        far[near[leave]] = True
+        near = near[more & ~leave]
+    return x1, far
+
+
+def _sin_el_newton(theta0, theta_rate, ecef, up, sin_min, m, x, r, v, a, tca
+                   ):  # pragma: no cover - compiled by numba (topo + newton_sin_el)
+    """(g, step, s, dx, dy, dz, c, sn) of station ``m`` at time ``x`` and TEME state r, v, a
+    (3-tuples): :func:`topo` and :func:`newton_sin_el` for one point."""
+    w = EARTH_ROTATION_RAD_S
+    w2 = w * w
+    theta = theta0 + theta_rate * x
+    c, sn = math.cos(theta), math.sin(theta)
+    ox, oy = c * ecef[m, 0] - sn * ecef[m, 1], sn * ecef[m, 0] + c * ecef[m, 1]
+    oz = ecef[m, 2]
+    ux, uy, uz = c * up[m, 0] - sn * up[m, 1], sn * up[m, 0] + c * up[m, 1], up[m, 2]
+    dx, dy, dz = r[0] - ox, r[1] - oy, r[2] - oz
+    vx, vy, vz = v[0] + w * oy, v[1] - w * ox, v[2]
+    inv = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
+    s = (dx * ux + dy * uy + dz * uz) * inv
+    ru1 = vx * ux + vy * uy + vz * uz + w * (dy * ux - dx * uy)
+    dist1 = (dx * vx + dy * vy + dz * vz) * inv
+    s1 = (ru1 - s * dist1) * inv
+    ax, ay, az = a[0] + w2 * ox, a[1] + w2 * oy, a[2]
+    ru2 = (ax * ux + ay * uy + az * uz + 2 * w * (vy * ux - vx * uy)
+           - w2 * (dx * ux + dy * uy))
+    dist2 = (vx * vx + vy * vy + vz * vz + dx * ax + dy * ay + dz * az
+             - dist1 * dist1) * inv
+    s2 = (ru2 - 2 * s1 * dist1 - s * dist2) * inv
+    if tca:
+        g = s1
+        step = s1 / s2
+    else:
+        g = s - sin_min[m]
+        step = g / s1
+        step = step + 0.5 * s2 * step * step / s1
+    return g, step, s, dx, dy, dz, c, sn
+
+
+def _correct_loop(theta0, theta_rate, ecef, up, east, north, sin_min, idx, xa, r_s, v_s, a_s,
+                  st, lo, hi, lo_neg, tol_s, span_s, tca, tau, el, az, r_out, x1_out, far_out
+                  ):  # pragma: no cover - compiled by numba (correct's twin)
+    deg = 180.0 / math.pi
+    for j in range(len(idx)):
+        b = idx[j]
+        m = st[b]
+        x0 = xa[j]
+        r = (r_s[j, 0], r_s[j, 1], r_s[j, 2])
+        v = (v_s[j, 0], v_s[j, 1], v_s[j, 2])
+        a = (a_s[j, 0], a_s[j, 1], a_s[j, 2])
+        g, step, s, dx, dy, dz, c, sn = _sin_el_newton(theta0, theta_rate, ecef, up, sin_min,
+                                                       m, x0, r, v, a, tca)
+        x1 = _bracket_step(x0, step, g, lo, hi, lo_neg, b)
+        far = abs(x1 - x0) > span_s
+        if not far:
+            for _it in range(4):
+                dt = x1 - x0
+                r1 = (r[0] + (v[0] + 0.5 * a[0] * dt) * dt,
+                      r[1] + (v[1] + 0.5 * a[1] * dt) * dt,
+                      r[2] + (v[2] + 0.5 * a[2] * dt) * dt)
+                v1 = (v[0] + a[0] * dt, v[1] + a[1] * dt, v[2] + a[2] * dt)
+                g1, step1, s, dx, dy, dz, c, sn = _sin_el_newton(
+                    theta0, theta_rate, ecef, up, sin_min, m, x1, r1, v1, a, tca)
+                tau[b] = x1
+                r_out[b, 0], r_out[b, 1], r_out[b, 2] = r1
+                el[b] = math.asin(min(max(s, -1.0), 1.0)) * deg
+                de = (dx * (c * east[m, 0] - sn * east[m, 1])
+                      + dy * (sn * east[m, 0] + c * east[m, 1]))
+                dn = (dx * (c * north[m, 0] - sn * north[m, 1])
+                      + dy * (sn * north[m, 0] + c * north[m, 1]) + dz * north[m, 2])
+                az[b] = (math.atan2(de, dn) * deg) % 360.0
+                x2 = _bracket_step(x1, step1, g1, lo, hi, lo_neg, b)
+                more = not (abs(step1) <= tol_s) and g1 != 0 and hi[b] - lo[b] >= tol_s
+                x1 = x2
+                if more and abs(x2 - x0) > span_s:
+                    far = True
+                    break
+                if not more:
+                    break
+        x1_out[j] = x1
+        far_out[j] = far
+
+
+def _bracket_step(x, step, g, lo, hi, lo_neg, b
+                  ):  # pragma: no cover - compiled by numba (bracketed for one point)
+    """:func:`bracketed` for bracket ``b`` (``lo``, ``hi`` narrowed in place)."""
+    if (g < 0) == lo_neg[b]:
+        lo[b] = x
+    else:
+        hi[b] = x
+    x_new = x - step
+    if not math.isfinite(x_new) or x_new <= lo[b] or x_new >= hi[b]:
+        x_new = 0.5 * (lo[b] + hi[b])
+    return x_new
