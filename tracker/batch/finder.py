@@ -532,8 +532,7 @@ def _station_samples(job: _Job, st, sel, s_loc, j, ok, sat_ids, r_apo, fine_s: f
         return geo.look_angles(tuple(c[sel[i]] for c in r_ecef),
                                tuple(c[sel[i]] for c in v_ecef), job.frames, st[i])[1]
 
-    el, _, rate = geo.look_angles(tuple(c[sel] for c in r_ecef),
-                                  tuple(c[sel] for c in v_ecef), job.frames, st, False)
+    el, rate = kernels.el_rate(job.frames, r_ecef, v_ecef, sel, st)
     # Azimuths only where used: under a horizon mask and at window-edge cuts.
     az = np.full(len(sel), np.nan)
     masked = np.flatnonzero(np.isin(st, job.masked))

@@ -21,7 +21,9 @@ from typing import Any
 
 import numpy as np
 
-EARTH_ROTATION_RAD_S = 7.292115e-5  # geometry.EARTH_ROTATION_RAD_S (the Earth's sidereal rate)
+from tracker.batch import geometry as geo
+
+EARTH_ROTATION_RAD_S = geo.EARTH_ROTATION_RAD_S
 
 _backend: str | None = None  # "numba" or "numpy", decided on the first kernel call
 _compiled: dict[str, Any] = {}
@@ -589,6 +591,7 @@ def _correct_loop(theta0, theta_rate, ecef, up, east, north, sin_min, idx, xa, r
         x1 = _bracket_step(x0, step, g, lo, hi, lo_neg, b)
         far = abs(x1 - x0) > span_s
         if not far:
+            look = (s, dx, dy, dz, c, sn)
             for _it in range(4):
                 dt = x1 - x0
                 r1 = (r[0] + (v[0] + 0.5 * a[0] * dt) * dt,
@@ -599,12 +602,7 @@ def _correct_loop(theta0, theta_rate, ecef, up, east, north, sin_min, idx, xa, r
                     theta0, theta_rate, ecef, up, sin_min, m, x1, r1, v1, a, tca)
                 tau[b] = x1
                 r_out[b, 0], r_out[b, 1], r_out[b, 2] = r1
-                el[b] = math.asin(min(max(s, -1.0), 1.0)) * deg
-                de = (dx * (c * east[m, 0] - sn * east[m, 1])
-                      + dy * (sn * east[m, 0] + c * east[m, 1]))
-                dn = (dx * (c * north[m, 0] - sn * north[m, 1])
-                      + dy * (sn * north[m, 0] + c * north[m, 1]) + dz * north[m, 2])
-                az[b] = (math.atan2(de, dn) * deg) % 360.0
+                look = (s, dx, dy, dz, c, sn)
                 x2 = _bracket_step(x1, step1, g1, lo, hi, lo_neg, b)
                 more = not (abs(step1) <= tol_s) and g1 != 0 and hi[b] - lo[b] >= tol_s
                 x1 = x2
@@ -613,6 +611,14 @@ def _correct_loop(theta0, theta_rate, ecef, up, east, north, sin_min, idx, xa, r
                     break
                 if not more:
                     break
+            # The look angles of the last point evaluated (the one in tau[b]).
+            s, dx, dy, dz, c, sn = look
+            el[b] = math.asin(min(max(s, -1.0), 1.0)) * deg
+            de = (dx * (c * east[m, 0] - sn * east[m, 1])
+                  + dy * (sn * east[m, 0] + c * east[m, 1]))
+            dn = (dx * (c * north[m, 0] - sn * north[m, 1])
+                  + dy * (sn * north[m, 0] + c * north[m, 1]) + dz * north[m, 2])
+            az[b] = (math.atan2(de, dn) * deg) % 360.0
         x1_out[j] = x1
         far_out[j] = far
 
@@ -628,3 +634,36 @@ def _bracket_step(x, step, g, lo, hi, lo_neg, b
     if not math.isfinite(x_new) or x_new <= lo[b] or x_new >= hi[b]:
         x_new = 0.5 * (lo[b] + hi[b])
     return x_new
+
+
+# --- look angles of the fine samples ---------------------------------------------------------
+
+def el_rate(frames: geo.StationFrames, r_ecef, v_ecef, sel, st):
+    """Elevation (deg) and its rate (deg/s) of the samples ``sel`` of ECEF positions and
+    velocities (component tuples, as :func:`geometry.teme_to_ecef` gives them) seen from
+    stations ``st`` (one per sample): :func:`geometry.look_angles` without azimuths."""
+    if backend() == "numba":
+        el, rate = np.empty(len(sel)), np.empty(len(sel))
+        _jit("_el_rate_loop")(*r_ecef, *v_ecef, sel, st, frames.ecef_km, frames.up, el, rate)
+        return el, rate
+    el, _, rate = geo.look_angles(tuple(c[sel] for c in r_ecef), tuple(c[sel] for c in v_ecef),
+                                  frames, st, False)
+    return el, rate
+
+
+def _el_rate_loop(x, y, z, vx, vy, vz, sel, st, ecef, up, el, rate
+                  ):  # pragma: no cover - compiled by numba (el_rate's twin)
+    deg = 180.0 / math.pi
+    for j in range(len(sel)):
+        i, m = sel[j], st[j]
+        dx, dy, dz = x[i] - ecef[m, 0], y[i] - ecef[m, 1], z[i] - ecef[m, 2]
+        u0, u1, u2 = up[m, 0], up[m, 1], up[m, 2]
+        ru = dx * u0 + dy * u1 + dz * u2
+        dist2 = dx * dx + dy * dy + dz * dz
+        inv = 1.0 / math.sqrt(dist2)
+        sin_el = min(max(ru * inv, -1.0), 1.0)
+        el[j] = math.asin(sin_el) * deg
+        vu = vx[i] * u0 + vy[i] * u1 + vz[i] * u2
+        rv = dx * vx[i] + dy * vy[i] + dz * vz[i]
+        d_sin = (vu - ru * rv / dist2) * inv
+        rate[j] = d_sin / math.sqrt(max(1.0 - sin_el * sin_el, 1e-12)) * deg
