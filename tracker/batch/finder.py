@@ -429,9 +429,9 @@ def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc
     psi = job.theta((np.arange(K * n) + 0.5) * fine_s) + math.atan2(u[1], u[0])
     track = kernels.StationTrack(psi, math.hypot(u[0], u[1]), float(u[2]))
     arcs = None if sub_arcs is None else (sub_arcs[0][ss, kk], sub_arcs[1][ss, kk])
-    cos_lim = _cone_limits(job, st, r_apo, fine_s)[0][ss]
-    sub = kernels.fine_screen(arc["A"][ss, kk], arc["q"][ss, kk], arc["phi"][ss, kk], ecc[ss],
-                              kk, n, coarse_s, track, cos_lim, screenable[ss], arcs)
+    cos_lim = _cone_limits(job, st, r_apo, fine_s)[0]
+    sub = kernels.fine_screen(arc["A"], arc["q"], arc["phi"], ss, kk, ecc, n, coarse_s, track,
+                              cos_lim, screenable, arcs)
     out.reshape(S, K, n)[ss, kk] = sub
     return out
 
@@ -555,38 +555,6 @@ def _station_samples(job: _Job, st, sel, s_loc, j, ok, sat_ids, r_apo, fine_s: f
                 v=V[sel], r_apo=r_apo[ss])
 
 
-def _peak_bound_deg(job: _Job, st, tau0, r0, r1, r_apo, h: float) -> np.ndarray:
-    """Upper bound of the (geocentric) elevation between two samples ``h`` seconds apart.
-
-    The satellite stays on the great-circle arc between its two directions (as in the
-    screening), so its geocentric angle from the station is at least the arc's distance from
-    the station (less the station's own motion in half a step); elevation grows with that
-    angle shrinking and with the radius (bounded by the larger end + 50 km, or apogee).
-    """
-    frames = job.frames
-    n0 = np.linalg.norm(r0, axis=-1)
-    n1 = np.linalg.norm(r1, axis=-1)
-    a, b = r0 / n0[:, None], r1 / n1[:, None]
-    hv = np.cross(a, b)
-    sin_ab = np.linalg.norm(hv, axis=-1)
-    h_hat = hv / np.maximum(sin_ab, 1e-12)[:, None]
-    q = np.cross(h_hat, a)
-    theta = job.theta(tau0 + 0.5 * h)
-    c, s = np.cos(theta), np.sin(theta)
-    u = geo.station_columns(frames.unit, st)
-    p = np.stack([c * u[0] - s * u[1], s * u[0] + c * u[1], u[2] + 0.0 * c], -1)
-    pa, pb = np.einsum("ij,ij->i", a, p), np.einsum("ij,ij->i", b, p)
-    ph, pq = np.einsum("ij,ij->i", h_hat, p), np.einsum("ij,ij->i", q, p)
-    alpha = np.arctan2(pq, pa)
-    in_arc = (alpha >= 0) & (alpha <= np.arctan2(sin_ab, np.einsum("ij,ij->i", a, b)))
-    psi = np.where(in_arc, np.arcsin(np.clip(np.abs(ph), 0, 1)),
-                   np.arccos(np.clip(np.maximum(pa, pb), -1, 1)))
-    psi = np.maximum(psi - geo.EARTH_ROTATION_RAD_S * h / 2 * frames.cos_lat[st]
-                     - PERTURBATION_MARGIN_RAD, 0.0)
-    r_hi = np.minimum(np.maximum(n0, n1) + 50.0, np.maximum(r_apo, np.maximum(n0, n1)))
-    return np.degrees(np.arctan2(np.cos(psi) - frames.radius_km[st] / r_hi, np.sin(psi)))
-
-
 def _refine_station_chunk(job: _Job, b: dict):
     """Turn stations' samples (:func:`_station_samples`) into pass rows (refined AOS, TCA,
     LOS), all stations' brackets at once."""
@@ -599,8 +567,9 @@ def _refine_station_chunk(job: _Job, b: dict):
     los_i = i0[b["up"][i0] & ~b["up"][i1]]
     max_i = i0[(rate[i0] > 0) & (rate[i1] <= 0)]
     # Maxima: refine those that could reach the threshold (near misses inside one step too).
-    bound = _peak_bound_deg(job, st[max_i], tau[max_i], r[max_i], r[max_i + 1],
-                            b["r_apo"][max_i], h)
+    job.theta(0.0)
+    bound = kernels.peak_bound_deg(job._theta0, job._theta_rate, job.frames, max_i, st, tau, r,
+                                   b["r_apo"], h, PERTURBATION_MARGIN_RAD)
     max_i = max_i[bound >= job.frames.min_el_deg[st[max_i]] - ELLIPSOID_MARGIN_DEG]
     guess = tau[max_i] + h * kernels.hermite_root(el[max_i], rate[max_i], el[max_i + 1],
                                                   rate[max_i + 1], h, slope=True)

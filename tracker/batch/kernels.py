@@ -137,35 +137,36 @@ class StationTrack:
     z: float
 
 
-def fine_screen(A, q, phi, ecc, kk, n: int, coarse_s: float, track: StationTrack, cos_lim,
-                screenable, arcs=None):
-    """(C, n) booleans: the fine steps of C candidate coarse intervals (in-plane axes A, q
-    (C, 3), arc angle phi (C,), eccentricity, interval index ``kk``, cone cosine and
-    ``screenable`` per candidate) whose sub-arc comes within the station's cone.
-    ``arcs``: :func:`sub_arcs` of the candidates when already computed."""
+def fine_screen(A, q, phi, ss, kk, ecc, n: int, coarse_s: float, track: StationTrack,
+                cos_lim, screenable, arcs=None):
+    """(C, n) booleans: the fine steps of the C candidate coarse intervals (``ss``, ``kk``)
+    whose sub-arc comes within the station's cone. ``A``, ``q`` (S, K, 3): in-plane axes,
+    ``phi`` (S, K): arc angles of every coarse interval; per satellite (S,): eccentricity,
+    cone cosine and ``screenable``. ``arcs``: :func:`sub_arcs` of the candidates when
+    already computed."""
     if backend() == "numba":
         out = np.empty((len(kk), n), np.bool_)
-        _jit("_fine_screen_loop")(A, q, phi, ecc, kk, n, coarse_s, track.psi, track.rho,
+        _jit("_fine_screen_loop")(A, q, phi, ss, kk, ecc, n, coarse_s, track.psi, track.rho,
                                   track.z, cos_lim, screenable, out)
         return out
     f32 = np.float32
-    a1, a2 = sub_arcs(phi, ecc, n, coarse_s) if arcs is None else arcs
+    a1, a2 = sub_arcs(phi[ss, kk], ecc[ss], n, coarse_s) if arcs is None else arcs
     K = len(track.psi) // n
     cp = (np.cos(track.psi) * track.rho).astype(f32).reshape(K, n)[kk]
     sp = (np.sin(track.psi) * track.rho).astype(f32).reshape(K, n)[kk]
-    A, q = A.astype(f32), q.astype(f32)
+    A, q = A[ss, kk].astype(f32), q[ss, kk].astype(f32)
     pa = A[:, 0, None] * cp
     pa += A[:, 1, None] * sp
     pa += A[:, 2, None] * f32(track.z)
     pq = q[:, 0, None] * cp
     pq += q[:, 1, None] * sp
     pq += q[:, 2, None] * f32(track.z)
-    sub = subarc_within(pa, pq, a1, a2, cos_lim.astype(f32)[:, None])
-    sub |= ~screenable[:, None]
+    sub = subarc_within(pa, pq, a1, a2, cos_lim[ss].astype(f32)[:, None])
+    sub |= ~screenable[ss][:, None]
     return sub
 
 
-def _fine_screen_loop(A, q, phi, ecc, kk, n, coarse_s, psi, rho, z, cos_lim, screenable,
+def _fine_screen_loop(A, q, phi, ss, kk, ecc, n, coarse_s, psi, rho, z, cos_lim, screenable,
                       out):  # pragma: no cover - compiled by numba (fine_screen's twin)
     fine_s = coarse_s / n
     cps = np.empty(len(psi))
@@ -174,18 +175,19 @@ def _fine_screen_loop(A, q, phi, ecc, kk, n, coarse_s, psi, rho, z, cos_lim, scr
         cps[j] = math.cos(psi[j]) * rho
         sps[j] = math.sin(psi[j]) * rho
     for c in range(len(kk)):
-        if not screenable[c]:
+        si, ki = ss[c], kk[c]
+        if not screenable[si]:
             out[c, :] = True
             continue
-        e_eff = min(ecc[c] + 0.002, 0.9)
+        e_eff = min(ecc[si] + 0.002, 0.9)
         ratio = ((1.0 + e_eff) / (1.0 - e_eff)) ** 2 * 1.01
-        ph = phi[c]
+        ph = phi[si, ki]
         w_mean = ph / coarse_s
         w_lo, w_hi = w_mean / ratio, w_mean * ratio
-        lim = cos_lim[c]
-        a0x, a0y, a0z = A[c, 0], A[c, 1], A[c, 2] * z
-        q0x, q0y, q0z = q[c, 0], q[c, 1], q[c, 2] * z
-        base = kk[c] * n
+        lim = cos_lim[si]
+        a0x, a0y, a0z = A[si, ki, 0], A[si, ki, 1], A[si, ki, 2] * z
+        q0x, q0y, q0z = q[si, ki, 0], q[si, ki, 1], q[si, ki, 2] * z
+        base = ki * n
         for i in range(n):
             t_a = i * fine_s
             t_b = t_a + fine_s
@@ -667,3 +669,79 @@ def _el_rate_loop(x, y, z, vx, vy, vz, sel, st, ecef, up, el, rate
         rv = dx * vx[i] + dy * vy[i] + dz * vz[i]
         d_sin = (vu - ru * rv / dist2) * inv
         rate[j] = d_sin / math.sqrt(max(1.0 - sin_el * sin_el, 1e-12)) * deg
+
+
+# --- the near-miss test of maxima ------------------------------------------------------------
+
+def peak_bound_deg(theta0: float, theta_rate: float, frames: geo.StationFrames, idx, st, tau, r,
+                   r_apo, h: float, margin_rad: float) -> np.ndarray:
+    """Upper bound of the (geocentric) elevation between samples ``idx`` and ``idx + 1``
+    (TEME positions ``r`` at times ``tau``, ``h`` seconds apart, of satellites with apogee
+    radius ``r_apo``, seen from stations ``st``; GMST theta0 + theta_rate * tau).
+
+    The satellite stays on the great-circle arc between its two directions (as in the
+    screening), so its geocentric angle from the station is at least the arc's distance from
+    the station (less the station's own motion in half a step and ``margin_rad``); elevation
+    grows with that angle shrinking and with the radius (bounded by the larger end + 50 km,
+    or apogee).
+    """
+    if backend() == "numba":
+        out = np.empty(len(idx))
+        _jit("_peak_bound_loop")(theta0, theta_rate, frames.unit, frames.cos_lat,
+                                 frames.radius_km, idx, st, tau, r, r_apo, h, margin_rad, out)
+        return out
+    st, tau0, r0, r1, r_apo = st[idx], tau[idx], r[idx], r[idx + 1], r_apo[idx]
+    n0 = np.linalg.norm(r0, axis=-1)
+    n1 = np.linalg.norm(r1, axis=-1)
+    a, b = r0 / n0[:, None], r1 / n1[:, None]
+    hv = np.cross(a, b)
+    sin_ab = np.linalg.norm(hv, axis=-1)
+    h_hat = hv / np.maximum(sin_ab, 1e-12)[:, None]
+    q = np.cross(h_hat, a)
+    theta = theta0 + theta_rate * (tau0 + 0.5 * h)
+    c, s = np.cos(theta), np.sin(theta)
+    u = geo.station_columns(frames.unit, st)
+    p = np.stack([c * u[0] - s * u[1], s * u[0] + c * u[1], u[2] + 0.0 * c], -1)
+    pa, pb = np.einsum("ij,ij->i", a, p), np.einsum("ij,ij->i", b, p)
+    ph, pq = np.einsum("ij,ij->i", h_hat, p), np.einsum("ij,ij->i", q, p)
+    alpha = np.arctan2(pq, pa)
+    in_arc = (alpha >= 0) & (alpha <= np.arctan2(sin_ab, np.einsum("ij,ij->i", a, b)))
+    psi = np.where(in_arc, np.arcsin(np.clip(np.abs(ph), 0, 1)),
+                   np.arccos(np.clip(np.maximum(pa, pb), -1, 1)))
+    psi = np.maximum(psi - EARTH_ROTATION_RAD_S * h / 2 * frames.cos_lat[st] - margin_rad, 0.0)
+    r_hi = np.minimum(np.maximum(n0, n1) + 50.0, np.maximum(r_apo, np.maximum(n0, n1)))
+    return np.degrees(np.arctan2(np.cos(psi) - frames.radius_km[st] / r_hi, np.sin(psi)))
+
+
+def _peak_bound_loop(theta0, theta_rate, unit, cos_lat, radius_km, idx, st, tau, r, r_apo, h,
+                     margin_rad, out):  # pragma: no cover - compiled by numba (its twin)
+    deg = 180.0 / math.pi
+    for j in range(len(idx)):
+        i = idx[j]
+        m = st[i]
+        n0 = math.sqrt(r[i, 0] * r[i, 0] + r[i, 1] * r[i, 1] + r[i, 2] * r[i, 2])
+        n1 = math.sqrt(r[i + 1, 0] * r[i + 1, 0] + r[i + 1, 1] * r[i + 1, 1]
+                       + r[i + 1, 2] * r[i + 1, 2])
+        a0, a1, a2 = r[i, 0] / n0, r[i, 1] / n0, r[i, 2] / n0
+        b0, b1, b2 = r[i + 1, 0] / n1, r[i + 1, 1] / n1, r[i + 1, 2] / n1
+        h0, h1, h2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+        sin_ab = math.sqrt(h0 * h0 + h1 * h1 + h2 * h2)
+        k = max(sin_ab, 1e-12)
+        h0, h1, h2 = h0 / k, h1 / k, h2 / k
+        q0, q1, q2 = h1 * a2 - h2 * a1, h2 * a0 - h0 * a2, h0 * a1 - h1 * a0
+        theta = theta0 + theta_rate * (tau[i] + 0.5 * h)
+        c, s = math.cos(theta), math.sin(theta)
+        u0, u1, u2 = unit[m, 0], unit[m, 1], unit[m, 2]
+        p0, p1, p2 = c * u0 - s * u1, s * u0 + c * u1, u2
+        pa = a0 * p0 + a1 * p1 + a2 * p2
+        pb = b0 * p0 + b1 * p1 + b2 * p2
+        ph = h0 * p0 + h1 * p1 + h2 * p2
+        pq = q0 * p0 + q1 * p1 + q2 * p2
+        alpha = math.atan2(pq, pa)
+        if alpha >= 0 and alpha <= math.atan2(sin_ab, a0 * b0 + a1 * b1 + a2 * b2):
+            psi = math.asin(min(abs(ph), 1.0))
+        else:
+            psi = math.acos(min(max(max(pa, pb), -1.0), 1.0))
+        psi = max(psi - EARTH_ROTATION_RAD_S * h / 2 * cos_lat[m] - margin_rad, 0.0)
+        r_hi = min(max(n0, n1) + 50.0, max(r_apo[i], max(n0, n1)))
+        out[j] = math.atan2(math.cos(psi) - radius_km[m] / r_hi, math.sin(psi)) * deg
