@@ -59,6 +59,25 @@ def test_importing_the_batch_finder_does_not_load_numba():
     assert out.stdout.strip() == "False"
 
 
+def test_threads_that_start_together_compile_each_kernel_once(amateur, numba_kernels,
+                                                           monkeypatch):
+    """Dask's threaded workers call the kernels for the first time at the same moment."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    satrecs, names = amateur
+    monkeypatch.setattr(kernels, "_compiled", {})  # as in a fresh process (disk cache kept)
+    previous = kernels.use("numba")
+    try:
+        with ThreadPoolExecutor(4) as pool:
+            runs = list(pool.map(lambda i: find_passes_batch(
+                satrecs[i::4], names[i::4], [DELFT], START, START + timedelta(hours=12)),
+                range(4)))
+    finally:
+        kernels.use(previous)
+    assert all(len(t) > 20 for t in runs)
+    assert {"_solve_cubic_loop", "_correct_loop", "_fine_screen_loop"} <= set(kernels._compiled)
+
+
 MASKED = Station("Masked", 52.0, 4.37, 10.0, 1.0,
                  HorizonMask((0.0, 90.0, 180.0, 270.0), (20.0, 2.0, 2.0, 2.0)))
 
@@ -130,3 +149,98 @@ def test_hermite_root_is_the_same(numba_kernels, slope):
     ref, fast = with_impl("numpy", run), with_impl("numba", run)
     assert np.array_equal(ref, fast)
     assert np.all((ref >= 0) & (ref <= 1))
+
+
+def sky_of(stations) -> tuple[kernels.Sky, object]:
+    from tracker.batch import geometry as geo
+
+    frames = geo.StationFrames.from_stations(list(stations))
+    sin_min = np.sin(np.radians(frames.min_el_deg))
+    return kernels.Sky(1.3, 7.292115e-5, frames.ecef_km, frames.up, frames.east, frames.north,
+                       sin_min), frames
+
+
+def leo_states(rng, m: int):
+    """Circular-ish low orbits: TEME positions and velocities (m, 3) and the two-body
+    acceleration."""
+    r = rng.normal(size=(m, 3))
+    r *= (6378.0 + rng.uniform(300.0, 1500.0, m) / np.linalg.norm(r, axis=1))[:, None]
+    v = np.cross(r, rng.normal(size=(m, 3)))
+    v *= (7.5 / np.linalg.norm(v, axis=1))[:, None]
+    n2 = np.sum(r * r, axis=1)
+    return r, v, r * (-398600.4418 / (n2 * np.sqrt(n2)))[:, None]
+
+
+@pytest.mark.parametrize("tca", [False, True])
+def test_solve_cubic_and_correct_take_the_same_steps(numba_kernels, tca):
+    """Root solving on the cubic and the correction from an exact state: same roots, same
+    brackets, same look angles (to rounding) with either implementation."""
+    rng = np.random.default_rng(11)
+    m, h = 4000, 480.0
+    sky, _frames = sky_of((DELFT, QUITO))
+    r0, v0, _ = leo_states(rng, m)
+    r1 = r0 + v0 * h
+    cubic = kernels.Cubic.through(rng.uniform(0, 1e5, m), h, r0, v0, r1, v0)
+    k = np.arange(m)
+    st = rng.integers(0, 2, m)
+    lo, hi = cubic.t0.copy(), cubic.t0 + h
+    lo_neg = rng.random(m) < 0.5
+    guess = lo + rng.random(m) * h
+
+    def solve():
+        return kernels.solve_cubic(sky, cubic, k, st, lo, hi, lo_neg, guess, 10.0, tca)
+
+    ref, fast = with_impl("numpy", solve), with_impl("numba", solve)
+    assert np.all((ref >= lo) & (ref <= hi))
+    assert np.max(np.abs(ref - fast)) <= 1e-6
+
+    r_s, v_s, a_s = leo_states(rng, m)
+
+    def correct():
+        lo2, hi2 = lo.copy(), hi.copy()
+        out = (np.zeros(m), np.zeros(m), np.zeros(m), np.zeros((m, 3)))
+        x1, far = kernels.correct(sky, k, guess, r_s, v_s, a_s, st, lo2, hi2, lo_neg, 0.02,
+                                  1.0, tca, out)
+        return x1, far, lo2, hi2, out
+
+    (x_a, far_a, lo_a, hi_a, out_a), (x_b, far_b, lo_b, hi_b, out_b) = (
+        with_impl("numpy", correct), with_impl("numba", correct))
+    assert np.array_equal(far_a, far_b) and 0 < far_a.sum() < m
+    for a, b in ((x_a, x_b), (lo_a, lo_b), (hi_a, hi_b), (out_a[0], out_b[0])):
+        assert np.max(np.abs(a - b)) <= 1e-6
+    assert np.max(np.abs(out_a[1] - out_b[1])) <= 1e-9          # elevation
+    assert np.max(np.abs(out_a[2] - out_b[2])) <= 1e-9          # azimuth
+    assert np.max(np.abs(out_a[3] - out_b[3])) <= 1e-6          # position, km
+
+
+def test_look_angles_and_the_peak_bound_are_the_same(numba_kernels):
+    rng = np.random.default_rng(13)
+    m = 5000
+    _sky, frames = sky_of((DELFT, QUITO))
+    r, v, _ = leo_states(rng, m + 1)
+    sel = np.sort(rng.integers(0, m, 3000))
+    st = rng.integers(0, 2, m + 1)
+    comps = tuple(r[:, i].copy() for i in range(3)), tuple(v[:, i].copy() for i in range(3))
+
+    def look():
+        return kernels.el_rate(frames, *comps, sel, st[sel])
+
+    (el_a, rate_a), (el_b, rate_b) = with_impl("numpy", look), with_impl("numba", look)
+    assert np.max(np.abs(el_a - el_b)) <= 1e-9 and np.max(np.abs(rate_a - rate_b)) <= 1e-12
+    assert el_a.min() < 0 < el_a.max()
+
+    # Steps of 60 s along the orbits: sample 2i at the start, 2i + 1 at the end.
+    path = np.empty((2 * m, 3))
+    path[0::2], path[1::2] = r[:m], r[:m] + v[:m] * 60.0
+    starts = 2 * np.arange(m)
+    st2 = np.repeat(st[:m], 2)
+    tau = np.arange(2 * m) * 30.0
+    r_apo = np.full(2 * m, 8000.0)
+
+    def bound():
+        return kernels.peak_bound_deg(1.3, 7.292115e-5, frames, starts, st2, tau, path, r_apo,
+                                      60.0, 0.01)
+
+    a, b = with_impl("numpy", bound), with_impl("numba", bound)
+    assert np.max(np.abs(a - b)) <= 1e-9
+    assert 0.1 < np.mean(a > 0) < 0.9

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import os
+import threading
 from dataclasses import dataclass
 from typing import Any
 
@@ -27,6 +28,7 @@ EARTH_ROTATION_RAD_S = geo.EARTH_ROTATION_RAD_S
 
 _backend: str | None = None  # "numba" or "numpy", decided on the first kernel call
 _compiled: dict[str, Any] = {}
+_compile_lock = threading.Lock()
 
 
 def backend() -> str:
@@ -61,17 +63,21 @@ _HELPERS = ("_sin_el_newton", "_bracket_step")
 
 
 def _jit(name: str):
-    """The compiled form of the loop function ``name`` of this module (compiled on first use;
-    error_model "numpy": a division by zero gives inf or nan, as in numpy)."""
+    """The compiled form of the loop function ``name`` of this module (compiled on first use,
+    once even when threads ask at the same time; error_model "numpy": a division by zero
+    gives inf or nan, as in numpy)."""
     fn = _compiled.get(name)
     if fn is None:
-        import numba
+        with _compile_lock:
+            fn = _compiled.get(name)
+            if fn is None:
+                import numba
 
-        options = dict(cache=True, error_model="numpy")
-        if not _compiled:
-            for helper in _HELPERS:
-                globals()[helper] = numba.njit(**options)(globals()[helper])
-        fn = _compiled[name] = numba.njit(**options)(globals()[name])
+                options = dict(cache=True, error_model="numpy")
+                for helper in _HELPERS:
+                    if not hasattr(globals()[helper], "py_func"):  # not compiled yet
+                        globals()[helper] = numba.njit(**options)(globals()[helper])
+                fn = _compiled[name] = numba.njit(**options)(globals()[name])
     return fn
 
 
