@@ -43,12 +43,25 @@ def test_an_unknown_implementation_is_refused():
         kernels.use("fortran")
 
 
-def test_the_environment_can_switch_the_compiled_kernels_off():
-    code = "from tracker.batch import kernels; print(kernels.backend())"
-    env = dict(os.environ, PYTHONPATH=str(REPO), TRACKER_NUMBA="0")
+def backend_after(work: float, **env) -> list[str]:
+    """The automatic choice after a job of ``work`` satellite-station-days was announced,
+    in a fresh interpreter: [backend, whether numba is loaded after a kernel ran]."""
+    code = ("import sys, numpy as np; from tracker.batch import kernels; "
+            f"kernels.announce_work({work}); print(kernels.backend()); "
+            "kernels.hermite_root(np.zeros(3), np.ones(3), np.ones(3), np.ones(3), 1.0); "
+            "print('numba' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         env=env, check=True)
-    assert out.stdout.strip() == "numpy"
+                         env=dict(os.environ, PYTHONPATH=str(REPO), **env), check=True)
+    return out.stdout.split()
+
+
+def test_small_jobs_do_not_pay_for_loading_numba():
+    assert backend_after(kernels.COMPILED_MIN_WORK / 2) == ["numpy", "False"]
+
+
+def test_a_big_job_uses_the_compiled_kernels_unless_switched_off(numba_kernels):
+    assert backend_after(kernels.COMPILED_MIN_WORK) == ["numba", "True"]
+    assert backend_after(1e9, TRACKER_NUMBA="0") == ["numpy", "False"]
 
 
 def test_importing_the_batch_finder_does_not_load_numba():

@@ -959,6 +959,7 @@ def _passes_in_parts(satrecs, names, stations, start, end, min_el_deg, *, step_s
     start, end = _to_utc(start), _to_utc(end)
     kwargs = dict(step_s=step_s, tol_s=tol_s, memory_mb=memory_mb)
     days = (end - start).total_seconds() / geo.DAY_S
+    kernels.announce_work(len(satrecs) * len(stations) * days)
     budget_rows = memory_mb * 2**20 / (4 * PASS_DTYPE.itemsize)
     est_rows = len(satrecs) * len(stations) * days * PASSES_PER_DAY
     errors: dict[int, SatError] = {}

@@ -3,8 +3,9 @@ arithmetic: numpy (the reference, always there) and a compiled loop (numba, the 
 ``fast`` extra) that passes over the data once without temporaries.
 
 numba is imported here only, on the first call of a kernel (never by importing this module),
-and each loop is compiled once and cached on disk (``cache=True``). ``TRACKER_NUMBA=0`` in
-the environment, or :func:`use`, selects the numpy implementations.
+and only for jobs big enough to pay for loading it (:func:`backend`); each loop is compiled
+once and cached on disk (``cache=True``). ``TRACKER_NUMBA=0`` in the environment, or
+:func:`use`, selects the numpy implementations.
 
 The two implementations agree to rounding: the screen (:func:`fine_screen`) runs in float32
 with numpy and in float64 compiled (the cone it tests has degrees of margin, so both keep
@@ -14,8 +15,10 @@ bisection steps, per bracket, in both.
 
 from __future__ import annotations
 
+import functools
 import math
 import os
+import sys
 import threading
 from dataclasses import dataclass
 from typing import Any
@@ -26,30 +29,51 @@ from tracker.batch import geometry as geo
 
 EARTH_ROTATION_RAD_S = geo.EARTH_ROTATION_RAD_S
 
-_backend: str | None = None  # "numba" or "numpy", decided on the first kernel call
+_backend: str | None = None  # chosen by use(); None: automatic (see backend())
+_worth_compiling = False  # a job big enough to pay numba's fixed cost was announced
 _compiled: dict[str, Any] = {}
 _compile_lock = threading.Lock()
 
+# Loading numba and the cached kernels costs about 0.6 s CPU once per process (compiling them
+# the first time, about 6 s); the kernels save about 25 us per satellite-station-day at one
+# station (less at many): from this much work on, the fixed cost is paid back.
+COMPILED_MIN_WORK = 30_000.0
+
+
+def announce_work(sat_station_days: float) -> None:
+    """Tell the automatic choice how big a job is starting (satellites x stations x days):
+    from :data:`COMPILED_MIN_WORK` on, the compiled kernels are used from then on in this
+    process."""
+    global _worth_compiling
+    if sat_station_days >= COMPILED_MIN_WORK:
+        _worth_compiling = True
+
+
+@functools.cache
+def _numba_installed() -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec("numba") is not None
+
+
+def _numba_enabled() -> bool:
+    return os.environ.get("TRACKER_NUMBA", "1") != "0" and _numba_installed()
+
 
 def backend() -> str:
-    """The implementation the kernels run: "numba" when it is installed (and not switched off
-    by ``TRACKER_NUMBA=0``), else "numpy"."""
-    global _backend
-    if _backend is None:
-        _backend = "numpy"
-        if os.environ.get("TRACKER_NUMBA", "1") != "0":
-            try:
-                import numba  # noqa: F401
-            except ImportError:
-                pass
-            else:
-                _backend = "numba"
-    return _backend
+    """The implementation the kernels run: the one chosen by :func:`use`, else "numba" when
+    it is installed (and not switched off by ``TRACKER_NUMBA=0``) and either already loaded
+    or worth loading for the work announced (:func:`announce_work`), else "numpy"."""
+    if _backend is not None:
+        return _backend
+    if (_worth_compiling or "numba" in sys.modules) and _numba_enabled():
+        return "numba"
+    return "numpy"
 
 
 def use(name: str | None) -> str | None:
-    """Select the kernels' implementation ("numba", "numpy", or None: decide on the next
-    call as :func:`backend` does); returns the previous choice."""
+    """Select the kernels' implementation ("numba", "numpy", or None: the automatic choice
+    of :func:`backend`); returns the previous choice."""
     global _backend
     if name not in (None, "numba", "numpy"):
         raise ValueError(f"unknown kernel implementation {name!r}; known: numba, numpy")
