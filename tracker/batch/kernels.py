@@ -34,8 +34,8 @@ _worth_compiling = False  # a job big enough to pay numba's fixed cost was annou
 _compiled: dict[str, Any] = {}
 _compile_lock = threading.Lock()
 
-# Loading numba and the cached kernels costs about 0.6 s CPU once per process (compiling them
-# the first time, about 6 s); the kernels save about 25 us per satellite-station-day at one
+# Loading numba and the cached kernels costs about 0.7 s CPU once per process (compiling them
+# the first time, about 5 s); the kernels save about 20 us per satellite-station-day at one
 # station (less at many): from this much work on, the fixed cost is paid back.
 COMPILED_MIN_WORK = 30_000.0
 
