@@ -25,8 +25,13 @@ processes): on a machine shared with other jobs the CPU figures are the steadier
    <= 512 MB), which streams its result (``iter_passes_batch``, parts dropped as they come).
    Each run is a fresh process, so its peak RSS is its own.
 
+The batch finder runs on its compiled kernels when numba is installed (the ``fast`` extra;
+``--kernels numpy`` for the reference); their one-time cost per process (loading numba and
+the cached machine code, or compiling it) is printed first and kept out of every figure.
+
 Usage: python benchmarks/batch.py [--tle PATH] [--sky-sample N] [--predict-sample N]
        [--check-sample N] [--seed N] [--repeat N] [--quick] [--network-only]
+       [--kernels best|auto|numba|numpy]
 """
 
 from __future__ import annotations
@@ -290,6 +295,39 @@ def evals(table) -> int:
     return int(s.get("sgp4_coarse", 0) + s.get("sgp4_fine", 0) + s.get("sgp4_refine", 0))
 
 
+def choose_kernels(name: str) -> str:
+    """Select the finder's kernels ("best": numba when installed); returns the choice."""
+    import importlib.util
+
+    from tracker.batch import kernels
+
+    if name == "best":
+        name = "numba" if importlib.util.find_spec("numba") else "numpy"
+    kernels.use(None if name == "auto" else name)
+    return name
+
+
+def kernels_note(name: str, satrecs, names) -> str:
+    """Which kernels run, and what their first use in this process cost (loading numba and
+    the compiled kernels from their disk cache, or compiling them when it is empty): the
+    runs timed below come after it."""
+    from tracker.batch import geometry as geo
+
+    geo.dut1_s(START)
+    end = START + timedelta(days=1)
+    _, _, first = timed(lambda: find_passes_batch(satrecs[:5], names[:5], [STATION], START,
+                                                  end))
+    _, _, again = timed(lambda: find_passes_batch(satrecs[5:10], names[5:10], [STATION],
+                                                  START, end))
+    version = ""
+    if name == "numba":
+        import numba
+
+        version = f" {numba.__version__}"
+    return (f"kernels: {name}{version}; their first use in this process cost "
+            f"{max(first - again, 0.0):.2f} s CPU (not in the figures below)")
+
+
 def network(n: int) -> list[Station]:
     """``n`` stations on a golden-angle spiral over the globe (|lat| <= 70)."""
     k = np.arange(n) + 0.5
@@ -307,6 +345,7 @@ def network_run(path: Path, n_stations: int) -> dict:
     net = network(n_stations)
     end = START + timedelta(days=DAYS)
     find_passes_batch(satrecs[:3], names[:3], net[:1], START, end)  # load skyfield data first
+    # (and the kernels)
     c, t = cpu_s(), time.perf_counter()
     n = 0
     for part in iter_passes_batch(satrecs, names, net, START, end):
@@ -315,15 +354,16 @@ def network_run(path: Path, n_stations: int) -> dict:
             "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
 
 
-def network_child(path: Path, n_stations: int) -> dict:
+def network_child(path: Path, n_stations: int, kernels: str) -> dict:
     """:func:`network_run` in a fresh Python process (its own peak RSS)."""
     out = subprocess.run([sys.executable, __file__, "--tle", str(path), "--network-run",
-                          str(n_stations)], capture_output=True, text=True, check=True)
+                          str(n_stations), "--kernels", kernels], capture_output=True,
+                         text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def network_report(path: Path) -> None:
-    one, hundred = network_child(path, 1), network_child(path, 100)
+def network_report(path: Path, kernels: str) -> None:
+    one, hundred = network_child(path, 1, kernels), network_child(path, 100, kernels)
     us = [r["cpu_s"] / max(r["passes"], 1) * 1e6 for r in (one, hundred)]
     print(f"\n[4] 100 stations (global spiral, |lat| <= 70) vs 1 station, 1000 objects x "
           f"{DAYS:g} days (each a fresh process, result streamed by iter_passes_batch):")
@@ -350,8 +390,13 @@ def main() -> int:
     ap.add_argument("--repeat", type=int, default=3,
                     help="runs of each timing in [2]; the fastest counts (default 3)")
     ap.add_argument("--network-only", action="store_true", help="only [4]")
+    ap.add_argument("--kernels", choices=("best", "auto", "numba", "numpy"), default="best",
+                    help="the batch finder's kernels: numba when installed (best, the "
+                         "default), the finder's own choice by job size (auto), or one of "
+                         "them")
     ap.add_argument("--network-run", type=int, metavar="N", help=argparse.SUPPRESS)
     args = ap.parse_args()
+    args.kernels = choose_kernels(args.kernels)
     path = Path(args.tle)
     if not path.is_file():
         print(f"benchmark needs {path} (see ../shared/tle/SOURCES.md)", file=sys.stderr)
@@ -360,7 +405,7 @@ def main() -> int:
         print(json.dumps(network_run(path, args.network_run)))
         return 0
     if args.network_only:
-        network_report(path)
+        network_report(path, args.kernels)
         return 0
     sets = read_sets(path)
     satrecs = [Satrec.twoline2rv(a, b) for _, a, b in sets]
@@ -370,6 +415,7 @@ def main() -> int:
           f"{DAYS:g} days; station {STATION.name} ({STATION.lat_deg}, {STATION.lon_deg})")
     print("(figures taken on the shared 2-core machine while other jobs were running)")
 
+    print(kernels_note(args.kernels, satrecs, names))
     raw, raw_cpu = raw_sgp4_rate(satrecs)
     print(f"\n[1] raw SatrecArray SGP4 rate: {raw / 1e6:.2f} M evaluations/s wall, "
           f"{raw_cpu / 1e6:.2f} M per CPU second")
@@ -427,7 +473,7 @@ def main() -> int:
               f"sgp4-predict {pred}; 2 processes {f['two']:.2f}x wall; SGP4 share "
               f"{f['share']:.0%}; missed {c['missed']}, worst {c['worst_s']:.3f} s")
 
-    network_report(path)
+    network_report(path, args.kernels)
     return 0
 
 

@@ -273,7 +273,7 @@ def test_subarc_screen_matches_a_dense_sweep_of_the_arc(dtype):
     """The closed-form screen of a fine step's sub-arc agrees with the largest projection of
     the station found by sweeping the arc densely, wherever the two are not within rounding
     of the cone's edge."""
-    from tracker.batch.finder import _subarc_within
+    from tracker.batch.kernels import subarc_within
 
     rng = np.random.default_rng(7)
     m = 4000
@@ -285,8 +285,8 @@ def test_subarc_screen_matches_a_dense_sweep_of_the_arc(dtype):
     sweep = np.linspace(0.0, 1.0, 4001)
     alpha = a1[:, None] + (a2 - a1)[:, None] * sweep
     best = (r_in[:, None] * np.cos(alpha - beta[:, None])).max(1)
-    got = _subarc_within(*(x.astype(dtype) for x in (r_in * np.cos(beta), r_in * np.sin(beta),
-                                                      a1, a2, cos_lim)))
+    got = subarc_within(*(x.astype(dtype) for x in (r_in * np.cos(beta), r_in * np.sin(beta),
+                                                     a1, a2, cos_lim)))
     clear = np.abs(best - cos_lim) > 1e-4
     assert clear.sum() > 0.95 * m
     assert np.array_equal(got[clear], (best >= cos_lim)[clear])

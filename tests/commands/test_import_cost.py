@@ -35,7 +35,7 @@ def _tops(modules: set[str]) -> set[str]:
 def test_help_imports_neither_numpy_nor_skyfield_nor_the_network(tmp_path):
     modules = _imported(tmp_path, "--help")
     assert "tracker.cli" in modules                  # the listing is real
-    assert not _tops(modules) & {"numpy", "skyfield", "sgp4"}
+    assert not _tops(modules) & {"numpy", "skyfield", "sgp4", "numba"}
     assert not modules & NETWORK
 
 
@@ -44,6 +44,7 @@ def test_an_offline_pass_listing_imports_nothing_network_related(tmp_path):
                         "--lat", "52", "--lon", "4.4")
     assert {"tracker.passes", "skyfield.sgp4lib"} <= modules
     assert not modules & NETWORK
+    assert "numba" not in _tops(modules)             # only the batch finder's kernels use it
     assert "skyfield.iokit" not in modules           # skyfield's downloader (ssl, urllib)
 
 

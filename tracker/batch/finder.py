@@ -24,6 +24,10 @@ How one job runs (every step is numpy over all satellites of a chunk at once):
    series (a second SGP4 call only for the rare root that moved by more than a second):
    about one SGP4 call per event, to ``tol_s``.
 
+The fused per-element loops of steps 1-4 (fine screen, look angles of the samples, first
+guesses, the solves on the cubic and the correction from SGP4's state) live in
+:mod:`tracker.batch.kernels`, in numpy and as compiled loops when numba is installed.
+
 Steps 3 and 4 run for all stations of a chunk at once (a station index per sample and
 bracket), in groups of stations sized by the memory budget; a pass does not depend on the
 other stations.
@@ -47,6 +51,7 @@ import numpy as np
 from sgp4.api import SGP4_ERRORS, SatrecArray, jday
 
 from tracker.batch import geometry as geo
+from tracker.batch import kernels
 from tracker.errors import ConfigError
 from tracker.spill import RowSpill
 from tracker.station import Station
@@ -172,6 +177,14 @@ class _Job:
         return [k for k, s in enumerate(self.stations) if s.mask is not None]
 
     @cached_property
+    def sky(self) -> kernels.Sky:
+        """What the kernels need to turn TEME states into sin(elevation) at the stations."""
+        self.theta(0.0)
+        f = self.frames
+        return kernels.Sky(float(self._theta0), self._theta_rate, f.ecef_km, f.up, f.east,
+                           f.north, self.sin_min_el)
+
+    @cached_property
     def sin_min_el(self) -> np.ndarray:
         """sin(min elevation) per station (the AOS/LOS target without a mask)."""
         return np.array([math.sin(math.radians(x)) for x in self.frames.min_el_deg.tolist()])
@@ -212,59 +225,6 @@ def _sgp4_pairs(job: _Job, sat: np.ndarray, tau: np.ndarray, kind: str = "sgp4_r
     return err, r, v
 
 
-def _hermite(f0, d0, f1, d1, h, n=17):
-    """Cubic Hermite samples on each interval: (len, n) values and the unit abscissae."""
-    s = np.linspace(0.0, 1.0, n)
-    h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
-    h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
-    p = (f0[:, None] * h00 + (h * d0)[:, None] * h10 + f1[:, None] * h01
-         + (h * d1)[:, None] * h11)
-    return p, s
-
-
-def _hermite_slope(f0, d0, f1, d1, h, n=17):
-    """Slope (per unit abscissa) of the cubic Hermite on each interval, sampled like above."""
-    s = np.linspace(0.0, 1.0, n)
-    c1 = h * d0
-    c2 = -3 * f0 - 2 * h * d0 + 3 * f1 - h * d1
-    c3 = 2 * f0 + h * d0 - 2 * f1 + h * d1
-    return 3 * c3[:, None] * s**2 + 2 * c2[:, None] * s + c1[:, None], s
-
-
-def _first_root_guess(p, s):
-    """Linear root of the first sign change in each row of samples (fraction 0..1)."""
-    neg = p < 0
-    change = neg[:, 1:] != neg[:, :-1]
-    k = np.where(change.any(1), change.argmax(1), p.shape[1] // 2 - 1)
-    rows = np.arange(len(p))
-    a, b = p[rows, k], p[rows, k + 1]
-    frac = np.where(b != a, a / np.where(b != a, a - b, 1.0), 0.5)
-    return s[k] + np.clip(frac, 0.0, 1.0) * (s[k + 1] - s[k])
-
-
-def _cubic(t0, h: float, r0, v0, r1, v1):
-    """The cubic Hermite interpolant of the TEME orbit between samples, per bracket.
-
-    Each bracket k lies in one fine step [t0[k], t0[k] + h] whose ends have SGP4 position
-    and velocity; the cubic through them is accurate to ~1 km for LEO at 480 s (error
-    ~ (omega h)^4 r / 384) and as good for slower orbits, whose steps scale with the period.
-    Returns ``evaluate(k, tau) -> (r, v, a)`` in TEME (no SGP4 calls).
-    """
-    d = r1 - r0
-    c1 = h * v0
-    c2 = 3 * d - h * (2 * v0 + v1)
-    c3 = h * (v0 + v1) - 2 * d
-
-    def evaluate(k, tau):
-        s = ((tau - t0[k]) / h)[:, None]
-        a0, a1, a2, a3 = r0[k], c1[k], c2[k], c3[k]
-        r = ((a3 * s + a2) * s + a1) * s + a0
-        v = ((3 * a3 * s + 2 * a2) * s + a1) / h
-        a = (6 * a3 * s + 2 * a2) / (h * h)
-        return r, v, a
-    return evaluate
-
-
 def _finite(x):
     """Rows of (..., 3) vectors with all components finite (NaN and inf propagate)."""
     return np.isfinite(x[..., 0] + x[..., 1] + x[..., 2])
@@ -276,116 +236,22 @@ def _gravity(r):
     return r * (-geo.MU_KM3_S2 / (n2 * np.sqrt(n2)))[:, None]
 
 
-@dataclass
-class _Topo:
-    """sin(elevation) and its first two time derivatives (per second) at TEME states."""
-
-    s: np.ndarray
-    s1: np.ndarray
-    s2: np.ndarray | None
-    d: tuple  # station -> satellite vector, TEME components
-    c: np.ndarray  # cos/sin of the GMST angle (for azimuths)
-    sn: np.ndarray
-
-    def el_deg(self):
-        return np.degrees(np.arcsin(np.clip(self.s, -1.0, 1.0)))
-
-    def take(self, i) -> _Topo:
-        return _Topo(self.s[i], self.s1[i], None if self.s2 is None else self.s2[i],
-                     tuple(x[i] for x in self.d), self.c[i], self.sn[i])
-
-    def az_deg(self, job: _Job, st):
-        c, sn = self.c, self.sn
-        e, n = geo.station_columns(job.frames.east, st), geo.station_columns(job.frames.north, st)
-        dx, dy, dz = self.d
-        # The station's east/north axes rotated into TEME.
-        de = dx * (c * e[0] - sn * e[1]) + dy * (sn * e[0] + c * e[1])
-        dn = (dx * (c * n[0] - sn * n[1]) + dy * (sn * n[0] + c * n[1]) + dz * n[2])
-        return np.degrees(np.arctan2(de, dn)) % 360.0
-
-
-def _topo(job: _Job, st, tau, r, v, a=None) -> _Topo:
-    """sin(el), d/dt and (given the acceleration ``a``) d2/dt2 of stations ``st`` (one per
-    state) at TEME states; the station turns with the Earth in TEME. sin(el) is smooth
-    everywhere (even through the zenith), so its derivative's root is the culmination and
-    needs no arcsin."""
-    theta = job.theta(tau)
-    c, sn = np.cos(theta), np.sin(theta)
-    w = geo.EARTH_ROTATION_RAD_S
-    o, u = geo.station_columns(job.frames.ecef_km, st), geo.station_columns(job.frames.up, st)
-    ox, oy = c * o[0] - sn * o[1], sn * o[0] + c * o[1]
-    ux, uy, uz = c * u[0] - sn * u[1], sn * u[0] + c * u[1], u[2]
-    dx, dy, dz = r[:, 0] - ox, r[:, 1] - oy, r[:, 2] - o[2]
-    vx, vy, vz = v[:, 0] + w * oy, v[:, 1] - w * ox, v[:, 2]  # relative velocity
-    inv = 1.0 / np.sqrt(dx * dx + dy * dy + dz * dz)
-    s = (dx * ux + dy * uy + dz * uz) * inv
-    ru1 = vx * ux + vy * uy + vz * uz + w * (dy * ux - dx * uy)
-    dist1 = (dx * vx + dy * vy + dz * vz) * inv
-    s1 = (ru1 - s * dist1) * inv
-    s2 = None
-    if a is not None:
-        w2 = w * w
-        ax, ay, az = a[:, 0] + w2 * ox, a[:, 1] + w2 * oy, a[:, 2]
-        ru2 = (ax * ux + ay * uy + az * uz + 2 * w * (vy * ux - vx * uy)
-               - w2 * (dx * ux + dy * uy))
-        dist2 = (vx * vx + vy * vy + vz * vz + dx * ax + dy * ay + dz * az
-                 - dist1 * dist1) * inv
-        s2 = (ru2 - 2 * s1 * dist1 - s * dist2) * inv
-    return _Topo(s, s1, s2, (dx, dy, dz), c, sn)
-
-
-def _newton_step(job: _Job, st, t: _Topo, tca: bool):
+def _newton_step(job: _Job, st, t: kernels.Topo, tca: bool):
     """(g, Newton step to g's root) at points ``t`` (of stations ``st``), where g is
     d sin(el)/dt for a culmination and, for AOS/LOS, sin(el) - sin(horizon) (second-order
     step: sin(el) is curved on the scale of a grazing pass) or, with a horizon mask,
     el - mask(az) in deg."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        if tca:
-            return t.s1, t.s1 / t.s2
-        g = t.s - job.sin_min_el[st]
-        step = g / t.s1
-        step = step + 0.5 * t.s2 * step * step / t.s1
-        masked = job.masked
-        if masked:
+    g, step = kernels.newton_sin_el(t.s, t.s1, t.s2, job.sin_min_el[st], tca)
+    masked = job.masked
+    if masked and not tca:
+        with np.errstate(divide="ignore", invalid="ignore"):
             i = np.flatnonzero(np.isin(st, masked))
             tm, sm = t.take(i), st[i]
             el = tm.el_deg()
             rate = np.degrees(tm.s1 / np.sqrt(np.maximum(1.0 - tm.s * tm.s, 1e-12)))
-            g[i] = el - job.threshold(sm, tm.az_deg(job, sm))
+            g[i] = el - job.threshold(sm, tm.az_deg(job.sky, sm))
             step[i] = g[i] / rate
-        return g, step
-
-
-def _bracketed(x, step, g, lo, hi, lo_neg):
-    """The bracket narrowed by the sign of g at x, and the Newton point x - step in it
-    (bisection when the step leaves it)."""
-    same_as_lo = (g < 0) == lo_neg
-    lo = np.where(same_as_lo, x, lo)
-    hi = np.where(same_as_lo, hi, x)
-    x_new = x - step
-    bad = ~np.isfinite(x_new) | (x_new <= lo) | (x_new >= hi)
-    return np.where(bad, 0.5 * (lo + hi), x_new), lo, hi
-
-
-def _solve(evaluate, lo, hi, lo_neg, guess, tol_s: float, max_it: int = 60):
-    """Root of g in each bracket [lo, hi] (g changes sign there; ``lo_neg``: g(lo) < 0), all
-    brackets at once: Newton steps (``evaluate(k, tau) -> (g, step)``), bisection when a
-    step leaves the bracket. Stops when a step is below ``tol_s``; returns the point after
-    that last step (not evaluated; quadratically closer than the step)."""
-    tau = np.clip(guess, lo, hi)
-    lo, hi = lo.copy(), hi.copy()
-    active = np.arange(len(lo))
-    for _ in range(max_it):
-        if active.size == 0:
-            break
-        x = tau[active]
-        g, step = evaluate(active, x)
-        x_new, lo[active], hi[active] = _bracketed(x, step, g, lo[active], hi[active],
-                                                   lo_neg[active])
-        tau[active] = x_new
-        done = (np.abs(x_new - x) < tol_s) | (hi[active] - lo[active] < tol_s) | (g == 0)
-        active = active[~done]
-    return tau
+    return g, step
 
 
 def _refine(job: _Job, st, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
@@ -409,21 +275,21 @@ def _refine(job: _Job, st, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
         return z, z, z, np.zeros((0, 3))
     key = "brackets_tca" if tca else "brackets_cross"
     job.stats[key] = job.stats.get(key, 0) + n
-    x_ref = np.zeros(n)
-    dr, dv = np.zeros((n, 3)), np.zeros((n, 3))  # SGP4 - cubic at x_ref
-    corrected = [False]  # any dr, dv set (until then adding them changes nothing)
 
     def model(k, tau):
-        r, v, a = cubic(k, tau)
-        if corrected[0]:
-            r = r + dr[k] + dv[k] * (tau - x_ref[k])[:, None]
-            v = v + dv[k]
-        return _topo(job, st[k], tau, r, v, a), r
+        r, v, a = cubic.corrected(k, tau)
+        return kernels.topo(job.sky, st[k], tau, r, v, a), r
 
-    def on_cubic(k, tau):
-        return _newton_step(job, st[k], model(k, tau)[0], tca)
+    def on_cubic(k, tau, tol_s):
+        """Roots on the (corrected) cubic of brackets ``k`` from ``tau``."""
+        if not job.masked:
+            return kernels.solve_cubic(job.sky, cubic, k, st[k], lo[k], hi[k], lo_neg[k], tau,
+                                       tol_s, tca)
+        return kernels.solve(lambda j, t: _newton_step(job, st[k[j]], model(k[j], t)[0], tca),
+                             lo[k], hi[k], lo_neg[k], tau, tol_s)
 
-    x = _solve(on_cubic, lo, hi, lo_neg, guess, tol_s=SOLVE_TOL_S)
+    x = on_cubic(np.arange(n), guess, SOLVE_TOL_S)
+    newton = None if not job.masked else lambda st_k, t: _newton_step(job, st_k, t, tca)
     lo, hi = lo.copy(), hi.copy()
     tau = x.copy()
     el, az, r_out = np.zeros(n), np.zeros(n), np.zeros((n, 3))
@@ -439,46 +305,23 @@ def _refine(job: _Job, st, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
             r_s[k], v_s[k], _ = cubic(active[k], xa[k])
         # Within CORRECT_SPAN_S of xa, SGP4's state is its Taylor series with two-body
         # acceleration (J2 and lunisolar terms change it by < 1e-3: millimetres).
-        a_s = _gravity(r_s)
-        st_a = st[active]
-        g, step = _newton_step(job, st_a, _topo(job, st_a, xa, r_s, v_s, a_s), tca)
-        x1, lo[active], hi[active] = _bracketed(xa, step, g, lo[active], hi[active],
-                                                lo_neg[active])
-        near = np.flatnonzero(np.abs(x1 - xa) <= CORRECT_SPAN_S)
-        far = np.flatnonzero(np.abs(x1 - xa) > CORRECT_SPAN_S)
-        for _it in range(4):
-            if near.size == 0:
-                break
-            k = active[near]
-            dt = (x1[near] - xa[near])[:, None]
-            a_n = a_s[near]
-            r1 = r_s[near] + (v_s[near] + 0.5 * a_n * dt) * dt
-            t1 = _topo(job, st[k], x1[near], r1, v_s[near] + a_n * dt, a_n)
-            tau[k], r_out[k] = x1[near], r1
-            el[k], az[k] = t1.el_deg(), t1.az_deg(job, st[k])
-            g1, step1 = _newton_step(job, st[k], t1, tca)
-            x2, lo[k], hi[k] = _bracketed(x1[near], step1, g1, lo[k], hi[k], lo_neg[k])
-            more = ~(np.abs(step1) <= job.tol_s) & (g1 != 0) & (hi[k] - lo[k] >= job.tol_s)
-            x1[near] = x2
-            leave = more & (np.abs(x2 - xa[near]) > CORRECT_SPAN_S)
-            far = np.concatenate([far, near[leave]])
-            near = near[more & ~leave]
-        far = far[ok[far]]
+        x1, far = kernels.correct(job.sky, active, xa, r_s, v_s, _gravity(r_s), st, lo, hi,
+                                  lo_neg, job.tol_s, CORRECT_SPAN_S, tca, (tau, el, az, r_out),
+                                  newton)
+        far = np.flatnonzero(far & ok)
         if far.size:
             # Far off (grazing passes): solve again on the cubic corrected by SGP4's state
             # error at xa (to first order; then good to metres over the step), like step 1.
             k = active[far]
             r_c, v_c, _ = cubic(k, xa[far])
-            x_ref[k], dr[k], dv[k] = xa[far], r_s[far] - r_c, v_s[far] - v_c
-            corrected[0] = True
-            x1[far] = _solve(lambda j, t, k=k: on_cubic(k[j], t), lo[k], hi[k], lo_neg[k],
-                             x1[far], tol_s=0.1)
+            cubic.x_ref[k], cubic.dr[k], cubic.dv[k] = xa[far], r_s[far] - r_c, v_s[far] - v_c
+            x1[far] = on_cubic(k, x1[far], 0.1)
         x[active] = x1
         active = active[far]
     if active.size:  # still moving after CORRECT_ROUNDS: take the last corrected point
         t1, r1 = model(active, x[active])
         tau[active], r_out[active] = x[active], r1
-        el[active], az[active] = t1.el_deg(), t1.az_deg(job, st[active])
+        el[active], az[active] = t1.el_deg(), t1.az_deg(job.sky, st[active])
     return tau, el, az, r_out
 
 
@@ -562,27 +405,6 @@ def _coarse_candidates(job: _Job, arc, tau_c, coarse_s, r_apo, screenable):
     return out
 
 
-def _sub_arcs(arc, ss, kk, n: int, coarse_s, ecc):
-    """Bounds [a1, a2] (rad from A, (len(ss), n)) of the sub-arc each fine step of the
-    coarse intervals (ss, kk) can sweep; the same for every station. float32: the cone has
-    degrees of margin, float32 rounds at 1e-7 rad."""
-    f32 = np.float32
-    fine_s = coarse_s / n
-    e_eff = np.minimum(ecc[ss] + 0.002, 0.9)
-    ratio = ((1.0 + e_eff) / (1.0 - e_eff)) ** 2 * 1.01
-    phi = arc["phi"][ss, kk]
-    w_mean = phi / coarse_s
-    w_lo, w_hi = (w_mean / ratio).astype(f32)[:, None], (w_mean * ratio).astype(f32)[:, None]
-    t_a = (np.arange(n) * fine_s).astype(f32)
-    t_b = (np.arange(1, n + 1) * fine_s).astype(f32)
-    ph_ = phi.astype(f32)[:, None]
-    a1 = np.maximum(w_lo * t_a, ph_ - w_hi * (f32(coarse_s) - t_a))
-    np.clip(a1, f32(0.0), ph_, out=a1)
-    a2 = np.minimum(w_hi * t_b, ph_ - w_lo * (f32(coarse_s) - t_b))
-    np.clip(a2, a1, ph_, out=a2)
-    return a1, a2
-
-
 def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc,
                      screenable, sub_arcs=None):
     """(S, K * n) booleans: fine steps of the candidate coarse intervals where a pass is still
@@ -592,9 +414,9 @@ def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc
     A after time t is bracketed by the slowest and fastest angular rate, taken as the arc's
     mean rate times the Kepler perigee/apogee rate ratio for the eccentricity (plus 1 % for
     SGP4's short-period terms and drag). Each fine step then sweeps a sub-arc of known
-    bounds, tested against the horizon cone like the coarse interval (in float32). No SGP4
-    calls. ``sub_arcs``: :func:`_sub_arcs` of every coarse interval, (S, K, n) each, when
-    many stations share them.
+    bounds, tested against the horizon cone like the coarse interval
+    (:func:`kernels.fine_screen`). No SGP4 calls. ``sub_arcs``: :func:`kernels.sub_arcs` of
+    every coarse interval, (S, K, n) each, when many stations share them.
     """
     S, K = cand.shape
     out = np.zeros((S, K * n), bool)
@@ -604,61 +426,18 @@ def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc
     ss, kk = np.nonzero(cand)
     if ss.size == 0:
         return out
-    f32 = np.float32
     fine_s = coarse_s / n
-    if sub_arcs is None:
-        a1, a2 = _sub_arcs(arc, ss, kk, n, coarse_s, ecc)
-    else:
-        a1, a2 = sub_arcs[0][ss, kk], sub_arcs[1][ss, kk]
     # The station (geocentric unit vector) in TEME at the middle of every fine step of the
-    # window, gathered per candidate: rho (cos psi, sin psi), z with psi = GMST + longitude.
+    # window: rho (cos psi, sin psi), z with psi = GMST + longitude.
     u = job.frames.unit[st]
     psi = job.theta((np.arange(K * n) + 0.5) * fine_s) + math.atan2(u[1], u[0])
-    rho, z = math.hypot(u[0], u[1]), u[2]
-    cp = (np.cos(psi) * rho).astype(f32).reshape(K, n)[kk]
-    sp = (np.sin(psi) * rho).astype(f32).reshape(K, n)[kk]
-    A = arc["A"][ss, kk].astype(f32)
-    q = arc["q"][ss, kk].astype(f32)
-    pa = A[:, 0, None] * cp
-    pa += A[:, 1, None] * sp
-    pa += A[:, 2, None] * f32(z)
-    pq = q[:, 0, None] * cp
-    pq += q[:, 1, None] * sp
-    pq += q[:, 2, None] * f32(z)
-    cos_lim = _cone_limits(job, st, r_apo, fine_s)[0][ss].astype(f32)[:, None]
-    sub = _subarc_within(pa, pq, a1, a2, cos_lim)
-    sub |= ~screenable[ss][:, None]
+    track = kernels.StationTrack(psi, math.hypot(u[0], u[1]), float(u[2]))
+    arcs = None if sub_arcs is None else (sub_arcs[0][ss, kk], sub_arcs[1][ss, kk])
+    cos_lim = _cone_limits(job, st, r_apo, fine_s)[0]
+    sub = kernels.fine_screen(arc["A"], arc["q"], arc["phi"], ss, kk, ecc, n, coarse_s, track,
+                              cos_lim, screenable, arcs)
     out.reshape(S, K, n)[ss, kk] = sub
     return out
-
-
-def _subarc_within(pa, pq, a1, a2, cos_lim):
-    """Does the sub-arc [a1, a2] (angles from A in the orbit plane, 0 <= a2 - a1 < 2 pi) come
-    within the cone around the station, i.e. does the station's largest projection on it,
-    max over a of pa cos a + pq sin a, reach ``cos_lim``? (Inputs are overwritten.)
-
-    The station's in-plane part is R (cos beta, sin beta). On the arc's middle direction m
-    (half-width w) it projects to pm = R cos(beta - m), across it to |pp| = R |sin(beta - m)|.
-    Inside the arc (|beta - m| <= w, i.e. pm >= R cos w) the largest projection is R; outside
-    it is at the nearer end, R cos(|beta - m| - w) = pm cos w + |pp| sin w. No arctangent.
-    """
-    r_in = np.sqrt(pa * pa + pq * pq)
-    mid = a1 + a2
-    mid *= 0.5
-    half = a2 - a1
-    half *= 0.5
-    cm, sm, ch, sh = np.cos(mid), np.sin(mid), np.cos(half), np.sin(half)
-    pm = pa * cm
-    pm += pq * sm
-    pq *= cm
-    pa *= sm
-    pp = np.abs(pq - pa, out=pq)
-    pp *= sh
-    pp += pm * ch
-    sub = pp >= cos_lim
-    ch *= r_in
-    sub |= (pm >= ch) & (r_in >= cos_lim)
-    return sub
 
 
 def _fine_mask(sub):
@@ -689,9 +468,9 @@ def _run_chunk(job: _Job, sat_ids: np.ndarray, n: int, fine_step_s: float, r_apo
     cands = _coarse_candidates(job, arc, tau_c, coarse_s, r_apo, screenable)
     cand_any = np.logical_or.reduce(cands) if len(cands) > 1 else cands[0]
     sub_arcs = None
-    if len(cands) > 1 and n > 1:  # worth computing once for every interval
+    if len(cands) > 1 and n > 1 and kernels.backend() == "numpy":  # shared by the stations
         ss, kk = np.nonzero(cand_any)
-        a1, a2 = _sub_arcs(arc, ss, kk, n, coarse_s, ecc)
+        a1, a2 = kernels.sub_arcs(arc["phi"][ss, kk], ecc[ss], n, coarse_s)
         shape = (*cand_any.shape, n)
         sub_arcs = (np.zeros(shape), np.zeros(shape))
         sub_arcs[0][ss, kk], sub_arcs[1][ss, kk] = a1, a2
@@ -757,8 +536,7 @@ def _station_samples(job: _Job, st, sel, s_loc, j, ok, sat_ids, r_apo, fine_s: f
         return geo.look_angles(tuple(c[sel[i]] for c in r_ecef),
                                tuple(c[sel[i]] for c in v_ecef), job.frames, st[i])[1]
 
-    el, _, rate = geo.look_angles(tuple(c[sel] for c in r_ecef),
-                                  tuple(c[sel] for c in v_ecef), job.frames, st, False)
+    el, rate = kernels.el_rate(job.frames, r_ecef, v_ecef, sel, st)
     # Azimuths only where used: under a horizon mask and at window-edge cuts.
     az = np.full(len(sel), np.nan)
     masked = np.flatnonzero(np.isin(st, job.masked))
@@ -781,38 +559,6 @@ def _station_samples(job: _Job, st, sel, s_loc, j, ok, sat_ids, r_apo, fine_s: f
                 v=V[sel], r_apo=r_apo[ss])
 
 
-def _peak_bound_deg(job: _Job, st, tau0, r0, r1, r_apo, h: float) -> np.ndarray:
-    """Upper bound of the (geocentric) elevation between two samples ``h`` seconds apart.
-
-    The satellite stays on the great-circle arc between its two directions (as in the
-    screening), so its geocentric angle from the station is at least the arc's distance from
-    the station (less the station's own motion in half a step); elevation grows with that
-    angle shrinking and with the radius (bounded by the larger end + 50 km, or apogee).
-    """
-    frames = job.frames
-    n0 = np.linalg.norm(r0, axis=-1)
-    n1 = np.linalg.norm(r1, axis=-1)
-    a, b = r0 / n0[:, None], r1 / n1[:, None]
-    hv = np.cross(a, b)
-    sin_ab = np.linalg.norm(hv, axis=-1)
-    h_hat = hv / np.maximum(sin_ab, 1e-12)[:, None]
-    q = np.cross(h_hat, a)
-    theta = job.theta(tau0 + 0.5 * h)
-    c, s = np.cos(theta), np.sin(theta)
-    u = geo.station_columns(frames.unit, st)
-    p = np.stack([c * u[0] - s * u[1], s * u[0] + c * u[1], u[2] + 0.0 * c], -1)
-    pa, pb = np.einsum("ij,ij->i", a, p), np.einsum("ij,ij->i", b, p)
-    ph, pq = np.einsum("ij,ij->i", h_hat, p), np.einsum("ij,ij->i", q, p)
-    alpha = np.arctan2(pq, pa)
-    in_arc = (alpha >= 0) & (alpha <= np.arctan2(sin_ab, np.einsum("ij,ij->i", a, b)))
-    psi = np.where(in_arc, np.arcsin(np.clip(np.abs(ph), 0, 1)),
-                   np.arccos(np.clip(np.maximum(pa, pb), -1, 1)))
-    psi = np.maximum(psi - geo.EARTH_ROTATION_RAD_S * h / 2 * frames.cos_lat[st]
-                     - PERTURBATION_MARGIN_RAD, 0.0)
-    r_hi = np.minimum(np.maximum(n0, n1) + 50.0, np.maximum(r_apo, np.maximum(n0, n1)))
-    return np.degrees(np.arctan2(np.cos(psi) - frames.radius_km[st] / r_hi, np.sin(psi)))
-
-
 def _refine_station_chunk(job: _Job, b: dict):
     """Turn stations' samples (:func:`_station_samples`) into pass rows (refined AOS, TCA,
     LOS), all stations' brackets at once."""
@@ -825,13 +571,15 @@ def _refine_station_chunk(job: _Job, b: dict):
     los_i = i0[b["up"][i0] & ~b["up"][i1]]
     max_i = i0[(rate[i0] > 0) & (rate[i1] <= 0)]
     # Maxima: refine those that could reach the threshold (near misses inside one step too).
-    bound = _peak_bound_deg(job, st[max_i], tau[max_i], r[max_i], r[max_i + 1],
-                            b["r_apo"][max_i], h)
+    job.theta(0.0)
+    bound = kernels.peak_bound_deg(job._theta0, job._theta_rate, job.frames, max_i, st, tau, r,
+                                   b["r_apo"], h, PERTURBATION_MARGIN_RAD)
     max_i = max_i[bound >= job.frames.min_el_deg[st[max_i]] - ELLIPSOID_MARGIN_DEG]
-    dp, s = _hermite_slope(el[max_i], rate[max_i], el[max_i + 1], rate[max_i + 1], h)
-    guess = tau[max_i] + h * _first_root_guess(dp, s)
+    guess = tau[max_i] + h * kernels.hermite_root(el[max_i], rate[max_i], el[max_i + 1],
+                                                  rate[max_i + 1], h, slope=True)
     rv = (b["r"], b["v"])
-    cubic = _cubic(tau[max_i], h, *(x[max_i] for x in rv), *(x[max_i + 1] for x in rv))
+    cubic = kernels.Cubic.through(tau[max_i], h, *(x[max_i] for x in rv),
+                                  *(x[max_i + 1] for x in rv))
     m_st = st[max_i]
     m_tau, m_el, m_az, m_r = _refine(job, m_st, sat[max_i], tau[max_i], tau[max_i + 1],
                                      np.zeros(len(max_i), bool), guess, cubic, tca=True)
@@ -852,10 +600,10 @@ def _refine_station_chunk(job: _Job, b: dict):
     d_lo = np.concatenate([rate[aos_i], rate[los_i], rate[hi_idx], zeros])
     d_hi = np.concatenate([rate[aos_i + 1], rate[los_i + 1], zeros, rate[hi_idx + 1]])
     width = c_hi - c_lo
-    p, s = _hermite(c_glo, d_lo, c_ghi, d_hi, width)
-    guess = c_lo + width * _first_root_guess(p, s)
+    guess = c_lo + width * kernels.hermite_root(c_glo, d_lo, c_ghi, d_hi, width)
     c_iv = np.concatenate([aos_i, los_i, hi_idx, hi_idx])
-    cubic = _cubic(tau[c_iv], h, *(x[c_iv] for x in rv), *(x[c_iv + 1] for x in rv))
+    cubic = kernels.Cubic.through(tau[c_iv], h, *(x[c_iv] for x in rv),
+                                  *(x[c_iv + 1] for x in rv))
     c_tau, c_el, c_az, c_r = _refine(job, c_st, c_sat, c_lo, c_hi, c_glo < 0, guess, cubic,
                                      tca=False)
 
@@ -1215,6 +963,7 @@ def _passes_in_parts(satrecs, names, stations, start, end, min_el_deg, *, step_s
     start, end = _to_utc(start), _to_utc(end)
     kwargs = dict(step_s=step_s, tol_s=tol_s, memory_mb=memory_mb)
     days = (end - start).total_seconds() / geo.DAY_S
+    kernels.announce_work(len(satrecs) * len(stations) * days)
     budget_rows = memory_mb * 2**20 / (4 * PASS_DTYPE.itemsize)
     est_rows = len(satrecs) * len(stations) * days * PASSES_PER_DAY
     errors: dict[int, SatError] = {}

@@ -1,0 +1,777 @@
+"""The batch finder's hot loops, each behind one name with two implementations of the same
+arithmetic: numpy (the reference, always there) and a compiled loop (numba, the optional
+``fast`` extra) that passes over the data once without temporaries.
+
+numba is imported here only, on the first call of a kernel (never by importing this module),
+and only for jobs big enough to pay for loading it (:func:`backend`); each loop is compiled
+once and cached on disk (``cache=True``). ``TRACKER_NUMBA=0`` in the environment, or
+:func:`use`, selects the numpy implementations.
+
+The two implementations agree to rounding: the screen (:func:`fine_screen`) runs in float32
+with numpy and in float64 compiled (the cone it tests has degrees of margin, so both keep
+every step a pass can be in); the root solver (:func:`solve_cubic`) takes the same Newton and
+bisection steps, per bracket, in both.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import os
+import sys
+import threading
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from tracker.batch import geometry as geo
+
+EARTH_ROTATION_RAD_S = geo.EARTH_ROTATION_RAD_S
+
+_backend: str | None = None  # chosen by use(); None: automatic (see backend())
+_worth_compiling = False  # a job big enough to pay numba's fixed cost was announced
+_compiled: dict[str, Any] = {}
+_compile_lock = threading.Lock()
+
+# Loading numba and the cached kernels costs about 0.7 s CPU once per process (compiling them
+# the first time, about 5 s); the kernels save about 20 us per satellite-station-day at one
+# station (less at many): from this much work on, the fixed cost is paid back.
+COMPILED_MIN_WORK = 30_000.0
+
+
+def announce_work(sat_station_days: float) -> None:
+    """Tell the automatic choice how big a job is starting (satellites x stations x days):
+    from :data:`COMPILED_MIN_WORK` on, the compiled kernels are used from then on in this
+    process."""
+    global _worth_compiling
+    if sat_station_days >= COMPILED_MIN_WORK:
+        _worth_compiling = True
+
+
+@functools.cache
+def _numba_installed() -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec("numba") is not None
+
+
+def _numba_enabled() -> bool:
+    return os.environ.get("TRACKER_NUMBA", "1") != "0" and _numba_installed()
+
+
+def backend() -> str:
+    """The implementation the kernels run: the one chosen by :func:`use`, else "numba" when
+    it is installed (and not switched off by ``TRACKER_NUMBA=0``) and either already loaded
+    or worth loading for the work announced (:func:`announce_work`), else "numpy"."""
+    if _backend is not None:
+        return _backend
+    if (_worth_compiling or "numba" in sys.modules) and _numba_enabled():
+        return "numba"
+    return "numpy"
+
+
+def use(name: str | None) -> str | None:
+    """Select the kernels' implementation ("numba", "numpy", or None: the automatic choice
+    of :func:`backend`); returns the previous choice."""
+    global _backend
+    if name not in (None, "numba", "numpy"):
+        raise ValueError(f"unknown kernel implementation {name!r}; known: numba, numpy")
+    previous, _backend = _backend, name
+    return previous
+
+
+# Functions the loops call: compiled (in place of the Python ones, which only the loops use)
+# before the first loop is.
+_HELPERS = ("_sin_el_newton", "_bracket_step")
+
+
+def _jit(name: str):
+    """The compiled form of the loop function ``name`` of this module (compiled on first use,
+    once even when threads ask at the same time; error_model "numpy": a division by zero
+    gives inf or nan, as in numpy)."""
+    fn = _compiled.get(name)
+    if fn is None:
+        with _compile_lock:
+            fn = _compiled.get(name)
+            if fn is None:
+                import numba
+
+                options = dict(cache=True, error_model="numpy")
+                for helper in _HELPERS:
+                    if not hasattr(globals()[helper], "py_func"):  # not compiled yet
+                        globals()[helper] = numba.njit(**options)(globals()[helper])
+                fn = _compiled[name] = numba.njit(**options)(globals()[name])
+    return fn
+
+
+# --- fine screening -------------------------------------------------------------------------
+
+def sub_arcs(phi, ecc, n: int, coarse_s: float):
+    """Bounds [a1, a2] (rad from the arc's start, (len(phi), n), float32) of the sub-arc each
+    of the ``n`` fine steps of coarse arcs of angle ``phi`` can sweep, for orbits of
+    eccentricity ``ecc``. float32: the cone has degrees of margin, float32 rounds at 1e-7
+    rad."""
+    f32 = np.float32
+    fine_s = coarse_s / n
+    e_eff = np.minimum(ecc + 0.002, 0.9)
+    ratio = ((1.0 + e_eff) / (1.0 - e_eff)) ** 2 * 1.01
+    w_mean = phi / coarse_s
+    w_lo, w_hi = (w_mean / ratio).astype(f32)[:, None], (w_mean * ratio).astype(f32)[:, None]
+    t_a = (np.arange(n) * fine_s).astype(f32)
+    t_b = (np.arange(1, n + 1) * fine_s).astype(f32)
+    ph_ = phi.astype(f32)[:, None]
+    a1 = np.maximum(w_lo * t_a, ph_ - w_hi * (f32(coarse_s) - t_a))
+    np.clip(a1, f32(0.0), ph_, out=a1)
+    a2 = np.minimum(w_hi * t_b, ph_ - w_lo * (f32(coarse_s) - t_b))
+    np.clip(a2, a1, ph_, out=a2)
+    return a1, a2
+
+
+def subarc_within(pa, pq, a1, a2, cos_lim):
+    """Does the sub-arc [a1, a2] (angles from A in the orbit plane, 0 <= a2 - a1 < 2 pi) come
+    within the cone around the station, i.e. does the station's largest projection on it,
+    max over a of pa cos a + pq sin a, reach ``cos_lim``? (Inputs are overwritten.)
+
+    The station's in-plane part is R (cos beta, sin beta). On the arc's middle direction m
+    (half-width w) it projects to pm = R cos(beta - m), across it to |pp| = R |sin(beta - m)|.
+    Inside the arc (|beta - m| <= w, i.e. pm >= R cos w) the largest projection is R; outside
+    it is at the nearer end, R cos(|beta - m| - w) = pm cos w + |pp| sin w. No arctangent.
+    """
+    r_in = np.sqrt(pa * pa + pq * pq)
+    mid = a1 + a2
+    mid *= 0.5
+    half = a2 - a1
+    half *= 0.5
+    cm, sm, ch, sh = np.cos(mid), np.sin(mid), np.cos(half), np.sin(half)
+    pm = pa * cm
+    pm += pq * sm
+    pq *= cm
+    pa *= sm
+    pp = np.abs(pq - pa, out=pq)
+    pp *= sh
+    pp += pm * ch
+    sub = pp >= cos_lim
+    ch *= r_in
+    sub |= (pm >= ch) & (r_in >= cos_lim)
+    return sub
+
+
+@dataclass(frozen=True)
+class StationTrack:
+    """One station's geocentric unit vector in TEME at the middle of every fine step of the
+    window: rho (cos psi, sin psi), z, with psi = GMST + longitude (float64, (K * n,))."""
+
+    psi: np.ndarray
+    rho: float
+    z: float
+
+
+def fine_screen(A, q, phi, ss, kk, ecc, n: int, coarse_s: float, track: StationTrack,
+                cos_lim, screenable, arcs=None):
+    """(C, n) booleans: the fine steps of the C candidate coarse intervals (``ss``, ``kk``)
+    whose sub-arc comes within the station's cone. ``A``, ``q`` (S, K, 3): in-plane axes,
+    ``phi`` (S, K): arc angles of every coarse interval; per satellite (S,): eccentricity,
+    cone cosine and ``screenable``. ``arcs``: :func:`sub_arcs` of the candidates when
+    already computed."""
+    if backend() == "numba":
+        out = np.empty((len(kk), n), np.bool_)
+        _jit("_fine_screen_loop")(A, q, phi, ss, kk, ecc, n, coarse_s, track.psi, track.rho,
+                                  track.z, cos_lim, screenable, out)
+        return out
+    f32 = np.float32
+    a1, a2 = sub_arcs(phi[ss, kk], ecc[ss], n, coarse_s) if arcs is None else arcs
+    K = len(track.psi) // n
+    cp = (np.cos(track.psi) * track.rho).astype(f32).reshape(K, n)[kk]
+    sp = (np.sin(track.psi) * track.rho).astype(f32).reshape(K, n)[kk]
+    A, q = A[ss, kk].astype(f32), q[ss, kk].astype(f32)
+    pa = A[:, 0, None] * cp
+    pa += A[:, 1, None] * sp
+    pa += A[:, 2, None] * f32(track.z)
+    pq = q[:, 0, None] * cp
+    pq += q[:, 1, None] * sp
+    pq += q[:, 2, None] * f32(track.z)
+    sub = subarc_within(pa, pq, a1, a2, cos_lim[ss].astype(f32)[:, None])
+    sub |= ~screenable[ss][:, None]
+    return sub
+
+
+def _fine_screen_loop(A, q, phi, ss, kk, ecc, n, coarse_s, psi, rho, z, cos_lim, screenable,
+                      out):  # pragma: no cover - compiled by numba (fine_screen's twin)
+    fine_s = coarse_s / n
+    cps = np.empty(len(psi))
+    sps = np.empty(len(psi))
+    for j in range(len(psi)):
+        cps[j] = math.cos(psi[j]) * rho
+        sps[j] = math.sin(psi[j]) * rho
+    for c in range(len(kk)):
+        si, ki = ss[c], kk[c]
+        if not screenable[si]:
+            out[c, :] = True
+            continue
+        e_eff = min(ecc[si] + 0.002, 0.9)
+        ratio = ((1.0 + e_eff) / (1.0 - e_eff)) ** 2 * 1.01
+        ph = phi[si, ki]
+        w_mean = ph / coarse_s
+        w_lo, w_hi = w_mean / ratio, w_mean * ratio
+        lim = cos_lim[si]
+        a0x, a0y, a0z = A[si, ki, 0], A[si, ki, 1], A[si, ki, 2] * z
+        q0x, q0y, q0z = q[si, ki, 0], q[si, ki, 1], q[si, ki, 2] * z
+        base = ki * n
+        for i in range(n):
+            t_a = i * fine_s
+            t_b = t_a + fine_s
+            a1 = min(max(max(w_lo * t_a, ph - w_hi * (coarse_s - t_a)), 0.0), ph)
+            a2 = min(max(min(w_hi * t_b, ph - w_lo * (coarse_s - t_b)), a1), ph)
+            cp, sp = cps[base + i], sps[base + i]
+            pa = a0x * cp + a0y * sp + a0z
+            pq = q0x * cp + q0y * sp + q0z
+            mid = 0.5 * (a1 + a2)
+            half = 0.5 * (a2 - a1)
+            cm, sm, ch = math.cos(mid), math.sin(mid), math.cos(half)
+            pm = pa * cm + pq * sm
+            if abs(pq * cm - pa * sm) * math.sin(half) + pm * ch >= lim:
+                out[c, i] = True
+            else:
+                r_in = math.sqrt(pa * pa + pq * pq)
+                out[c, i] = pm >= ch * r_in and r_in >= lim
+
+
+# --- first guesses from the samples ---------------------------------------------------------
+
+def hermite_root(f0, d0, f1, d1, h, slope: bool = False, n: int = 17):
+    """Where (fraction 0..1 of each interval) the cubic Hermite through values ``f0``, ``f1``
+    and rates ``d0``, ``d1`` at the ends of intervals ``h`` long first changes sign (its
+    slope, with ``slope``): the linear root between the first two of ``n`` samples across
+    the interval that differ in sign (the middle sample pair when none do)."""
+    s = np.linspace(0.0, 1.0, n)
+    if slope:
+        basis = np.stack([s * 0.0, s**2, s])
+    else:
+        basis = np.stack([2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s, -2 * s**3 + 3 * s**2,
+                          s**3 - s**2])
+    if backend() == "numba":
+        out = np.empty(len(f0))
+        _jit("_hermite_root_loop")(f0, d0, f1, d1, np.broadcast_to(h, np.shape(f0)), slope,
+                                   basis, s, out)
+        return out
+    if slope:
+        c1 = h * d0
+        c2 = -3 * f0 - 2 * h * d0 + 3 * f1 - h * d1
+        c3 = 2 * f0 + h * d0 - 2 * f1 + h * d1
+        p = 3 * c3[:, None] * basis[1] + 2 * c2[:, None] * s + c1[:, None]
+    else:
+        p = (f0[:, None] * basis[0] + (h * d0)[:, None] * basis[1] + f1[:, None] * basis[2]
+             + (h * d1)[:, None] * basis[3])
+    neg = p < 0
+    change = neg[:, 1:] != neg[:, :-1]
+    k = np.where(change.any(1), change.argmax(1), n // 2 - 1)
+    rows = np.arange(len(p))
+    a, b = p[rows, k], p[rows, k + 1]
+    frac = np.where(b != a, a / np.where(b != a, a - b, 1.0), 0.5)
+    return s[k] + np.clip(frac, 0.0, 1.0) * (s[k + 1] - s[k])
+
+
+def _hermite_root_loop(f0, d0, f1, d1, h, slope, basis, s, out
+                       ):  # pragma: no cover - compiled by numba (hermite_root's twin)
+    n = len(s)
+    p = np.empty(n)
+    for i in range(len(f0)):
+        c1 = c2 = c3 = 0.0
+        if slope:
+            c1 = h[i] * d0[i]
+            c2 = -3 * f0[i] - 2 * h[i] * d0[i] + 3 * f1[i] - h[i] * d1[i]
+            c3 = 2 * f0[i] + h[i] * d0[i] - 2 * f1[i] + h[i] * d1[i]
+        k = n // 2 - 1
+        for m in range(n):
+            if slope:
+                p[m] = 3 * c3 * basis[1, m] + 2 * c2 * s[m] + c1
+            else:
+                p[m] = (f0[i] * basis[0, m] + (h[i] * d0[i]) * basis[1, m]
+                        + f1[i] * basis[2, m] + (h[i] * d1[i]) * basis[3, m])
+            if m > 0 and (p[m] < 0) != (p[m - 1] < 0):
+                k = m - 1
+                break
+        a, b = p[k], p[k + 1]
+        frac = a / (a - b) if b != a else 0.5
+        if frac < 0.0:
+            frac = 0.0
+        elif frac > 1.0:
+            frac = 1.0
+        out[i] = s[k] + frac * (s[k + 1] - s[k])
+
+
+# --- refinement on the cubic interpolant ----------------------------------------------------
+
+@dataclass(frozen=True)
+class Cubic:
+    """The cubic Hermite interpolant of the TEME orbit over fine steps of ``h`` seconds, one
+    per bracket k, starting at ``t0[k]``: r(s) = ((c3 s + c2) s + c1) s + r0, s = (tau - t0)
+    / h; plus an optional first-order correction (``x_ref``, ``dr``, ``dv``: SGP4 - cubic at
+    ``x_ref``) that is zero until set.
+
+    Through the SGP4 positions and velocities at both ends of the step it is accurate to
+    ~1 km for LEO at 480 s (error ~ (omega h)^4 r / 384) and as good for slower orbits,
+    whose steps scale with the period (no SGP4 calls)."""
+
+    t0: np.ndarray
+    h: float
+    r0: np.ndarray
+    c1: np.ndarray
+    c2: np.ndarray
+    c3: np.ndarray
+    x_ref: np.ndarray
+    dr: np.ndarray
+    dv: np.ndarray
+
+    @classmethod
+    def through(cls, t0, h: float, r0, v0, r1, v1) -> Cubic:
+        d = r1 - r0
+        n = len(t0)
+        return cls(t0, h, r0, h * v0, 3 * d - h * (2 * v0 + v1), h * (v0 + v1) - 2 * d,
+                   np.zeros(n), np.zeros((n, 3)), np.zeros((n, 3)))
+
+    def __call__(self, k, tau):
+        """(r, v, a) of the uncorrected cubic of brackets ``k`` at times ``tau``."""
+        h = self.h
+        s = ((tau - self.t0[k]) / h)[:, None]
+        a0, a1, a2, a3 = self.r0[k], self.c1[k], self.c2[k], self.c3[k]
+        r = ((a3 * s + a2) * s + a1) * s + a0
+        v = ((3 * a3 * s + 2 * a2) * s + a1) / h
+        a = (6 * a3 * s + 2 * a2) / (h * h)
+        return r, v, a
+
+    def corrected(self, k, tau):
+        """Like calling it, with the correction added to r and v."""
+        r, v, a = self(k, tau)
+        r = r + self.dr[k] + self.dv[k] * (tau - self.x_ref[k])[:, None]
+        return r, v + self.dv[k], a
+
+
+@dataclass(frozen=True)
+class Sky:
+    """What turns TEME states into look angles: GMST theta0 + rate * tau (rad), station ECEF
+    positions and up, east, north unit vectors (N, 3), sin(min elevation) per station."""
+
+    theta0: float
+    theta_rate: float
+    ecef_km: np.ndarray
+    up: np.ndarray
+    east: np.ndarray
+    north: np.ndarray
+    sin_min_el: np.ndarray
+
+
+@dataclass
+class Topo:
+    """sin(elevation) and its first two time derivatives (per second) at TEME states."""
+
+    s: np.ndarray
+    s1: np.ndarray
+    s2: np.ndarray | None
+    d: tuple  # station -> satellite vector, TEME components
+    c: np.ndarray  # cos/sin of the GMST angle (for azimuths)
+    sn: np.ndarray
+
+    def el_deg(self):
+        return np.degrees(np.arcsin(np.clip(self.s, -1.0, 1.0)))
+
+    def take(self, i) -> Topo:
+        return Topo(self.s[i], self.s1[i], None if self.s2 is None else self.s2[i],
+                    tuple(x[i] for x in self.d), self.c[i], self.sn[i])
+
+    def az_deg(self, sky: Sky, st):
+        c, sn = self.c, self.sn
+        e, n = geo.station_columns(sky.east, st), geo.station_columns(sky.north, st)
+        dx, dy, dz = self.d
+        # The station's east/north axes rotated into TEME.
+        de = dx * (c * e[0] - sn * e[1]) + dy * (sn * e[0] + c * e[1])
+        dn = (dx * (c * n[0] - sn * n[1]) + dy * (sn * n[0] + c * n[1]) + dz * n[2])
+        return np.degrees(np.arctan2(de, dn)) % 360.0
+
+
+def topo(sky: Sky, st, tau, r, v, a=None) -> Topo:
+    """sin(el), d/dt and (given the acceleration ``a``) d2/dt2 of stations ``st`` (one per
+    state) at TEME states (n, 3); the station turns with the Earth in TEME. sin(el) is
+    smooth everywhere (even through the zenith), so its derivative's root is the culmination
+    and needs no arcsin."""
+    theta = sky.theta0 + sky.theta_rate * np.asarray(tau, dtype=float)
+    c, sn = np.cos(theta), np.sin(theta)
+    w = EARTH_ROTATION_RAD_S
+    o, u = geo.station_columns(sky.ecef_km, st), geo.station_columns(sky.up, st)
+    ox, oy = c * o[0] - sn * o[1], sn * o[0] + c * o[1]
+    ux, uy, uz = c * u[0] - sn * u[1], sn * u[0] + c * u[1], u[2]
+    dx, dy, dz = r[:, 0] - ox, r[:, 1] - oy, r[:, 2] - o[2]
+    vx, vy, vz = v[:, 0] + w * oy, v[:, 1] - w * ox, v[:, 2]  # relative velocity
+    inv = 1.0 / np.sqrt(dx * dx + dy * dy + dz * dz)
+    s = (dx * ux + dy * uy + dz * uz) * inv
+    ru1 = vx * ux + vy * uy + vz * uz + w * (dy * ux - dx * uy)
+    dist1 = (dx * vx + dy * vy + dz * vz) * inv
+    s1 = (ru1 - s * dist1) * inv
+    s2 = None
+    if a is not None:
+        w2 = w * w
+        ax, ay, az = a[:, 0] + w2 * ox, a[:, 1] + w2 * oy, a[:, 2]
+        ru2 = (ax * ux + ay * uy + az * uz + 2 * w * (vy * ux - vx * uy)
+               - w2 * (dx * ux + dy * uy))
+        dist2 = (vx * vx + vy * vy + vz * vz + dx * ax + dy * ay + dz * az
+                 - dist1 * dist1) * inv
+        s2 = (ru2 - 2 * s1 * dist1 - s * dist2) * inv
+    return Topo(s, s1, s2, (dx, dy, dz), c, sn)
+
+
+def newton_sin_el(s, s1, s2, sin_min, tca: bool):
+    """(g, Newton step to g's root): g = d sin(el)/dt for a culmination, else sin(el) -
+    ``sin_min`` with a second-order step (sin(el) is curved on the scale of a grazing
+    pass)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if tca:
+            return s1, s1 / s2
+        g = s - sin_min
+        step = g / s1
+        return g, step + 0.5 * s2 * step * step / s1
+
+
+def bracketed(x, step, g, lo, hi, lo_neg):
+    """The bracket narrowed by the sign of g at x, and the Newton point x - step in it
+    (bisection when the step leaves it)."""
+    same_as_lo = (g < 0) == lo_neg
+    lo = np.where(same_as_lo, x, lo)
+    hi = np.where(same_as_lo, hi, x)
+    x_new = x - step
+    bad = ~np.isfinite(x_new) | (x_new <= lo) | (x_new >= hi)
+    return np.where(bad, 0.5 * (lo + hi), x_new), lo, hi
+
+
+def solve(evaluate, lo, hi, lo_neg, guess, tol_s: float, max_it: int = 60):
+    """Root of g in each bracket [lo, hi] (g changes sign there; ``lo_neg``: g(lo) < 0), all
+    brackets at once: Newton steps (``evaluate(k, tau) -> (g, step)``), bisection when a
+    step leaves the bracket. Stops when a step is below ``tol_s``; returns the point after
+    that last step (not evaluated; quadratically closer than the step)."""
+    tau = np.clip(guess, lo, hi)
+    lo, hi = lo.copy(), hi.copy()
+    active = np.arange(len(lo))
+    for _ in range(max_it):
+        if active.size == 0:
+            break
+        x = tau[active]
+        g, step = evaluate(active, x)
+        x_new, lo[active], hi[active] = bracketed(x, step, g, lo[active], hi[active],
+                                                  lo_neg[active])
+        tau[active] = x_new
+        done = (np.abs(x_new - x) < tol_s) | (hi[active] - lo[active] < tol_s) | (g == 0)
+        active = active[~done]
+    return tau
+
+
+def solve_cubic(sky: Sky, cubic: Cubic, k, st, lo, hi, lo_neg, guess, tol_s: float,
+                tca: bool, max_it: int = 60):
+    """:func:`solve` for culminations (``tca``) or AOS/LOS of stations ``st`` without a horizon
+    mask on the (corrected) cubic of brackets ``k``: the roots of d sin(el)/dt, or of
+    sin(el) - sin(min el)."""
+    if backend() == "numba":
+        tau = np.empty(len(lo))
+        _jit("_solve_cubic_loop")(
+            sky.theta0, sky.theta_rate, sky.ecef_km, sky.up, sky.sin_min_el, cubic.t0,
+            cubic.h, cubic.r0, cubic.c1, cubic.c2, cubic.c3, cubic.x_ref, cubic.dr, cubic.dv,
+            k, st, lo, hi, lo_neg, guess, tol_s, tca, max_it, tau)
+        return tau
+
+    def evaluate(j, tau):
+        kj = k[j]
+        r, v, a = cubic.corrected(kj, tau)
+        t = topo(sky, st[j], tau, r, v, a)
+        return newton_sin_el(t.s, t.s1, t.s2, sky.sin_min_el[st[j]], tca)
+
+    return solve(evaluate, lo, hi, lo_neg, guess, tol_s, max_it)
+
+
+def _solve_cubic_loop(theta0, theta_rate, ecef, up, sin_min_el, t0, h, r0, c1, c2, c3, x_ref,
+                      dr, dv, k, st, lo_in, hi_in, lo_neg, guess, tol_s, tca, max_it,
+                      out):  # pragma: no cover - compiled by numba (solve_cubic's twin)
+    for j in range(len(lo_in)):
+        b, m = k[j], st[j]
+        lo, hi = lo_in[j], hi_in[j]
+        tau = min(max(guess[j], lo), hi)
+        for _ in range(max_it):
+            x = tau
+            # The cubic and its correction at x, per component.
+            s_ = (x - t0[b]) / h
+            dt = x - x_ref[b]
+            hh = h * h
+            rx = ((c3[b, 0] * s_ + c2[b, 0]) * s_ + c1[b, 0]) * s_ + r0[b, 0]
+            rx = rx + dr[b, 0] + dv[b, 0] * dt
+            ry = ((c3[b, 1] * s_ + c2[b, 1]) * s_ + c1[b, 1]) * s_ + r0[b, 1]
+            ry = ry + dr[b, 1] + dv[b, 1] * dt
+            rz = ((c3[b, 2] * s_ + c2[b, 2]) * s_ + c1[b, 2]) * s_ + r0[b, 2]
+            rz = rz + dr[b, 2] + dv[b, 2] * dt
+            qx = ((3 * c3[b, 0] * s_ + 2 * c2[b, 0]) * s_ + c1[b, 0]) / h + dv[b, 0]
+            qy = ((3 * c3[b, 1] * s_ + 2 * c2[b, 1]) * s_ + c1[b, 1]) / h + dv[b, 1]
+            qz = ((3 * c3[b, 2] * s_ + 2 * c2[b, 2]) * s_ + c1[b, 2]) / h + dv[b, 2]
+            gx = (6 * c3[b, 0] * s_ + 2 * c2[b, 0]) / hh
+            gy = (6 * c3[b, 1] * s_ + 2 * c2[b, 1]) / hh
+            gz = (6 * c3[b, 2] * s_ + 2 * c2[b, 2]) / hh
+            g, step, _s, _dx, _dy, _dz, _c, _sn = _sin_el_newton(
+                theta0, theta_rate, ecef, up, sin_min_el, m, x, (rx, ry, rz), (qx, qy, qz),
+                (gx, gy, gz), tca)
+            if (g < 0) == lo_neg[j]:
+                lo = x
+            else:
+                hi = x
+            x_new = x - step
+            if not math.isfinite(x_new) or x_new <= lo or x_new >= hi:
+                x_new = 0.5 * (lo + hi)
+            tau = x_new
+            if abs(x_new - x) < tol_s or hi - lo < tol_s or g == 0:
+                break
+        out[j] = tau
+
+
+# --- correction from SGP4's state ------------------------------------------------------------
+
+def correct(sky: Sky, idx, xa, r_s, v_s, a_s, st, lo, hi, lo_neg, tol_s: float, span_s: float,
+            tca: bool, out: tuple, newton=None):
+    """Newton steps of brackets ``idx`` from SGP4's state (``r_s``, ``v_s``, two-body
+    acceleration ``a_s``) at ``xa``, on its Taylor series, while they stay within ``span_s``
+    of ``xa`` (at most 4 after the first); each evaluated point's time, elevation, azimuth
+    and position go to ``out`` = (tau, el, az, r) at the bracket, ``lo``/``hi`` narrow in
+    place. Returns the point after the last step per bracket and whether it left the span
+    (then the Taylor series no longer holds). ``newton(st, Topo) -> (g, step)`` replaces
+    :func:`newton_sin_el` where stations have horizon masks (numpy only)."""
+    if newton is None and backend() == "numba":
+        x1, far = np.empty(len(idx)), np.empty(len(idx), np.bool_)
+        _jit("_correct_loop")(sky.theta0, sky.theta_rate, sky.ecef_km, sky.up, sky.east,
+                              sky.north, sky.sin_min_el, idx, xa, r_s, v_s, a_s, st, lo, hi,
+                              lo_neg, tol_s, span_s, tca, *out, x1, far)
+        return x1, far
+    if newton is None:
+        def newton(st_k, t):
+            return newton_sin_el(t.s, t.s1, t.s2, sky.sin_min_el[st_k], tca)
+    tau, el, az, r_out = out
+    st_a = st[idx]
+    g, step = newton(st_a, topo(sky, st_a, xa, r_s, v_s, a_s))
+    x1, lo[idx], hi[idx] = bracketed(xa, step, g, lo[idx], hi[idx], lo_neg[idx])
+    near = np.flatnonzero(np.abs(x1 - xa) <= span_s)
+    far = np.abs(x1 - xa) > span_s
+    for _it in range(4):
+        if near.size == 0:
+            break
+        k = idx[near]
+        dt = (x1[near] - xa[near])[:, None]
+        a_n = a_s[near]
+        r1 = r_s[near] + (v_s[near] + 0.5 * a_n * dt) * dt
+        t1 = topo(sky, st[k], x1[near], r1, v_s[near] + a_n * dt, a_n)
+        tau[k], r_out[k] = x1[near], r1
+        el[k], az[k] = t1.el_deg(), t1.az_deg(sky, st[k])
+        g1, step1 = newton(st[k], t1)
+        x2, lo[k], hi[k] = bracketed(x1[near], step1, g1, lo[k], hi[k], lo_neg[k])
+        more = ~(np.abs(step1) <= tol_s) & (g1 != 0) & (hi[k] - lo[k] >= tol_s)
+        x1[near] = x2
+        leave = more & (np.abs(x2 - xa[near]) > span_s)
+        far[near[leave]] = True
+        near = near[more & ~leave]
+    return x1, far
+
+
+def _sin_el_newton(theta0, theta_rate, ecef, up, sin_min, m, x, r, v, a, tca
+                   ):  # pragma: no cover - compiled by numba (topo + newton_sin_el)
+    """(g, step, s, dx, dy, dz, c, sn) of station ``m`` at time ``x`` and TEME state r, v, a
+    (3-tuples): :func:`topo` and :func:`newton_sin_el` for one point."""
+    w = EARTH_ROTATION_RAD_S
+    w2 = w * w
+    theta = theta0 + theta_rate * x
+    c, sn = math.cos(theta), math.sin(theta)
+    ox, oy = c * ecef[m, 0] - sn * ecef[m, 1], sn * ecef[m, 0] + c * ecef[m, 1]
+    oz = ecef[m, 2]
+    ux, uy, uz = c * up[m, 0] - sn * up[m, 1], sn * up[m, 0] + c * up[m, 1], up[m, 2]
+    dx, dy, dz = r[0] - ox, r[1] - oy, r[2] - oz
+    vx, vy, vz = v[0] + w * oy, v[1] - w * ox, v[2]
+    inv = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
+    s = (dx * ux + dy * uy + dz * uz) * inv
+    ru1 = vx * ux + vy * uy + vz * uz + w * (dy * ux - dx * uy)
+    dist1 = (dx * vx + dy * vy + dz * vz) * inv
+    s1 = (ru1 - s * dist1) * inv
+    ax, ay, az = a[0] + w2 * ox, a[1] + w2 * oy, a[2]
+    ru2 = (ax * ux + ay * uy + az * uz + 2 * w * (vy * ux - vx * uy)
+           - w2 * (dx * ux + dy * uy))
+    dist2 = (vx * vx + vy * vy + vz * vz + dx * ax + dy * ay + dz * az
+             - dist1 * dist1) * inv
+    s2 = (ru2 - 2 * s1 * dist1 - s * dist2) * inv
+    if tca:
+        g = s1
+        step = s1 / s2
+    else:
+        g = s - sin_min[m]
+        step = g / s1
+        step = step + 0.5 * s2 * step * step / s1
+    return g, step, s, dx, dy, dz, c, sn
+
+
+def _correct_loop(theta0, theta_rate, ecef, up, east, north, sin_min, idx, xa, r_s, v_s, a_s,
+                  st, lo, hi, lo_neg, tol_s, span_s, tca, tau, el, az, r_out, x1_out, far_out
+                  ):  # pragma: no cover - compiled by numba (correct's twin)
+    deg = 180.0 / math.pi
+    for j in range(len(idx)):
+        b = idx[j]
+        m = st[b]
+        x0 = xa[j]
+        r = (r_s[j, 0], r_s[j, 1], r_s[j, 2])
+        v = (v_s[j, 0], v_s[j, 1], v_s[j, 2])
+        a = (a_s[j, 0], a_s[j, 1], a_s[j, 2])
+        g, step, s, dx, dy, dz, c, sn = _sin_el_newton(theta0, theta_rate, ecef, up, sin_min,
+                                                       m, x0, r, v, a, tca)
+        x1 = _bracket_step(x0, step, g, lo, hi, lo_neg, b)
+        far = abs(x1 - x0) > span_s
+        if not far:
+            look = (s, dx, dy, dz, c, sn)
+            for _it in range(4):
+                dt = x1 - x0
+                r1 = (r[0] + (v[0] + 0.5 * a[0] * dt) * dt,
+                      r[1] + (v[1] + 0.5 * a[1] * dt) * dt,
+                      r[2] + (v[2] + 0.5 * a[2] * dt) * dt)
+                v1 = (v[0] + a[0] * dt, v[1] + a[1] * dt, v[2] + a[2] * dt)
+                g1, step1, s, dx, dy, dz, c, sn = _sin_el_newton(
+                    theta0, theta_rate, ecef, up, sin_min, m, x1, r1, v1, a, tca)
+                tau[b] = x1
+                r_out[b, 0], r_out[b, 1], r_out[b, 2] = r1
+                look = (s, dx, dy, dz, c, sn)
+                x2 = _bracket_step(x1, step1, g1, lo, hi, lo_neg, b)
+                more = not (abs(step1) <= tol_s) and g1 != 0 and hi[b] - lo[b] >= tol_s
+                x1 = x2
+                if more and abs(x2 - x0) > span_s:
+                    far = True
+                    break
+                if not more:
+                    break
+            # The look angles of the last point evaluated (the one in tau[b]).
+            s, dx, dy, dz, c, sn = look
+            el[b] = math.asin(min(max(s, -1.0), 1.0)) * deg
+            de = (dx * (c * east[m, 0] - sn * east[m, 1])
+                  + dy * (sn * east[m, 0] + c * east[m, 1]))
+            dn = (dx * (c * north[m, 0] - sn * north[m, 1])
+                  + dy * (sn * north[m, 0] + c * north[m, 1]) + dz * north[m, 2])
+            az[b] = (math.atan2(de, dn) * deg) % 360.0
+        x1_out[j] = x1
+        far_out[j] = far
+
+
+def _bracket_step(x, step, g, lo, hi, lo_neg, b
+                  ):  # pragma: no cover - compiled by numba (bracketed for one point)
+    """:func:`bracketed` for bracket ``b`` (``lo``, ``hi`` narrowed in place)."""
+    if (g < 0) == lo_neg[b]:
+        lo[b] = x
+    else:
+        hi[b] = x
+    x_new = x - step
+    if not math.isfinite(x_new) or x_new <= lo[b] or x_new >= hi[b]:
+        x_new = 0.5 * (lo[b] + hi[b])
+    return x_new
+
+
+# --- look angles of the fine samples ---------------------------------------------------------
+
+def el_rate(frames: geo.StationFrames, r_ecef, v_ecef, sel, st):
+    """Elevation (deg) and its rate (deg/s) of the samples ``sel`` of ECEF positions and
+    velocities (component tuples, as :func:`geometry.teme_to_ecef` gives them) seen from
+    stations ``st`` (one per sample): :func:`geometry.look_angles` without azimuths."""
+    if backend() == "numba":
+        el, rate = np.empty(len(sel)), np.empty(len(sel))
+        _jit("_el_rate_loop")(*r_ecef, *v_ecef, sel, st, frames.ecef_km, frames.up, el, rate)
+        return el, rate
+    el, _, rate = geo.look_angles(tuple(c[sel] for c in r_ecef), tuple(c[sel] for c in v_ecef),
+                                  frames, st, False)
+    return el, rate
+
+
+def _el_rate_loop(x, y, z, vx, vy, vz, sel, st, ecef, up, el, rate
+                  ):  # pragma: no cover - compiled by numba (el_rate's twin)
+    deg = 180.0 / math.pi
+    for j in range(len(sel)):
+        i, m = sel[j], st[j]
+        dx, dy, dz = x[i] - ecef[m, 0], y[i] - ecef[m, 1], z[i] - ecef[m, 2]
+        u0, u1, u2 = up[m, 0], up[m, 1], up[m, 2]
+        ru = dx * u0 + dy * u1 + dz * u2
+        dist2 = dx * dx + dy * dy + dz * dz
+        inv = 1.0 / math.sqrt(dist2)
+        sin_el = min(max(ru * inv, -1.0), 1.0)
+        el[j] = math.asin(sin_el) * deg
+        vu = vx[i] * u0 + vy[i] * u1 + vz[i] * u2
+        rv = dx * vx[i] + dy * vy[i] + dz * vz[i]
+        d_sin = (vu - ru * rv / dist2) * inv
+        rate[j] = d_sin / math.sqrt(max(1.0 - sin_el * sin_el, 1e-12)) * deg
+
+
+# --- the near-miss test of maxima ------------------------------------------------------------
+
+def peak_bound_deg(theta0: float, theta_rate: float, frames: geo.StationFrames, idx, st, tau, r,
+                   r_apo, h: float, margin_rad: float) -> np.ndarray:
+    """Upper bound of the (geocentric) elevation between samples ``idx`` and ``idx + 1``
+    (TEME positions ``r`` at times ``tau``, ``h`` seconds apart, of satellites with apogee
+    radius ``r_apo``, seen from stations ``st``; GMST theta0 + theta_rate * tau).
+
+    The satellite stays on the great-circle arc between its two directions (as in the
+    screening), so its geocentric angle from the station is at least the arc's distance from
+    the station (less the station's own motion in half a step and ``margin_rad``); elevation
+    grows with that angle shrinking and with the radius (bounded by the larger end + 50 km,
+    or apogee).
+    """
+    if backend() == "numba":
+        out = np.empty(len(idx))
+        _jit("_peak_bound_loop")(theta0, theta_rate, frames.unit, frames.cos_lat,
+                                 frames.radius_km, idx, st, tau, r, r_apo, h, margin_rad, out)
+        return out
+    st, tau0, r0, r1, r_apo = st[idx], tau[idx], r[idx], r[idx + 1], r_apo[idx]
+    n0 = np.linalg.norm(r0, axis=-1)
+    n1 = np.linalg.norm(r1, axis=-1)
+    a, b = r0 / n0[:, None], r1 / n1[:, None]
+    hv = np.cross(a, b)
+    sin_ab = np.linalg.norm(hv, axis=-1)
+    h_hat = hv / np.maximum(sin_ab, 1e-12)[:, None]
+    q = np.cross(h_hat, a)
+    theta = theta0 + theta_rate * (tau0 + 0.5 * h)
+    c, s = np.cos(theta), np.sin(theta)
+    u = geo.station_columns(frames.unit, st)
+    p = np.stack([c * u[0] - s * u[1], s * u[0] + c * u[1], u[2] + 0.0 * c], -1)
+    pa, pb = np.einsum("ij,ij->i", a, p), np.einsum("ij,ij->i", b, p)
+    ph, pq = np.einsum("ij,ij->i", h_hat, p), np.einsum("ij,ij->i", q, p)
+    alpha = np.arctan2(pq, pa)
+    in_arc = (alpha >= 0) & (alpha <= np.arctan2(sin_ab, np.einsum("ij,ij->i", a, b)))
+    psi = np.where(in_arc, np.arcsin(np.clip(np.abs(ph), 0, 1)),
+                   np.arccos(np.clip(np.maximum(pa, pb), -1, 1)))
+    psi = np.maximum(psi - EARTH_ROTATION_RAD_S * h / 2 * frames.cos_lat[st] - margin_rad, 0.0)
+    r_hi = np.minimum(np.maximum(n0, n1) + 50.0, np.maximum(r_apo, np.maximum(n0, n1)))
+    return np.degrees(np.arctan2(np.cos(psi) - frames.radius_km[st] / r_hi, np.sin(psi)))
+
+
+def _peak_bound_loop(theta0, theta_rate, unit, cos_lat, radius_km, idx, st, tau, r, r_apo, h,
+                     margin_rad, out):  # pragma: no cover - compiled by numba (its twin)
+    deg = 180.0 / math.pi
+    for j in range(len(idx)):
+        i = idx[j]
+        m = st[i]
+        n0 = math.sqrt(r[i, 0] * r[i, 0] + r[i, 1] * r[i, 1] + r[i, 2] * r[i, 2])
+        n1 = math.sqrt(r[i + 1, 0] * r[i + 1, 0] + r[i + 1, 1] * r[i + 1, 1]
+                       + r[i + 1, 2] * r[i + 1, 2])
+        a0, a1, a2 = r[i, 0] / n0, r[i, 1] / n0, r[i, 2] / n0
+        b0, b1, b2 = r[i + 1, 0] / n1, r[i + 1, 1] / n1, r[i + 1, 2] / n1
+        h0, h1, h2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+        sin_ab = math.sqrt(h0 * h0 + h1 * h1 + h2 * h2)
+        k = max(sin_ab, 1e-12)
+        h0, h1, h2 = h0 / k, h1 / k, h2 / k
+        q0, q1, q2 = h1 * a2 - h2 * a1, h2 * a0 - h0 * a2, h0 * a1 - h1 * a0
+        theta = theta0 + theta_rate * (tau[i] + 0.5 * h)
+        c, s = math.cos(theta), math.sin(theta)
+        u0, u1, u2 = unit[m, 0], unit[m, 1], unit[m, 2]
+        p0, p1, p2 = c * u0 - s * u1, s * u0 + c * u1, u2
+        pa = a0 * p0 + a1 * p1 + a2 * p2
+        pb = b0 * p0 + b1 * p1 + b2 * p2
+        ph = h0 * p0 + h1 * p1 + h2 * p2
+        pq = q0 * p0 + q1 * p1 + q2 * p2
+        alpha = math.atan2(pq, pa)
+        if alpha >= 0 and alpha <= math.atan2(sin_ab, a0 * b0 + a1 * b1 + a2 * b2):
+            psi = math.asin(min(abs(ph), 1.0))
+        else:
+            psi = math.acos(min(max(max(pa, pb), -1.0), 1.0))
+        psi = max(psi - EARTH_ROTATION_RAD_S * h / 2 * cos_lat[m] - margin_rad, 0.0)
+        r_hi = min(max(n0, n1) + 50.0, max(r_apo[i], max(n0, n1)))
+        out[j] = math.atan2(math.cos(psi) - radius_km[m] / r_hi, math.sin(psi)) * deg
