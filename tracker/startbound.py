@@ -174,17 +174,30 @@ class _Sky:
         return dot >= 0.0
 
 
-def _initial(grid_az: _Grid, grid_el: _Grid, box: np.ndarray, park: tuple[float, float]
-             ) -> np.ndarray:
+def _initial(grid_az: _Grid, grid_el: _Grid, box: tuple[int, int, int, int],
+             park: tuple[float, float]) -> np.ndarray:
     """Onsets before AOS per state at AOS (item 5): 0 for an axis at rest on park's cell."""
     costs = []
-    for grid, (a, b), p in ((grid_az, box[0:2], park[0]), (grid_el, box[2:4], park[1])):
+    for grid, a, b, p in ((grid_az, box[0], box[1], park[0]),
+                          (grid_el, box[2], box[3], park[1])):
         c = np.ones((3, b - a), dtype=np.float32)
         k = int(grid.index(np.array([p]))[0]) - a
         if 0 <= k < b - a:
             c[_REST, k] = 0.0
         costs.append(c)
     return (costs[0][:, None, :, None] + costs[1][None, :, None, :]).astype(np.float32)
+
+
+def _trimmed(box: np.ndarray, ok: np.ndarray
+             ) -> tuple[tuple[int, int, int, int] | None, np.ndarray]:
+    """The box cut to the cells of it that are feasible (``ok``), and ``ok`` cut alike;
+    None when none is."""
+    rows, cols = np.flatnonzero(ok.any(axis=1)), np.flatnonzero(ok.any(axis=0))
+    if len(rows) == 0:
+        return None, ok
+    r0, r1, c0, c1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+    a0, e0 = int(box[0]), int(box[2])
+    return (a0 + r0, a0 + r1, e0 + c0, e0 + c1), ok[r0:r1, c0:c1]
 
 
 def _paste(src: np.ndarray, origin: tuple[int, int], v: np.ndarray, at: tuple[int, int]
@@ -238,20 +251,23 @@ def start_lower_bound(spec: RotatorSpec, t_s: np.ndarray, bearing_deg: np.ndarra
                    np.asarray(el_deg)[idx], reach)
     park = park if park is not None else (spec.park_az_deg, spec.park_el_deg)
     sky = _Sky(spec, ga, ge, band_deg)
-    box = boxes[0]
-    v = _initial(ga, ge, box, park)
-    at = (int(box[0]), int(box[2]))
+    v = np.zeros((3, 3, 0, 0), dtype=np.float32)
+    at = (0, 0)
     for k, i in enumerate(idx):
-        if k:
-            box = boxes[k]
+        box, ok = _trimmed(boxes[k], sky.feasible(boxes[k], float(bearing_deg[i]),
+                                                  float(el_deg[i])))
+        if box is None:
+            return None
+        if k == 0:
+            v = _initial(ga, ge, box, park)
+        else:
             src = np.full((3, 3, box[1] - box[0] + 2 * ga.m, box[3] - box[2] + 2 * ge.m),
                           np.inf, dtype=np.float32)
             _paste(src, (box[0] - ga.m, box[2] - ge.m), v, at)
             v = _axis_step(src, ga.m)
             v = _axis_step(v.transpose(1, 0, 3, 2), ge.m).transpose(1, 0, 3, 2)
-        ok = sky.feasible(box, float(bearing_deg[i]), float(el_deg[i]))
         v = np.where(ok[None, None], v, np.float32(np.inf))
-        at = (int(box[0]), int(box[2]))
+        at = (box[0], box[2])
         if not np.isfinite(v).any():
             return None
     return int(v.min())
