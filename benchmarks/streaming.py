@@ -54,7 +54,7 @@ from tracker.geometry import MountPath, pointing_error_deg
 from tracker.mount import AxisMotor, MotorModel, drive_axis, preset
 from tracker.planner import gpredict_plan, plan_pass
 from tracker.schedule import plan_schedule
-from tracker.startbound import branch_centre, start_lower_bound
+from tracker.startbound import start_lower_bound
 from tracker.stream import StreamSettings, TrackCore, pass_window
 
 LOST_DEG = 5.0
@@ -178,8 +178,7 @@ def start_bound(track, spec, station, bound_deg: float) -> int | None:
         return 0
     _path, ts, az, el, _w = axes
     bearing, target_el = track.direction_at(ts)
-    centre_az, centre_el = branch_centre(spec, az, el, bearing, target_el)
-    return start_lower_bound(spec, ts, bearing, target_el, centre_az, centre_el, bound_deg,
+    return start_lower_bound(spec, ts, bearing, target_el, az, el, bound_deg,
                              park=(spec.park_az_deg, spec.park_el_deg))
 
 

@@ -13,7 +13,7 @@ from _stream_fakes import T0, arc_pass
 from tracker.geometry import MountPath, pointing_error_deg
 from tracker.mount import AxisMotor, MotorModel, drive_axis, preset
 from tracker.schedule import plan_schedule
-from tracker.startbound import branch_centre, start_lower_bound
+from tracker.startbound import start_lower_bound
 
 SPEC = preset("G-5500", 50)
 
@@ -128,6 +128,5 @@ def test_never_above_the_whole_pass_schedule():
     _el, n_el = drive_axis(copy.copy(motor.el), sch.t_s, sch.el_deg, ts)
     bearing, el = track.direction_at(ts)
     p_az, p_el = path.mount_at(ts)
-    centre = branch_centre(SPEC, p_az, p_el, bearing, el)
-    bound = start_lower_bound(SPEC, ts, bearing, el, *centre, 2.5, park=(az0, el0))
+    bound = start_lower_bound(SPEC, ts, bearing, el, p_az, p_el, 2.5, park=(az0, el0))
     assert bound is not None and 0.6 * (n_az + n_el) <= bound <= n_az + n_el

@@ -41,12 +41,15 @@ Why it is a lower bound (each relaxation only adds trajectories or lowers their 
    a cell path that the programme allows, at no higher cost.
 5. *Before AOS* an axis that is not at rest on park at AOS made at least one onset; nothing
    else (reach, timing) is asked of the pre-position.
-6. *The mount branch.* At each sample only the box around the target on the planner's side
-   of the zenith and nearest its mechanical azimuth is searched: every cell within the band
-   on that branch lies in it (mechanical az within w of the target's, w = asin(sin D'/cos el)
-   or all azimuths near the zenith, el within D', D' = band + a cell diagonal), so the bound
-   holds for every schedule that follows the planner's branch (the same overlap turn and
-   flip choice), which the live loop and :func:`tracker.schedule.plan_schedule` do.
+6. *The mount branch.* At each sample only a box around the target on the planner's path's
+   side of the zenith and nearest its mechanical azimuth is searched, holding every cell
+   within the band on that branch: mechanical az within w = asin(sin D'/cos el) of the
+   target's, el within D' (D' = band + a cell diagonal). Where the target is within D' of
+   the zenith (the only place a mount can pass from one side of it to the other within the
+   band) the box is one whole turn around the path's azimuth and every el on either side
+   within D', so a schedule going over the top is kept. The bound holds for every schedule
+   that follows the planner's branch (the same overlap turn and flip choice), which the live
+   loop and :func:`tracker.schedule.plan_schedule` do.
 
 The programme's value is the least cost over its paths, so it is at most the onsets, hence
 the starts, of every schedule that keeps the band. The transition min-plus product is
@@ -133,18 +136,25 @@ class _Grid:
         return self.lo + (np.arange(a, b) + 0.5) * self.h
 
 
-def _boxes(grid_az: _Grid, grid_el: _Grid, centre_az: np.ndarray, centre_el: np.ndarray,
-           target_el: np.ndarray, reach_deg: float) -> np.ndarray:
+def _boxes(spec: RotatorSpec, grid_az: _Grid, grid_el: _Grid, path_az: np.ndarray,
+           path_el: np.ndarray, bearing: np.ndarray, target_el: np.ndarray,
+           reach_deg: float) -> np.ndarray:
     """Per sample the cell box (az0, az1, el0, el1, half-open) holding every point of the
-    branch within ``reach_deg`` of the target (module doc, item 6)."""
+    path's branch within ``reach_deg`` of the target (module doc, item 6)."""
+    centre_az, centre_el = _branch_centre(spec, path_az, path_el, bearing, target_el)
     c = np.cos(np.radians(np.clip(target_el, -90.0, 90.0)))
     s = math.sin(math.radians(min(reach_deg, 90.0)))
-    w = np.where(c > s, np.degrees(np.arcsin(np.minimum(s / np.maximum(c, 1e-12), 1.0))),
-                 180.0) + grid_az.h
+    zenith = c <= s
+    w = np.where(zenith, 180.0,
+                 np.degrees(np.arcsin(np.minimum(s / np.maximum(c, 1e-12), 1.0)))) + grid_az.h
+    # Near the zenith both sides of it are within reach: one turn around the path's own az
+    # (which moves smoothly where the path goes over the top), elevations on either side.
+    centre_az = np.where(zenith, path_az, centre_az)
     el_r = reach_deg + grid_el.h
+    el_lo = np.where(zenith, target_el, centre_el) - el_r
+    el_hi = np.where(zenith, 180.0 - target_el, centre_el) + el_r
     return np.stack([grid_az.index(centre_az - w), grid_az.index(centre_az + w) + 1,
-                     grid_el.index(centre_el - el_r), grid_el.index(centre_el + el_r) + 1],
-                    axis=1)
+                     grid_el.index(el_lo), grid_el.index(el_hi) + 1], axis=1)
 
 
 class _Sky:
@@ -211,7 +221,7 @@ def _paste(src: np.ndarray, origin: tuple[int, int], v: np.ndarray, at: tuple[in
             v[:, :, a0 - at[0]:a1 - at[0], e0 - at[1]:e1 - at[1]]
 
 
-def branch_centre(spec: RotatorSpec, path_az_m_deg: np.ndarray, path_el_deg: np.ndarray,
+def _branch_centre(spec: RotatorSpec, path_az_m_deg: np.ndarray, path_el_deg: np.ndarray,
                   bearing_deg: np.ndarray, el_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The target's mechanical az / el on a path's branch: the az nearest the path's, over the
     top where the path is (el > 90)."""
@@ -223,15 +233,15 @@ def branch_centre(spec: RotatorSpec, path_az_m_deg: np.ndarray, path_el_deg: np.
 
 
 def start_lower_bound(spec: RotatorSpec, t_s: np.ndarray, bearing_deg: np.ndarray,
-                      el_deg: np.ndarray, centre_az_m_deg: np.ndarray,
-                      centre_el_deg: np.ndarray, band_deg: float,
+                      el_deg: np.ndarray, path_az_m_deg: np.ndarray,
+                      path_el_deg: np.ndarray, band_deg: float,
                       park: tuple[float, float] | None = None, cell_deg: float = 0.2,
                       stride: int = 1) -> int | None:
     """Fewest motor starts any schedule can make from rest on ``park`` (default the spec's) so
     that the great-circle error to the target (``bearing_deg``, ``el_deg`` at the uniformly
     spaced ``t_s``) stays within ``band_deg`` at every ``stride``-th sample, the mount staying
-    on the branch whose mechanical az / el the target has at ``centre_az_m_deg`` /
-    ``centre_el_deg``; None when no schedule can (module doc: the relaxations and why each
+    on the branch of the mount path at ``path_az_m_deg`` / ``path_el_deg`` (mechanical; the
+    planner's); None when no schedule can (module doc: the relaxations and why each
     keeps this a lower bound). Cells are about ``cell_deg`` wide (smaller: tighter, slower)."""
     if not spec.has_elevation:
         raise ValueError("start_lower_bound needs an az/el rotator")
@@ -247,8 +257,10 @@ def start_lower_bound(spec: RotatorSpec, t_s: np.ndarray, bearing_deg: np.ndarra
         grids.append(_Grid(lo, hi, step, max(1, round(step / cell_deg))))
     ga, ge = grids
     reach = band_deg + math.hypot(ga.h, ge.h) + _SLACK_DEG
-    boxes = _boxes(ga, ge, np.asarray(centre_az_m_deg)[idx], np.asarray(centre_el_deg)[idx],
-                   np.asarray(el_deg)[idx], reach)
+    boxes = _boxes(spec, ga, ge, np.asarray(path_az_m_deg, dtype=float)[idx],
+                   np.asarray(path_el_deg, dtype=float)[idx],
+                   np.asarray(bearing_deg, dtype=float)[idx],
+                   np.asarray(el_deg, dtype=float)[idx], reach)
     park = park if park is not None else (spec.park_az_deg, spec.park_el_deg)
     sky = _Sky(spec, ga, ge, band_deg)
     v = np.zeros((3, 3, 0, 0), dtype=np.float32)
