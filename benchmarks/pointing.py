@@ -11,7 +11,7 @@ pass. Times are a ratio against the baseline measured in the same run.
 
 Then (``--streaming also``, the default) the live loop's streaming policy flies the same
 passes, judged at equal accuracy against a Gpredict-style and a SatNOGS-style loop
-(benchmarks/streaming.py): lost-track seconds, error, motor starts, the per-axis bound;
+(benchmarks/streaming.py): lost-track seconds, error, motor starts, the lower bound on starts;
 ``--streaming only`` prints just that part.
 
 Add a policy by adding an entry to POLICIES: ``name -> fn(track, spec, station) -> MountPlan``.

@@ -23,11 +23,14 @@ simulated rotator (THE motor model, tracker.mount, G-5500 at 50 Hz rates), start
 Per deadband D, for the stream policy: lost-track seconds (error > 5 deg while up; all passes
 and the passes the planner calls followable), the share of passes whose max error is within
 D and within D + 0.25, max and p99 great-circle error over all visible time (sampled every
-0.25 s), motor starts per pass, and two clairvoyant references (tracker/schedule.py):
-the per-axis lower bound (:func:`start_bound`: each axis alone within D, knowing the future,
-pre-position from park included) and a whole-pass joint schedule that keeps the great-circle
-error within D (:func:`joint_starts`). Beside it the two peers, each tuned to the stream
-policy's p99 error at that D (the largest threshold whose p99 is within it,
+0.25 s), motor starts per pass, and two clairvoyant references: the lower bound on starts
+(:func:`start_bound`, tracker/startbound.py: no schedule on the planner's branch, knowing the
+future, keeps the great-circle error within D with fewer starts from park) with its CPU time
+per pass, and a whole-pass joint schedule that keeps it within D (:func:`joint_starts`,
+tracker/schedule.py: a schedule that exists, not a bound). Every policy that kept a pass
+within D is checked against the bound on that pass (a pass where it needed fewer starts would
+prove the bound wrong: counted as "below bound"). Beside it the two peers, each tuned to the
+stream policy's p99 error at that D (the largest threshold whose p99 is within it,
 :class:`PeerTuner`), with their starts. Each stream pass with lost seconds is listed with the
 planner's predicted loss and whether :func:`start_bound` at the lost-track limit finds it
 followable at all. CPU time (summed over the workers) is printed beside wall time. The
@@ -54,7 +57,8 @@ from tracker.aim import gpredict_aim
 from tracker.geometry import MountPath, pointing_error_deg
 from tracker.mount import AxisMotor, MotorModel, drive_axis, preset
 from tracker.planner import gpredict_plan, plan_pass
-from tracker.schedule import axis_schedule, plan_schedule
+from tracker.schedule import plan_schedule
+from tracker.startbound import start_lower_bound
 from tracker.stream import StreamSettings, TrackCore, pass_window
 
 LOST_DEG = 5.0
@@ -142,12 +146,10 @@ def fly_gpredict(track, spec, station, threshold_deg: float = 5.0, cycle_s: floa
 
 
 def _rest_start(t_s: np.ndarray, path_deg: np.ndarray, weight: np.ndarray, bound_deg: float,
-                start_deg: float | None) -> tuple[float, int] | None:
-    """Where one axis rests at AOS and the starts that took (the pre-position): on the AOS
-    point (``start_deg`` None); on ``start_deg`` (park) if that is within the bound at AOS;
-    else, after one start, on the integer point held longest from AOS. None: no point is."""
-    if start_deg is None:
-        return float(np.round(path_deg[0])), 0
+                start_deg: float) -> tuple[float, int] | None:
+    """Where one axis rests at AOS and the starts that took (the pre-position): on
+    ``start_deg`` (park) if that is within the bound at AOS; else, after one start, on the
+    integer point held longest from AOS. None: no point is."""
     if weight[0] * abs(start_deg - path_deg[0]) <= bound_deg:
         return float(start_deg), 0
     qs = np.arange(np.floor(path_deg[0]) - 12.0, np.ceil(path_deg[0]) + 13.0)
@@ -156,25 +158,6 @@ def _rest_start(t_s: np.ndarray, path_deg: np.ndarray, weight: np.ndarray, bound
     if not (leave > 0).any():
         return None
     return float(qs[int(np.argmax(leave))]), 1
-
-
-def axis_start_bound(t_s: np.ndarray, path_deg: np.ndarray, weight: np.ndarray, rate_deg_s: float,
-                     start_delay_s: float, bound_deg: float, cycle_s: float = 0.5,
-                     start_deg: float | None = None) -> int | None:
-    """Fewest motor starts one axis needs to keep ``weight * |antenna - path|`` within
-    ``bound_deg`` (None: it cannot), knowing the future (:func:`tracker.schedule.axis_schedule`).
-
-    An optimistic bound for the live loop: the other axis is assumed perfect (the
-    great-circle error is at least each axis's share of it: elevation error, and azimuth
-    error times cos(el)). The antenna starts at rest on the AOS point, or (``start_deg``:
-    where it rests before the pass, park) pre-positioned to the point held longest.
-    """
-    rest = _rest_start(t_s, path_deg, weight, bound_deg, start_deg)
-    if rest is None:
-        return None
-    cmds = axis_schedule(t_s, path_deg, weight, rate_deg_s, start_delay_s, bound_deg, rest[0],
-                         max(1, round(cycle_s / float(t_s[1] - t_s[0]))))
-    return None if cmds is None else rest[1] + len(cmds)
 
 
 def _pass_axes(track, spec, station):
@@ -189,23 +172,23 @@ def _pass_axes(track, spec, station):
     return path, ts, az, el, np.abs(np.cos(np.radians(el)))
 
 
-def start_bound(track, spec, station, bound_deg: float, from_park: bool = False) -> int | None:
-    """:func:`axis_start_bound` summed over both axes on the planner's path, AOS..LOS
-    (``from_park``: the pre-position from park counted, as the policies' starts count it)."""
+def start_bound(track, spec, station, bound_deg: float) -> int | None:
+    """The clairvoyant lower bound on motor starts from park (rotator at rest on park before
+    the pass) for a great-circle error within ``bound_deg`` at every sample AOS..LOS, on the
+    planner's branch (:func:`tracker.startbound.start_lower_bound`; its docstring has the
+    proof). None: no schedule on that branch keeps the bound."""
     axes = _pass_axes(track, spec, station)
     if axes is None:
         return 0
-    _path, ts, az, el, w = axes
-    n_az = axis_start_bound(ts, az, w, spec.az_rate_deg_s, spec.start_delay_s, bound_deg,
-                            start_deg=spec.park_az_deg if from_park else None)
-    n_el = axis_start_bound(ts, el, np.ones_like(el), spec.el_rate_deg_s, spec.start_delay_s,
-                            bound_deg, start_deg=spec.park_el_deg if from_park else None)
-    return None if n_az is None or n_el is None else n_az + n_el
+    _path, ts, az, el, _w = axes
+    bearing, target_el = track.direction_at(ts)
+    return start_lower_bound(spec, ts, bearing, target_el, az, el, bound_deg,
+                             park=(spec.park_az_deg, spec.park_el_deg))
 
 
 def joint_starts(track, spec, station, bound_deg: float) -> int | None:
     """Motor starts of :func:`tracker.schedule.plan_schedule` (great-circle error within
-    ``bound_deg``) from park: each axis pre-positioned as :func:`start_bound` does, then the
+    ``bound_deg``) from park: each axis pre-positioned by :func:`_rest_start`, then the
     whole pass planned for both axes. None when no candidate keeps the bound."""
     axes = _pass_axes(track, spec, station)
     if axes is None:
@@ -299,7 +282,7 @@ def summarise(rows: list[dict], followable: np.ndarray, deadband_deg: float) -> 
             "in_db25": float(np.mean(per_max <= deadband_deg + 0.25 + 1e-9)),
             "starts": sum(r["starts"] for r in rows), "starts_pp": sum(
                 r["starts"] for r in rows) / n,
-            "per_pass_starts": np.array([r["starts"] for r in rows])}
+            "per_pass_starts": np.array([r["starts"] for r in rows]), "per_pass_max": per_max}
 
 
 class PeerTuner:
@@ -455,14 +438,35 @@ def _fly_peer_pass(sp, spec, name: str, threshold_deg: float, t_start: float
     return row, time.process_time() - c0
 
 
-def _pass_bound(sp, spec, deadband_deg: float) -> int | None:
-    """:func:`start_bound` of one pass (from park) at one deadband."""
-    return start_bound(sp.track, spec, sp.station, deadband_deg, from_park=True)
+def _pass_bound(sp, spec, deadband_deg: float) -> tuple[int | None, float]:
+    """:func:`start_bound` of one pass (from park) at one deadband, and its CPU time."""
+    c0 = time.process_time()
+    return start_bound(sp.track, spec, sp.station, deadband_deg), time.process_time() - c0
 
 
 def _pass_joint(sp, spec, deadband_deg: float, joint: bool) -> int | None:
     """:func:`joint_starts` of one pass at one deadband (None without ``joint``)."""
     return joint_starts(sp.track, spec, sp.station, deadband_deg) if joint else None
+
+
+def _below_bound(r: dict, joint: list, bounds: list, deadband_deg: float) -> dict:
+    """Per policy: (passes it kept within the deadband, passes among them where it made fewer
+    starts than the bound or the bound called it impossible). Any of the latter would prove
+    the bound wrong."""
+    b = np.array([np.inf if x is None else x for x in bounds], dtype=float)
+    within = r["per_pass_max"] <= deadband_deg + 1e-9
+    out = {"stream": (int(within.sum()), int(np.sum(within & (r["per_pass_starts"] < b))))}
+    if "schedule" in r:
+        a = r["schedule"]
+        w = a["per_pass_max"] <= deadband_deg + 1e-9
+        out["stream+schedule"] = (int(w.sum()), int(np.sum(w & (a["per_pass_starts"] < b))))
+    j = np.array([np.nan if x is None else x for x in joint], dtype=float)
+    has = np.isfinite(j)
+    out["joint schedule"] = (int(has.sum()), int(np.sum(has & (j < b))))
+    for name, (_th, pr) in r["peers"].items():
+        w = pr["per_pass_max"] <= deadband_deg + 1e-9
+        out[name] = (int(w.sum()), int(np.sum(w & (pr["per_pass_starts"] < b))))
+    return out
 
 
 def compare(suite, spec, deadbands: list[float], peers: bool = True, joint: bool = True,
@@ -471,7 +475,7 @@ def compare(suite, spec, deadbands: list[float], peers: bool = True, joint: bool
     clairvoyant bound and (``joint``) the joint schedule's starts, and (``peers``) each peer policy
     tuned to the stream policy's p99 error. Returns a result per deadband plus the lossy
     stream passes (policy, target, station, max el, lost s, planner-predicted lost s,
-    whether :func:`start_bound` finds each axis able to keep within the lost-track limit).
+    whether :func:`start_bound` finds any schedule able to keep within the lost-track limit).
     ``workers`` processes share the passes (the same results as one)."""
     passes = PassMap(suite, workers)
     try:
@@ -505,7 +509,9 @@ def _compare(suite, spec, deadbands: list[float], peers: bool, joint: bool, sche
     for d in deadbands:
         r = summarise(rows[d], followable, d)
         r["cpu_s"] = cpu[d]
-        bounds = passes.map(_pass_bound, [(spec, d)] * len(suite))
+        timed = passes.map(_pass_bound, [(spec, d)] * len(suite))
+        bounds = [b for b, _cpu in timed]
+        r["bound_cpu_pp"] = sum(c for _b, c in timed) / max(len(suite), 1)
         feasible = np.array([b is not None for b in bounds])
         r["bound_pp"] = float(np.mean([b for b in bounds if b is not None])) if any(
             feasible) else float("nan")
@@ -526,6 +532,7 @@ def _compare(suite, spec, deadbands: list[float], peers: bool, joint: bool, sche
                 if any(feasible) else float("nan")
             r["schedule"] = a
         r["peers"] = {name: tu.tuned(r["p99"], d) for name, tu in tuners.items()}
+        r["below_bound"] = _below_bound(r, refs, bounds, d)
         out["deadbands"][d] = r
     out["peer_cpu"] = {name: tu.cpu_s for name, tu in tuners.items()}
     return out
@@ -540,18 +547,24 @@ def print_results(res: dict, n_passes: int) -> None:
           "per deadband:")
     print(f"{'D deg':>6}{'lost s':>8}{'lost fol.':>10}{'in D %':>8}{'in D+.25%':>10}"
           f"{'max':>7}{'p99':>7}{'starts/pass':>12}{'bound':>7}{'x bound':>8}"
-          f"{'joint':>7}{'x joint':>8}{'cpu s':>7}")
+          f"{'joint':>7}{'x joint':>8}{'cpu s':>7}{'bound cpu s/pass':>17}")
     for d, r in res["deadbands"].items():
         print(f"{d:>6g}{r['lost_s']:>8.1f}{r['lost_followable_s']:>10.1f}"
               f"{100 * r['in_db']:>8.1f}{100 * r['in_db25']:>10.1f}{r['max']:>7.2f}"
               f"{r['p99']:>7.2f}{r['starts_pp']:>12.1f}{r['bound_pp']:>7.1f}"
               f"{r['stream_feasible_pp'] / r['bound_pp']:>8.2f}{r['joint_pp']:>7.1f}"
-              f"{r['stream_joint_pp'] / r['joint_pp']:>8.2f}{r['cpu_s']:>7.1f}")
-    print("bound: fewest starts per pass (pre-position from park included) with each axis "
-          "alone within D, knowing the future (start_bound; passes where it is feasible); "
-          "joint: a whole-pass schedule knowing the future that keeps the great-circle error "
-          "within D (tracker.schedule; a schedule that exists, not a bound); "
-          "x: our starts on the same passes over it")
+              f"{r['stream_joint_pp'] / r['joint_pp']:>8.2f}{r['cpu_s']:>7.1f}"
+              f"{r['bound_cpu_pp']:>17.2f}")
+    print("bound: the clairvoyant lower bound on starts per pass from park for a great-circle "
+          "error within D (tracker.startbound; passes where it is feasible); joint: a "
+          "whole-pass schedule knowing the future that keeps the great-circle error within D "
+          "(tracker.schedule; a schedule that exists, not a bound); x: our starts on the same "
+          "passes over it")
+    print("the bound checked against every policy on every pass it kept within D "
+          "(passes within D / passes with fewer starts than the bound: must be 0):")
+    for d, r in res["deadbands"].items():
+        print(f"  D={d:g}: " + "; ".join(f"{name} {n} / {bad}"
+                                        for name, (n, bad) in r["below_bound"].items()))
     if any("schedule" in r for r in res["deadbands"].values()):
         print("with the whole-pass schedule (StreamSettings(planned_schedule=True)), same run:")
         for d, r in res["deadbands"].items():
@@ -587,7 +600,7 @@ def print_results(res: dict, n_passes: int) -> None:
         why = ("the planner predicts loss too" if plan_lost_s > 0 else
                "FOLLOWABLE by the planner's prediction")
         bound = ("feasible knowing the future" if feasible else
-                 "INFEASIBLE: an axis cannot keep within 5 deg even knowing the future")
+                 "INFEASIBLE: no schedule on the planner's branch keeps within 5 deg")
         print(f"  lossy {name}: {target} from {station}, max el {max_el:.1f}: lost "
               f"{lost_s:.2f} s; planner predicts {plan_lost_s:.1f} s ({why}); clairvoyant "
               f"bound: {bound}")
