@@ -32,6 +32,8 @@ from tracker.batch.output import (
 from tracker.errors import ConfigError
 
 ROWS_PER_GROUP = 20_000  # passes per Parquet row group (as tracker batch writes a file)
+# After a failed chunk, how long the chunks still running may take to finish their parts.
+SETTLE_TIMEOUT_S = 600.0
 
 
 def _lines_of(elements) -> list[tuple[str, str, str]]:
@@ -184,6 +186,7 @@ def _write_parts(client, folder: Path, force: bool, lines, chunk_sats: int, boun
     from tracker.export import error_records
 
     tmp = new_parts_folder(folder)
+    futures: list = []
     try:
         futures = [client.submit(_write_chunk, k, a, lines[a:a + chunk_sats], stations,
                                  *search, tmp, *output, pure=False)
@@ -194,10 +197,30 @@ def _write_parts(client, folder: Path, force: bool, lines, chunk_sats: int, boun
                     elapsed_s=round(time.perf_counter() - t0, 3))
         write_common_metadata(tmp, meta, error_records(errors))
         commit_parts_folder(tmp, folder, force)
-    except BaseException:
+    except BaseException as e:
+        _settle(client, futures, wait_for_running=isinstance(e, Exception))
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return results
+
+
+def _settle(client, futures: list, wait_for_running: bool) -> None:
+    """Keep every chunk from writing into the temporary folder once it is removed. A running
+    chunk cannot be stopped (it is a thread, or a task on another worker), so after an error
+    every chunk is waited for (up to ``SETTLE_TIMEOUT_S``), else a part could land in a
+    folder being deleted and keep it alive. On Ctrl-C the chunks are cancelled, not waited
+    for."""
+    if not futures:
+        return
+    from distributed import wait
+
+    if wait_for_running:
+        try:
+            wait(futures, timeout=SETTLE_TIMEOUT_S)
+            return
+        except TimeoutError:
+            pass
+    client.cancel(futures)
 
 
 def write_passes_dask(elements, stations, start: datetime, end: datetime, folder,
