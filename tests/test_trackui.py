@@ -130,6 +130,7 @@ def test_ctrl_c_on_the_live_panel_is_not_echoed_and_the_echo_comes_back(tmp_path
     import os
     import pty
     import select
+    import signal
     import struct
     import sys
     import termios
@@ -143,6 +144,9 @@ def test_ctrl_c_on_the_live_panel_is_not_echoed_and_the_echo_comes_back(tmp_path
     env.pop("TRACKER_CONFIG", None)
     pid, master = pty.fork()
     if pid == 0:    # the child: the pty is its controlling terminal, so ^C is a SIGINT
+        # A suite started as a background job inherits SIGINT ignored (exec keeps that); a
+        # user at a terminal has it on.
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
         os.execve(sys.executable, [sys.executable, "-m", "tracker", "track", "ISS (ZARYA)"],
                   env)
     fcntl.ioctl(master, termios.TIOCSWINSZ, struct.pack("HHHH", 30, 100, 0, 0))
