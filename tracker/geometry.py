@@ -345,13 +345,8 @@ class MountPath:
         a scalar path (the live loop's per-cycle checks) that gives a float."""
         if isinstance(t_s, float) and isinstance(az_m_deg, float) and isinstance(
                 el_deg, float):
-            looks, targets = self._scalar_memo
-            here = looks.get((az_m_deg, el_deg))
-            if here is None:
-                here = azel_to_enu_scalar((az_m_deg + self.stop_bearing_deg) % 360.0, el_deg)
-                if len(looks) >= _MEMO_SIZE:
-                    looks.clear()
-                looks[az_m_deg, el_deg] = here
+            targets = self._scalar_memo[1]
+            here = self._mount_enu(az_m_deg, el_deg)
             there = targets.get(t_s)
             if there is None:
                 there = self._target_enu_scalar(t_s)
@@ -361,6 +356,17 @@ class MountPath:
             return angle_between_scalar_deg(here, there)
         return angle_between_deg(pointing_enu(az_m_deg, el_deg, self.stop_bearing_deg),
                                  self.target_enu(t_s))
+
+    def _mount_enu(self, az_m_deg: float, el_deg: float) -> tuple[float, float, float]:
+        """The boresight unit vector of a mount at floats (kept in :attr:`_scalar_memo`)."""
+        looks = self._scalar_memo[0]
+        here = looks.get((az_m_deg, el_deg))
+        if here is None:
+            here = azel_to_enu_scalar((az_m_deg + self.stop_bearing_deg) % 360.0, el_deg)
+            if len(looks) >= _MEMO_SIZE:
+                looks.clear()
+            looks[az_m_deg, el_deg] = here
+        return here
 
     @cached_property
     def _scalar_memo(self) -> tuple[dict[tuple[float, float], tuple[float, float, float]],
@@ -429,8 +435,7 @@ class MountPath:
             if err_b is None:
                 # error_deg at the sample's own time, from the sample itself
                 if here is None:
-                    here = azel_to_enu_scalar((az_m_deg + self.stop_bearing_deg) % 360.0,
-                                              el_deg)
+                    here = self._mount_enu(az_m_deg, el_deg)
                 err_b = errs[j + 1] = angle_between_scalar_deg(here, self._sample_enu(j + 1))
             if 0.5 * (err_a + err_b + (cum[j + 1] - cum[j])) > limit_deg:
                 return start_s

@@ -113,17 +113,6 @@ class MountFrame:
         """The one of :meth:`mechs_of_wire` nearest ``belief_m_deg`` (where the antenna is
         believed to be). Without a belief: the controller's own scale is trusted (a 450 deg
         controller reports 0-450), and of a bearing the lowest mechanical azimuth."""
-        if not self.wire_takes_bearing and belief_m_deg is not None:
-            # Once a live-loop cycle: mechs_of_wire's candidates, nearest first found, inline.
-            top = self.az_span_deg + 2.0
-            best, best_off = None, math.inf
-            for m in (wire_az_deg - 360.0, wire_az_deg, wire_az_deg + 360.0):
-                if -2.0 <= m <= top:
-                    off = abs(m - belief_m_deg)
-                    if off < best_off:
-                        best, best_off = m, off
-            if best is not None:
-                return best
         cands = self.mechs_of_wire(wire_az_deg)
         best = cands[0]
         if len(cands) == 1:

@@ -186,15 +186,6 @@ class AxisWatch:
         expect = self.expect
         if expect is None or self.ref_t_s is None:
             return None
-        if (readback_deg == self.ref_pos_deg and not self.send_times and not self.copy_times
-                and expect.rests_on(readback_deg)):
-            # Most cycles of a healthy pass: still on target, as the cycle before, nothing
-            # sent since: what _moved would do, minus restarting an axis that rests there.
-            self.ref_t_s = self.seg_t_s = t_s
-            self._seg_pos_deg = readback_deg
-            self.carried_deg = 0.0
-            self.still_since_s = self._told_t_s = None
-            return None
         ref_deg, target_deg = self.ref_pos_deg, expect.target_deg
         step_deg = resolution_deg - 1e-9
         moved = abs(readback_deg - ref_deg)

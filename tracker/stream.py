@@ -664,10 +664,7 @@ class TrackCore:
         if el is None or np.max(np.abs(np.sin(np.radians(el)))) > SCHEDULE_MAX_SIN_EL:
             return None
         return plan_schedule(self.path, self.motor.az, self.motor.el, t_s, end_s,
-                             self._band(), cycle)
-
-    def _band(self) -> float:
-        return self._band_deg
+                             self._band_deg, cycle)
 
     def _lead_in(self, t_s: float, last: Command, horizon_s: float = 120.0) -> Command:
         """The last pre-position move, aimed ahead on the path: resting there the antenna
@@ -690,7 +687,7 @@ class TrackCore:
         err = angle_between_deg(pointing_enu(q_az[first], q_el[first],
                                              self.path.stop_bearing_deg)[:, None],
                                 self.path.target_enu(ts)[None, :])    # (distinct position, t)
-        off = err > self._band()
+        off = err > self._band_deg
         # Held from the start of tracking: a candidate counts until the error first leaves
         # the deadband, and only if it is inside at the start.
         hold = np.where(off.any(axis=1), np.argmax(off, axis=1), len(ts))[inv.ravel()]
