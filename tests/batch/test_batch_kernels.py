@@ -64,6 +64,21 @@ def test_a_big_job_uses_the_compiled_kernels_unless_switched_off(numba_kernels):
     assert backend_after(1e9, TRACKER_NUMBA="0") == ["numpy", "False"]
 
 
+def test_a_numba_that_cannot_be_imported_leaves_the_numpy_kernels(tmp_path):
+    # installed, but refusing to load, as a numba built for an older numpy does
+    (tmp_path / "numba").mkdir()
+    (tmp_path / "numba" / "__init__.py").write_text(
+        'raise ImportError("Numba needs NumPy 2.3 or less")\n')
+    code = ("import numpy as np; from tracker.batch import kernels; "
+            "kernels.announce_work(1e9); print(kernels.backend()); "
+            "print(kernels.hermite_root(np.zeros(3), np.ones(3), np.ones(3), np.ones(3), 1.0)"
+            ".shape)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=dict(os.environ, PYTHONPATH=f"{tmp_path}{os.pathsep}{REPO}"))
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["numpy", "(3,)"]
+
+
 def test_importing_the_batch_finder_does_not_load_numba():
     code = "import sys, tracker.batch, tracker.api; print('numba' in sys.modules)"
     env = dict(os.environ, PYTHONPATH=str(REPO))

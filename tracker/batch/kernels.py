@@ -50,14 +50,18 @@ def announce_work(sat_station_days: float) -> None:
 
 
 @functools.cache
-def _numba_installed() -> bool:
-    import importlib.util
-
-    return importlib.util.find_spec("numba") is not None
+def _numba_usable() -> bool:
+    """numba imports: installed, and built for the numpy installed beside it (numba refuses
+    a numpy newer than it knows). Otherwise the numpy kernels run: same passes, slower."""
+    try:
+        import numba  # noqa: F401
+    except Exception:  # ImportError, or an install broken in any other way
+        return False
+    return True
 
 
 def _numba_enabled() -> bool:
-    return os.environ.get("TRACKER_NUMBA", "1") != "0" and _numba_installed()
+    return os.environ.get("TRACKER_NUMBA", "1") != "0" and _numba_usable()
 
 
 def backend() -> str:
