@@ -13,7 +13,7 @@ from _paths import REPO
 from tracker.errors import LimitError
 from tracker.geometry import boresight_horizon_ok, pointing_error_deg
 from tracker.mount import preset
-from tracker.planner import MountPlan, gpredict_plan, plan_pass
+from tracker.planner import MountPlan, gpredict_plan, plan_pass, rate_limited_within
 from tracker.skytrack import SkyTrack
 from tracker.station import HorizonMask, Station
 from tracker.testing import synthetic_pass
@@ -297,3 +297,21 @@ def test_real_passes_are_safe_and_exact_when_rates_allow(spec_name):
             assert no_stop_crossing_while_tracking(plan)
         if float(np.max(track.el_deg)) < 60 and plan.mode != "unwind":
             assert plan.max_error_deg <= spec.resolution_deg, (track.name, plan.mode)
+
+
+def test_a_rate_limited_path_turns_early_to_stay_within_its_band():
+    # The target jumps 40 deg at t = 20 s; around the jump the path may be 20 deg off it
+    # (as near the zenith), elsewhere 5 deg; the path turns at most 4 deg/s.
+    t = np.arange(0.0, 40.0 + 1e-9, 0.5)
+    target = np.where(t < 20.0, 0.0, 40.0)
+    band = np.where((t >= 15.0) & (t <= 25.0), 20.0, 5.0)
+    path = rate_limited_within(t, target, band, 4.0)
+    assert path is not None
+    assert np.all(np.abs(path - target) <= band + 1e-9)
+    assert np.all(np.abs(np.diff(path)) <= 4.0 * 0.5 + 1e-9)
+    # It must be at 20 when the target jumps: it leaves 0 five seconds before, not sooner ...
+    assert path[t <= 15.0].max() == 0.0 and path[t == 15.5][0] > 0.0
+    # ... and is on the target again once it can be.
+    assert np.all(path[t >= 30.0] == 40.0)
+    # Too slow to be within 5 deg of 40 at 25.5 s after 20 at 19.5 s: no path.
+    assert rate_limited_within(t, target, band, 1.0) is None

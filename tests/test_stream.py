@@ -371,6 +371,33 @@ def test_keyhole_sweep_is_followed_as_planned_without_loss():
     assert len(sweep) > 20 and np.all(np.diff(sweep) >= 0.0)
 
 
+def test_a_pass_every_other_path_loses_is_swung_ahead_and_kept_within_5_deg():
+    """MESAT1 over Munich (max el 83.4): near culmination its azimuth turns faster than a
+    G-5500 can, so the exact paths, the flip, the keyhole and the unwind all lose the target
+    (6.7 deg and worse). The swing starts the azimuth's turn early and keeps within a band of
+    the target; the live loop follows it and never loses the target."""
+    from tracker.planner import LOST_THRESHOLD_DEG
+
+    _p, track, plan = _bundled_pass("MESAT1", datetime(2026, 8, 23, 6, 30, tzinfo=timezone.utc))
+    assert plan.mode == "swing" and plan.lost_track_s == 0.0
+    others = [c for c in plan.candidates if c.mode != "swing"]
+    assert others and min(c.lost_track_s for c in others) > 0
+    clock = ManualClock(datetime.fromtimestamp(plan.preposition_t_s - 5.25, timezone.utc))
+    fake = FakeRotator(SPEC, clock, SPEC.park_az_deg, SPEC.park_el_deg)
+    core = TrackCore(plan, track, SPEC, MUNICH, StreamSettings(deadband_deg=3.0))
+    errs = []
+
+    def on_status(st):
+        if core.aos_s <= st.t_s <= core.los_s:
+            for dt in (0.0, 0.25):
+                taz, tel = track.direction_at(st.t_s + dt)
+                az, el = fake.model.position(st.t_s + dt)
+                errs.append(float(angular_separation_deg(SPEC.bearing_of(az), el, taz, tel)))
+    res = run_pass(core, Link(lambda: fake, SPEC), clock, on_status=on_status)
+    assert res.completed and len(errs) > 500
+    assert max(errs) <= LOST_THRESHOLD_DEG
+
+
 def test_a_staircase_step_cut_by_an_all_stop_is_sent_again_on_the_next_cycle():
     """Mid-sweep of a keyhole pass the rotator is stopped and the loop resyncs (as after a
     reconnect): the step the motors were sent to is not reached, so the next cycle sends it

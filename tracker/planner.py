@@ -17,6 +17,11 @@ Candidates (the stop-avoiding and zenith strategies trackers use, all scored ali
 * ``keyhole``: for near-overhead passes, azimuth held near the along-track bearing while
   elevation sweeps 0 -> 180, with a bounded azimuth correction; several bounds are tried.
 * ``unwind``: when nothing fits, the 360 deg swing is placed where it loses least.
+* ``swing``: when every other candidate loses the target (a near-overhead pass whose
+  azimuth turns faster than the rotator near culmination), the azimuth turns *ahead* of the
+  target: the path keeps within a band of it at a share of the rotator's rate, starting the
+  swing early (:func:`rate_limited_within`), upright or over the top; several bands and
+  shares are tried.
 
 Ranking: lost-track seconds, then max error (in command-resolution steps), then travel
 from the current position, then motor starts.
@@ -39,6 +44,11 @@ from tracker.station import Station
 LOST_THRESHOLD_DEG = 5.0  # half the beamwidth of a typical satellite yagi
 KEYHOLE_MIN_EL_DEG = 60.0
 KEYHOLE_CAPS_DEG = (0.0, 15.0, 40.0, 70.0)
+# The swing's azimuth keeps within a band of the target (deg of great circle) at a share of
+# the rotator's rate: what is left of the 5 deg and of the rate absorbs the start delay, the
+# 1 deg steps and the lead. On the pass suite's lossy passes no single pair kept them all.
+SWING_BANDS_DEG = (4.0, 4.5, 4.8)
+SWING_RATE_SHARES = (0.8, 0.9, 1.0)
 PREPOSITION_MARGIN_S = 10.0
 
 
@@ -405,6 +415,65 @@ def _unwind_candidate(ctx: _Ctx, bearing: np.ndarray, el: np.ndarray,
     return _best(results, spec.resolution_deg) if results else None
 
 
+def rate_limited_within(t_s: np.ndarray, target_deg: np.ndarray, half_width_deg: np.ndarray,
+                        rate_deg_s: float) -> np.ndarray | None:
+    """A path that turns at most ``rate_deg_s`` and stays within ``half_width_deg`` of
+    ``target_deg`` at every sample, as close to the target as that allows; None when no such
+    path exists.
+
+    The positions reachable at each sample under the constraints before it and after it form
+    an interval (a forward and a backward sweep of the tube); walking forward, each step goes
+    to the point of that interval, within a step's travel, nearest the target. Where the
+    target turns too fast, the path therefore starts turning early, as far ahead as needed.
+    """
+    n = len(t_s)
+    lo = (target_deg - half_width_deg).tolist()
+    hi = (target_deg + half_width_deg).tolist()
+    step = (rate_deg_s * np.diff(t_s)).tolist()
+    for i in range(1, n):
+        lo[i] = max(lo[i], lo[i - 1] - step[i - 1])
+        hi[i] = min(hi[i], hi[i - 1] + step[i - 1])
+    for i in range(n - 2, -1, -1):
+        lo[i] = max(lo[i], lo[i + 1] - step[i])
+        hi[i] = min(hi[i], hi[i + 1] + step[i])
+    if any(a > b + 1e-9 for a, b in zip(lo, hi, strict=True)):
+        return None
+    want = target_deg.tolist()
+    path = [min(max(want[0], lo[0]), hi[0])]
+    for i in range(1, n):
+        prev = path[-1]
+        path.append(min(max(want[i], lo[i], prev - step[i - 1]), hi[i], prev + step[i - 1]))
+    return np.array(path)
+
+
+def _swing_candidate(ctx: _Ctx, can_flip: bool) -> _Result | None:
+    """The best ``swing`` path (module doc): the azimuth within a band of the target's at a
+    share of the rotator's rate, on each side, turn and way round that fits the span."""
+    spec, ia, ib = ctx.spec, ctx.ia, ctx.ib
+    results = []
+    for flip in ((False, True) if can_flip else (False,)):
+        bearing = np.mod(ctx.track.az_deg + (180.0 if flip else 0.0), 360.0)
+        e = _hold(180.0 - ctx.track.el_deg if flip else ctx.track.el_deg, ia, ib)
+        cos_el = np.maximum(np.abs(np.cos(np.radians(e))), 1e-9)
+        for m_raw in _unwrapped(spec, bearing, ia, ib):
+            ks, fits = _shifts(spec, m_raw[ia:ib + 1])
+            for band in SWING_BANDS_DEG:
+                # The azimuth offset that moves the beam ``band`` deg of great circle.
+                half_width = np.degrees(np.arcsin(np.minimum(
+                    1.0, math.sin(math.radians(band)) / cos_el)))
+                for share in SWING_RATE_SHARES:
+                    path = rate_limited_within(ctx.t, m_raw, half_width,
+                                               share * spec.az_rate_deg_s)
+                    if path is None:
+                        continue
+                    for k in ks:
+                        note = (f"{'flipped, ' if flip else ''}azimuth within {band:g} deg "
+                                f"of the target at {100 * share:.0f} % of the rotator's rate")
+                        results.append(_evaluate(ctx, "swing", path + 360.0 * k, e, fits,
+                                                 note))
+    return _best(results, spec.resolution_deg) if results else None
+
+
 def _hms(t_s: float) -> str:
     return datetime.fromtimestamp(float(t_s), timezone.utc).strftime("%H:%M:%S")
 
@@ -544,6 +613,11 @@ def plan_pass(track: SkyTrack, spec: RotatorSpec, station: Station,
                 results.append(uw)
     # keep one result per mode+shift: the generators already pruned variants
     chosen = _best(results, res_deg)
+    if chosen.score.lost_track_s > 0:
+        swing = _swing_candidate(ctx, can_flip)
+        if swing is not None:
+            results.append(swing)
+            chosen = _best(results, res_deg)
     reason = _reason(ctx, chosen, results)
     return _assemble(ctx, chosen, results, reason, park)
 
@@ -596,6 +670,8 @@ def _reason(ctx: _Ctx, chosen: _Result, results: list[_Result]) -> str:
                     "azimuth stays near the along-track bearing while elevation sweeps "
                     "through the zenith"),
         "unwind": "no path fits the azimuth span, so the antenna unwinds once",
+        "swing": ("the near-overhead pass turns faster in azimuth than the rotator can, so "
+                  "the azimuth starts its turn early and keeps ahead of the target"),
     }[s.mode]
     detail = f" ({s.note})" if s.note else ""
     others = sorted((r for r in results if r is not chosen),
