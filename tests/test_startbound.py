@@ -13,7 +13,7 @@ from _stream_fakes import T0, arc_pass
 from tracker.geometry import MountPath, pointing_error_deg
 from tracker.mount import AxisMotor, MotorModel, drive_axis, preset
 from tracker.schedule import plan_schedule
-from tracker.startbound import start_lower_bound
+from tracker.startbound import branch_paths, start_lower_bound, start_lower_bound_any_branch
 
 SPEC = preset("G-5500", 50)
 
@@ -130,3 +130,72 @@ def test_never_above_the_whole_pass_schedule():
     p_az, p_el = path.mount_at(ts)
     bound = start_lower_bound(SPEC, ts, bearing, el, p_az, p_el, 2.5, park=(az0, el0))
     assert bound is not None and 0.6 * (n_az + n_el) <= bound <= n_az + n_el
+
+
+# Every branch ------------------------------------------------------------------------------
+
+
+def _overhead(band_deg: float = 2.0):
+    """A target rising straight through the zenith at 1 deg/s (el 84 -> 90 -> 84): azimuth 30
+    before, 210 after."""
+    ts = np.arange(0.0, 12.0 + 1e-9, 0.25)
+    el = 90.0 - np.abs(ts - 6.0)
+    bearing = np.where(ts <= 6.0, 30.0, 210.0)
+    return ts, bearing, el
+
+
+def test_over_the_top_is_found_where_the_upright_branch_cannot_keep_the_band():
+    ts, bearing, el = _overhead()
+    park = (30.0, 84.0)
+    # Upright, the azimuth must swing 180 deg within seconds of the zenith: no schedule.
+    assert start_lower_bound(SPEC, ts, bearing, el, np.full_like(ts, 30.0), el, 2.0,
+                             park=park) is None
+    found = start_lower_bound_any_branch(SPEC, ts, bearing, el, 2.0, park=park)
+    assert found is not None
+    starts, branch = found
+    # The elevation goes on up through 90 (in holds: the motor turns at its rate or not at
+    # all), the azimuth stays.
+    assert starts >= 1
+    assert branch == "upright, mech az 30 then over the top, mech az 30"
+
+
+def test_no_branch_keeps_a_target_faster_than_the_motor():
+    ts = np.arange(0.0, 20.0, 0.25)
+    assert start_lower_bound_any_branch(SPEC, ts, 50.0 + 8.0 * ts, np.full_like(ts, 5.0),
+                                        1.0, park=(50.0, 5.0)) is None
+
+
+def test_every_branch_is_never_above_the_brute_force_optimum():
+    ts = np.arange(0.0, 4.0 + 1e-9, 0.25)
+    az, el = 20.0 + 1.2 * ts, 10.0 + 0.8 * ts
+    best = _brute_force(ts, az, el, 1.0, (20.0, 10.0))
+    found = start_lower_bound_any_branch(SPEC, ts, az, el, 1.0, park=(20.0, 10.0))
+    assert best is not None and found is not None
+    assert 1 <= found[0] <= best
+
+
+def test_every_branch_is_never_above_one_branch():
+    track = arc_pass(duration_s=120, max_el_deg=30.0, pad_s=10)
+    path = MountPath.from_track(track, SPEC)
+    ts = np.arange(T0, T0 + 120.0 + 1e-9, 0.25)
+    bearing, el = track.direction_at(ts)
+    p_az, p_el = path.mount_at(ts)
+    park = (round(float(p_az[0])), round(float(p_el[0])))
+    one = start_lower_bound(SPEC, ts, bearing, el, p_az, p_el, 2.0, park=park)
+    found = start_lower_bound_any_branch(SPEC, ts, bearing, el, 2.0, park=park)
+    assert one is not None and found is not None
+    assert found[0] <= one
+
+
+def test_far_from_the_zenith_a_schedule_keeps_one_side_and_turn():
+    ts, bearing, el = _overhead()
+    low = el - 44.0
+    kept = branch_paths(SPEC, bearing, low, may_cross=False)
+    names = [name for name, _az, _el in kept]
+    assert names and all(" then " not in n for n in names)
+    # Either side, on the one turn that fits the 450 deg span whole.
+    assert set(names) == {"upright, mech az 30..210", "over the top, mech az 210..390"}
+    crossing = [n for n, _a, _e in branch_paths(SPEC, bearing, el)]
+    assert "upright, mech az 30 then over the top, mech az 30" in crossing
+    for _name, az, e in kept:
+        assert len(az) == len(ts) == len(e)

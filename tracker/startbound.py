@@ -50,6 +50,20 @@ Why it is a lower bound (each relaxation only adds trajectories or lowers their 
    within D', so a schedule going over the top is kept. The bound holds for every schedule
    that follows the planner's branch (the same overlap turn and flip choice), which the live
    loop and :func:`tracker.schedule.plan_schedule` do.
+7. *Every branch* (:func:`start_lower_bound_any_branch`). Away from the zenith the points
+   within reach of the target form disjoint boxes, one per side (upright, or over the top
+   at az + 180, el 180 - el) and whole turn. A schedule cannot go from one box to another
+   between two such samples: another turn is at least 180 deg of azimuth away, far more than
+   an interval's travel; the other side is 180 - e1 - e2 - 2 r deg of elevation away (e1, e2
+   the target's elevations, r the reach), so crossing within one interval's elevation travel
+   L puts the target within r + L/2 of the zenith at one of the two samples. The zenith
+   region is therefore widened to r + L/2 and searched over every mechanical azimuth and both
+   sides; taken from its first sample to its last (which holds the culmination), it is one
+   stretch, the only one where a schedule may change side or turn. So every schedule keeps
+   one side and turn before the culmination and one after it: the paths of
+   :func:`branch_paths`, each bounded as in item 6 with that region. The least of those
+   bounds is at most the starts of any schedule that keeps the band; None on every branch
+   means no schedule can.
 
 The programme's value is the least cost over its paths, so it is at most the onsets, hence
 the starts, of every schedule that keeps the band. The transition min-plus product is
@@ -136,15 +150,25 @@ class _Grid:
         return self.lo + (np.arange(a, b) + 0.5) * self.h
 
 
+def _near_zenith(target_el: np.ndarray, reach_deg: float) -> np.ndarray:
+    """Samples where the target is within ``reach_deg`` of the zenith."""
+    c = np.cos(np.radians(np.clip(target_el, -90.0, 90.0)))
+    return c <= math.sin(math.radians(min(reach_deg, 90.0)))
+
+
 def _boxes(spec: RotatorSpec, grid_az: _Grid, grid_el: _Grid, path_az: np.ndarray,
            path_el: np.ndarray, bearing: np.ndarray, target_el: np.ndarray,
-           reach_deg: float) -> np.ndarray:
+           reach_deg: float, zenith: np.ndarray | None = None) -> np.ndarray:
     """Per sample the cell box (az0, az1, el0, el1, half-open) holding every point of the
-    path's branch within ``reach_deg`` of the target (module doc, item 6)."""
+    path's branch within ``reach_deg`` of the target (module doc, item 6). ``zenith``: the
+    samples to treat as near the zenith, where every mechanical azimuth is searched (module
+    doc, item 7); by default those within reach, searched over one turn."""
     centre_az, centre_el = _branch_centre(spec, path_az, path_el, bearing, target_el)
     c = np.cos(np.radians(np.clip(target_el, -90.0, 90.0)))
     s = math.sin(math.radians(min(reach_deg, 90.0)))
-    zenith = c <= s
+    whole_span = zenith is not None
+    if zenith is None:
+        zenith = c <= s
     w = np.where(zenith, 180.0,
                  np.degrees(np.arcsin(np.minimum(s / np.maximum(c, 1e-12), 1.0)))) + grid_az.h
     # Near the zenith both sides of it are within reach: one turn around the path's own az
@@ -153,8 +177,10 @@ def _boxes(spec: RotatorSpec, grid_az: _Grid, grid_el: _Grid, path_az: np.ndarra
     el_r = reach_deg + grid_el.h
     el_lo = np.where(zenith, target_el, centre_el) - el_r
     el_hi = np.where(zenith, 180.0 - target_el, centre_el) + el_r
-    return np.stack([grid_az.index(centre_az - w), grid_az.index(centre_az + w) + 1,
-                     grid_el.index(el_lo), grid_el.index(el_hi) + 1], axis=1)
+    az0, az1 = grid_az.index(centre_az - w), grid_az.index(centre_az + w) + 1
+    if whole_span:
+        az0, az1 = np.where(zenith, 0, az0), np.where(zenith, grid_az.n, az1)
+    return np.stack([az0, az1, grid_el.index(el_lo), grid_el.index(el_hi) + 1], axis=1)
 
 
 class _Sky:
@@ -243,6 +269,100 @@ def start_lower_bound(spec: RotatorSpec, t_s: np.ndarray, bearing_deg: np.ndarra
     on the branch of the mount path at ``path_az_m_deg`` / ``path_el_deg`` (mechanical; the
     planner's); None when no schedule can (module doc: the relaxations and why each
     keeps this a lower bound). Cells are about ``cell_deg`` wide (smaller: tighter, slower)."""
+    return _least_starts(spec, t_s, bearing_deg, el_deg, path_az_m_deg, path_el_deg,
+                         band_deg, park, cell_deg, stride, any_turn=False)
+
+
+def start_lower_bound_any_branch(spec: RotatorSpec, t_s: np.ndarray, bearing_deg: np.ndarray,
+                                 el_deg: np.ndarray, band_deg: float,
+                                 park: tuple[float, float] | None = None,
+                                 cell_deg: float = 0.2, stride: int = 1
+                                 ) -> tuple[int, str] | None:
+    """:func:`start_lower_bound` over every mount branch (module doc, item 7): the fewest
+    starts of any schedule whatsoever that keeps the band, with the name of the branch that
+    allows them; None when no schedule on any branch can keep it (the rotator cannot follow
+    the target within ``band_deg``, whatever it is sent)."""
+    el = np.asarray(el_deg, dtype=float)
+    step = max(1, int(stride))
+    dt_s = float(t_s[step] - t_s[0]) if len(t_s) > step else 1.0
+    # At least the widened zenith reach of _least_starts (cells are at most 1.5 cell_deg):
+    # where not even this comes near the zenith, no schedule can change side or turn.
+    reach_deg = band_deg + 1.5 * math.sqrt(2.0) * cell_deg + 0.5 * spec.el_rate * dt_s + 0.01
+    best: tuple[int, str] | None = None
+    for name, path_az, path_el in branch_paths(spec, bearing_deg, el,
+                                               bool(_near_zenith(el, reach_deg).any())):
+        n = _least_starts(spec, t_s, bearing_deg, el, path_az, path_el, band_deg, park,
+                          cell_deg, stride, any_turn=True)
+        if n is not None and (best is None or n < best[0]):
+            best = (n, name)
+    return best
+
+
+def branch_paths(spec: RotatorSpec, bearing_deg: np.ndarray, el_deg: np.ndarray,
+                 may_cross: bool = True) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """One mount path per branch a schedule can be on (module doc, item 7): upright or over
+    the top, on each turn that reaches the limits, before the culmination and after it
+    (``(name, mechanical az, el)``). Without ``may_cross`` (the target stays far from the
+    zenith) only branches that keep one side and turn throughout."""
+    bearing = np.asarray(bearing_deg, dtype=float)
+    el = np.asarray(el_deg, dtype=float)
+    ic = int(np.argmax(el)) + 1
+    sides = {over: _side(spec, bearing, el, over) for over in (False, True)}
+    out = []
+    for over_before in (False, True):
+        m_b, e_b = sides[over_before]
+        for over_after in (False, True):
+            m_a, e_a = sides[over_after]
+            for k_before in _turns(spec, m_b[:ic]):
+                turns_after = _turns(spec, m_a[ic:]) if ic < len(el) else [k_before]
+                for k_after in turns_after:
+                    same = (over_after, k_after) == (over_before, k_before)
+                    if not (same or (may_cross and ic < len(el))):
+                        continue
+                    az = np.concatenate([m_b[:ic] + 360.0 * k_before,
+                                         m_a[ic:] + 360.0 * k_after])
+                    name = (_branch_name(over_before, az) if same else
+                            f"{_branch_name(over_before, az[:ic])} then "
+                            f"{_branch_name(over_after, az[ic:])}")
+                    out.append((name, az, np.concatenate([e_b[:ic], e_a[ic:]])))
+    return out
+
+
+def _branch_name(over: bool, az_m_deg: np.ndarray) -> str:
+    """``upright, mech az 30..210``: the side and where on the span the target is kept."""
+    a, b = round(float(az_m_deg[0])), round(float(az_m_deg[-1]))
+    return f"{'over the top' if over else 'upright'}, mech az {a}" + (f"..{b}" if b != a else "")
+
+
+def _side(spec: RotatorSpec, bearing_deg: np.ndarray, el_deg: np.ndarray, over: bool
+          ) -> tuple[np.ndarray, np.ndarray]:
+    """The target's continuous mechanical az (one unwrapping over the whole track) and el,
+    upright or over the top."""
+    look = np.mod(bearing_deg + (180.0 if over else 0.0), 360.0)
+    m = np.degrees(np.unwrap(np.radians(np.asarray(spec.mech_of(look), dtype=float))))
+    return m, (180.0 - el_deg if over else el_deg)
+
+
+def _turns(spec: RotatorSpec, m_deg: np.ndarray) -> list[int]:
+    """Whole turns k that put some of ``m_deg + 360 k`` within the azimuth limits."""
+    (az_lo, az_hi), _el = spec.axis_limits()
+    lo, hi = float(np.min(m_deg)), float(np.max(m_deg))
+    return [k for k in range(-3, 4) if hi + 360.0 * k >= az_lo and lo + 360.0 * k <= az_hi]
+
+
+def _zenith_hull(target_el: np.ndarray, reach_deg: float) -> np.ndarray:
+    """Every sample from the first to the last one within ``reach_deg`` of the zenith."""
+    near = np.flatnonzero(_near_zenith(target_el, reach_deg))
+    out = np.zeros(len(target_el), dtype=bool)
+    if len(near):
+        out[near[0]:near[-1] + 1] = True
+    return out
+
+
+def _least_starts(spec: RotatorSpec, t_s: np.ndarray, bearing_deg: np.ndarray,
+                  el_deg: np.ndarray, path_az_m_deg: np.ndarray, path_el_deg: np.ndarray,
+                  band_deg: float, park: tuple[float, float] | None, cell_deg: float,
+                  stride: int, any_turn: bool) -> int | None:
     if not spec.has_elevation:
         raise ValueError("start_lower_bound needs an az/el rotator")
     idx = np.arange(0, len(t_s), max(1, int(stride)))
@@ -257,10 +377,13 @@ def start_lower_bound(spec: RotatorSpec, t_s: np.ndarray, bearing_deg: np.ndarra
         grids.append(_Grid(lo, hi, step, max(1, round(step / cell_deg))))
     ga, ge = grids
     reach = band_deg + math.hypot(ga.h, ge.h) + _SLACK_DEG
+    target_el = np.asarray(el_deg, dtype=float)[idx]
+    # Any branch: widened by half an interval's elevation travel, so a schedule changing
+    # side between two samples is within the region at one of them (module doc, item 7).
+    zenith = _zenith_hull(target_el, reach + 0.5 * ge.m * ge.h) if any_turn else None
     boxes = _boxes(spec, ga, ge, np.asarray(path_az_m_deg, dtype=float)[idx],
                    np.asarray(path_el_deg, dtype=float)[idx],
-                   np.asarray(bearing_deg, dtype=float)[idx],
-                   np.asarray(el_deg, dtype=float)[idx], reach)
+                   np.asarray(bearing_deg, dtype=float)[idx], target_el, reach, zenith)
     park = park if park is not None else (spec.park_az_deg, spec.park_el_deg)
     sky = _Sky(spec, ga, ge, band_deg)
     v = np.zeros((3, 3, 0, 0), dtype=np.float32)
