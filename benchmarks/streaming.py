@@ -35,8 +35,8 @@ each tuned to the stream policy's p99 error at that D (the largest threshold who
 within it, :class:`PeerTuner`), with their starts. Each stream pass with lost seconds is listed
 with the planner's predicted loss and what :func:`any_branch_bound` at the lost-track limit
 says: on which branch a schedule could follow it, or that none can. ``--hard`` flies only the
-passes every exact path (normal, overlap, flip) loses, the ones that need a keyhole, a swing or
-an unwind: the 7-day suite's hard passes in minutes, ``--days 7 --max-sats 0 --sample 0
+passes every exact path (normal, overlap, flip) loses, the ones that need a keyhole, an ahead
+path or an unwind: the 7-day suite's hard passes in minutes, ``--days 7 --max-sats 0 --sample 0
 --hard``. CPU time (summed over the workers) is printed beside wall time. The decision cost per
 cycle alone: benchmarks/decision_cost.py.
 """
@@ -648,7 +648,7 @@ def print_results(res: dict, n_passes: int) -> None:
 
 def hard_passes(suite: list, spec) -> list:
     """The passes of ``suite`` where every exact path (normal, overlap, flip) planned from
-    park loses the target: those that need a keyhole, a swing or an unwind."""
+    park loses the target: those that need a keyhole, an ahead path or an unwind."""
     park = (spec.park_az_deg, spec.park_el_deg)
     exact = ("normal", "overlap", "flip")
     return [sp for sp in suite
@@ -677,7 +677,7 @@ def main(argv=None) -> int:
                     help="skip the clairvoyant joint schedule (the costliest reference)")
     ap.add_argument("--hard", action="store_true",
                     help="fly only the passes every exact path (normal, overlap, flip) loses: "
-                         "those that need a keyhole, a swing or an unwind")
+                         "those that need a keyhole, an ahead path or an unwind")
     ap.add_argument("--workers", type=int, default=1,
                     help="fly the passes in this many processes (the same results as 1)")
     args = ap.parse_args(argv)

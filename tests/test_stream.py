@@ -371,16 +371,16 @@ def test_keyhole_sweep_is_followed_as_planned_without_loss():
     assert len(sweep) > 20 and np.all(np.diff(sweep) >= 0.0)
 
 
-def test_a_pass_every_other_path_loses_is_swung_ahead_and_kept_within_5_deg():
+def test_a_pass_every_other_path_loses_is_turned_ahead_and_kept_within_5_deg():
     """MESAT1 over Munich (max el 83.4): near culmination its azimuth turns faster than a
     G-5500 can, so the exact paths, the flip, the keyhole and the unwind all lose the target
-    (6.7 deg and worse). The swing starts the azimuth's turn early and keeps within a band of
+    (6.7 deg and worse). The ahead path starts the azimuth's turn early and keeps within a band of
     the target; the live loop follows it and never loses the target."""
     from tracker.planner import LOST_THRESHOLD_DEG
 
     _p, track, plan = _bundled_pass("MESAT1", datetime(2026, 8, 23, 6, 30, tzinfo=timezone.utc))
-    assert plan.mode == "swing" and plan.lost_track_s == 0.0
-    others = [c for c in plan.candidates if c.mode != "swing"]
+    assert plan.mode == "ahead" and plan.lost_track_s == 0.0
+    others = [c for c in plan.candidates if c.mode != "ahead"]
     assert others and min(c.lost_track_s for c in others) > 0
     clock = ManualClock(datetime.fromtimestamp(plan.preposition_t_s - 5.25, timezone.utc))
     fake = FakeRotator(SPEC, clock, SPEC.park_az_deg, SPEC.park_el_deg)

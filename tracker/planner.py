@@ -17,10 +17,10 @@ Candidates (the stop-avoiding and zenith strategies trackers use, all scored ali
 * ``keyhole``: for near-overhead passes, azimuth held near the along-track bearing while
   elevation sweeps 0 -> 180, with a bounded azimuth correction; several bounds are tried.
 * ``unwind``: when nothing fits, the 360 deg swing is placed where it loses least.
-* ``swing``: when every other candidate loses the target (a near-overhead pass whose
+* ``ahead``: when every other candidate loses the target (a near-overhead pass whose
   azimuth turns faster than the rotator near culmination), the azimuth turns *ahead* of the
   target: the path keeps within a band of it at a share of the rotator's rate, starting the
-  swing early (:func:`rate_limited_within`), upright or over the top; several bands and
+  turn early (:func:`rate_limited_within`), upright or over the top; several bands and
   shares are tried.
 
 Ranking: lost-track seconds, then max error (in command-resolution steps), then travel
@@ -44,11 +44,11 @@ from tracker.station import Station
 LOST_THRESHOLD_DEG = 5.0  # half the beamwidth of a typical satellite yagi
 KEYHOLE_MIN_EL_DEG = 60.0
 KEYHOLE_CAPS_DEG = (0.0, 15.0, 40.0, 70.0)
-# The swing's azimuth keeps within a band of the target (deg of great circle) at a share of
+# The ahead path's azimuth keeps within a band of the target (deg of great circle) at a share of
 # the rotator's rate: what is left of the 5 deg and of the rate absorbs the start delay, the
 # 1 deg steps and the lead. On the pass suite's lossy passes no single pair kept them all.
-SWING_BANDS_DEG = (4.0, 4.5, 4.8)
-SWING_RATE_SHARES = (0.8, 0.9, 1.0)
+AHEAD_BANDS_DEG = (4.0, 4.5, 4.8)
+AHEAD_RATE_SHARES = (0.8, 0.9, 1.0)
 PREPOSITION_MARGIN_S = 10.0
 
 
@@ -446,8 +446,8 @@ def rate_limited_within(t_s: np.ndarray, target_deg: np.ndarray, half_width_deg:
     return np.array(path)
 
 
-def _swing_candidate(ctx: _Ctx, can_flip: bool) -> _Result | None:
-    """The best ``swing`` path (module doc): the azimuth within a band of the target's at a
+def _ahead_candidate(ctx: _Ctx, can_flip: bool) -> _Result | None:
+    """The best ``ahead`` path (module doc): the azimuth within a band of the target's at a
     share of the rotator's rate, on each side, turn and way round that fits the span."""
     spec, ia, ib = ctx.spec, ctx.ia, ctx.ib
     results = []
@@ -457,11 +457,11 @@ def _swing_candidate(ctx: _Ctx, can_flip: bool) -> _Result | None:
         cos_el = np.maximum(np.abs(np.cos(np.radians(e))), 1e-9)
         for m_raw in _unwrapped(spec, bearing, ia, ib):
             ks, fits = _shifts(spec, m_raw[ia:ib + 1])
-            for band in SWING_BANDS_DEG:
+            for band in AHEAD_BANDS_DEG:
                 # The azimuth offset that moves the beam ``band`` deg of great circle.
                 half_width = np.degrees(np.arcsin(np.minimum(
                     1.0, math.sin(math.radians(band)) / cos_el)))
-                for share in SWING_RATE_SHARES:
+                for share in AHEAD_RATE_SHARES:
                     path = rate_limited_within(ctx.t, m_raw, half_width,
                                                share * spec.az_rate_deg_s)
                     if path is None:
@@ -469,7 +469,7 @@ def _swing_candidate(ctx: _Ctx, can_flip: bool) -> _Result | None:
                     for k in ks:
                         note = (f"{'flipped, ' if flip else ''}azimuth within {band:g} deg "
                                 f"of the target at {100 * share:.0f} % of the rotator's rate")
-                        results.append(_evaluate(ctx, "swing", path + 360.0 * k, e, fits,
+                        results.append(_evaluate(ctx, "ahead", path + 360.0 * k, e, fits,
                                                  note))
     return _best(results, spec.resolution_deg) if results else None
 
@@ -614,9 +614,9 @@ def plan_pass(track: SkyTrack, spec: RotatorSpec, station: Station,
     # keep one result per mode+shift: the generators already pruned variants
     chosen = _best(results, res_deg)
     if chosen.score.lost_track_s > 0:
-        swing = _swing_candidate(ctx, can_flip)
-        if swing is not None:
-            results.append(swing)
+        ahead = _ahead_candidate(ctx, can_flip)
+        if ahead is not None:
+            results.append(ahead)
             chosen = _best(results, res_deg)
     reason = _reason(ctx, chosen, results)
     return _assemble(ctx, chosen, results, reason, park)
@@ -670,7 +670,7 @@ def _reason(ctx: _Ctx, chosen: _Result, results: list[_Result]) -> str:
                     "azimuth stays near the along-track bearing while elevation sweeps "
                     "through the zenith"),
         "unwind": "no path fits the azimuth span, so the antenna unwinds once",
-        "swing": ("the near-overhead pass turns faster in azimuth than the rotator can, so "
+        "ahead": ("the near-overhead pass turns faster in azimuth than the rotator can, so "
                   "the azimuth starts its turn early and keeps ahead of the target"),
     }[s.mode]
     detail = f" ({s.note})" if s.note else ""

@@ -158,7 +158,7 @@ def _plausible_step(spec: RotatorSpec, before: tuple[float, float | None],
 # taken on a held step lies behind the antenna (a reversal each time). There each sample's
 # rate is the highest within this many seconds either side, and the plan's commands go out
 # at the cycle nearest their planned time: the planner's prediction is the only one there.
-STAIRCASE_MODES = ("keyhole", "unwind", "swing")
+STAIRCASE_MODES = ("keyhole", "unwind", "ahead")
 STAIRCASE_RATE_WINDOW_S = 3.0
 
 

@@ -57,7 +57,7 @@ def test_batch_json_with_plans_and_visible_filter(capsys, stations, tmp_path):
     assert doc["schema"] == "rotator-tracker/passes/2"
     assert doc["meta"]["rotator"] == "G-5500"
     modes = {p["plan_mode"] for p in doc["passes"] if p["plan_mode"]}
-    assert modes and modes <= {"normal", "overlap", "flip", "keyhole", "unwind", "swing"}
+    assert modes and modes <= {"normal", "overlap", "flip", "keyhole", "unwind", "ahead"}
     assert all(p["max_el_deg"] >= 30 for p in doc["passes"])
     code, out, err = run(capsys, "batch", "amateur", "--lat", "52", "--lon", "4.37", "--at",
                          AT, "--format", "json", "--visible")

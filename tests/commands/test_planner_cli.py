@@ -31,7 +31,7 @@ def test_plan_report_lists_mode_reason_and_every_candidate(capsys):
 def test_plan_json_and_pass_number(capsys):
     assert main(["plan", "AO-7", "--pass", "2", "--format", "json", *AT]) == 0
     data = json.loads(capsys.readouterr().out)
-    assert data["mode"] in ("normal", "overlap", "flip", "keyhole", "unwind", "swing")
+    assert data["mode"] in ("normal", "overlap", "flip", "keyhole", "unwind", "ahead")
     assert data["candidates"][0]["mode"] == data["mode"]
     assert data["aos"] >= "2026-08-23"
     assert data["preposition_moves"] or data["preposition_az_deg"] == 0
