@@ -14,14 +14,14 @@ import hashlib
 import itertools
 import json
 from collections.abc import Iterable, Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import datetime
 from typing import Any
 
 import numpy as np
 
 from tracker.errors import ConfigError
-from tracker.skytrack import compass_point
+from tracker.skytrack import COMPASS_POINTS, compass_index
 from tracker.timescale import iso_utc, iso_utc_array, to_datetime
 
 JSON_SCHEMA_ID = "rotator-tracker/passes/2"
@@ -48,9 +48,17 @@ _OPTIONAL = ("plan_mode", "plan_max_error_deg", "plan_preposition", "plan_reason
 @dataclass
 class PassRecords:
     """Pass records as columns: ``columns[field]`` is an array with one entry per pass, for
-    every field of :data:`PASS_FIELDS` (object arrays holding None where a field is unset)."""
+    every field of :data:`PASS_FIELDS` (object arrays holding None where a field is unset).
+
+    ``categories[field]`` = ``(column, codes, values)`` says that ``column`` (the field's
+    column when it was built) is ``values[codes]``: CSV then formats each of the few values
+    once (a catalogue's names, the compass points) instead of every cell. It is ignored
+    once ``columns[field]`` is another array.
+    """
 
     columns: dict[str, np.ndarray]
+    categories: dict[str, tuple[np.ndarray, np.ndarray, Sequence]] = field(
+        default_factory=dict)
 
     def __len__(self) -> int:
         return len(self.columns["aos_s"])
@@ -63,7 +71,10 @@ class PassRecords:
         index = np.asarray(index)
         if index.dtype != bool:
             index = index.astype(np.intp)
-        return PassRecords({k: v[index] for k, v in self.columns.items()})
+        columns = {k: v[index] for k, v in self.columns.items()}
+        return PassRecords(columns, {k: (columns[k], codes[index], values)
+                                     for k, (column, codes, values) in self.categories.items()
+                                     if self.columns.get(k) is column})
 
     def set(self, name: str, values: Iterable) -> None:
         """Fill an optional field (``priority``, ``chosen``, ...) for every record."""
@@ -92,11 +103,14 @@ def _none(n: int) -> np.ndarray:
 
 
 def _records(target, kind, station, t_s: dict[str, np.ndarray], angles: dict[str, np.ndarray],
-             flags: dict[str, np.ndarray], plans: Sequence[dict | None] | None) -> PassRecords:
+             flags: dict[str, np.ndarray], plans: Sequence[dict | None] | None,
+             codes: dict[str, tuple[np.ndarray, Sequence]] | None = None) -> PassRecords:
     """The one builder of the record, from arrays (``t_s``: aos/tca/los; ``angles``: max_el_deg,
-    aos/tca/los_az_deg; ``flags``: :data:`_FLAGS`)."""
+    aos/tca/los_az_deg; ``flags``: :data:`_FLAGS`; ``codes``: (codes, values) of the fields
+    given as categories, see :class:`PassRecords`)."""
     n = len(t_s["aos"])
     cols: dict[str, np.ndarray] = {"target": target, "kind": kind, "station": station}
+    codes = dict(codes or {})
     for key in ("aos", "tca", "los"):
         cols[key] = iso_utc_array(t_s[key])
     for key in ("aos", "tca", "los"):
@@ -104,20 +118,27 @@ def _records(target, kind, station, t_s: dict[str, np.ndarray], angles: dict[str
     cols["duration_s"] = np.round(cols["los_s"] - cols["aos_s"], _DECIMALS["duration_s"])
     for key, value in angles.items():
         cols[key] = np.round(np.asarray(value, dtype=float), _DECIMALS[key])
-    cols["aos_compass"] = compass_point(angles["aos_az_deg"])
-    cols["los_compass"] = compass_point(angles["los_az_deg"])
+    points = np.array(COMPASS_POINTS, dtype=object)
+    for key in ("aos", "los"):
+        index = compass_index(angles[f"{key}_az_deg"])
+        cols[f"{key}_compass"] = points[index]
+        codes[f"{key}_compass"] = (index, COMPASS_POINTS)
     for key in _FLAGS:
         cols[key] = np.asarray(flags[key], dtype=bool)
+    unset = np.zeros(n, np.intp)
     for key in _OPTIONAL:
         cols[key] = _none(n)
+        codes[key] = (unset, (None,))
     if plans is not None:
+        for key in ("plan_mode", "plan_max_error_deg", "plan_preposition", "plan_reason"):
+            del codes[key]
         for i, plan in enumerate(plans):
             if plan:
                 cols["plan_mode"][i] = plan["mode"]
                 cols["plan_max_error_deg"][i] = plan["max_error_deg"]
                 cols["plan_preposition"][i] = iso_utc(plan["preposition_s"])
                 cols["plan_reason"][i] = plan.get("reason", "")
-    return PassRecords(cols)
+    return PassRecords(cols, {k: (cols[k], c, values) for k, (c, values) in codes.items()})
 
 
 def pass_records(passes, plans: Sequence[dict | None] | None = None) -> PassRecords:
@@ -135,15 +156,17 @@ def pass_records(passes, plans: Sequence[dict | None] | None = None) -> PassReco
         st = table["station"].astype(np.intp)
         aos_clipped = table["aos_clipped"].astype(bool)
         los_clipped = table["los_clipped"].astype(bool)
+        stations = [s.name for s in passes.stations]
         return _records(
             np.array(passes.names, dtype=object)[sat], np.full(n, "satellite", dtype=object),
-            np.array([s.name for s in passes.stations], dtype=object)[st],
+            np.array(stations, dtype=object)[st],
             {k: table[f"{k}_s"] for k in ("aos", "tca", "los")},
             {k: table[k] for k in ("max_el_deg", "aos_az_deg", "tca_az_deg", "los_az_deg")},
             {"sunlit": table["sunlit"], "visible": table["visible"],
              "in_progress_at_start": aos_clipped, "aos_known": ~aos_clipped,
              "los_known": ~los_clipped, "always_up": aos_clipped & los_clipped},
-            plans)
+            plans, {"target": (sat, passes.names), "kind": (np.zeros(n, np.intp), ("satellite",)),
+                    "station": (st, stations)})
     passes = list(passes)
 
     def column(get, dtype=object) -> np.ndarray:
@@ -229,8 +252,9 @@ def _csv_constant(col: np.ndarray) -> str | None:
     return _csv_text(first) if isinstance(same, np.ndarray) and same.all() else None
 
 
-def _csv_rows(records: PassRecords) -> str:
-    """The CSV rows of ``records``; runs of constant columns are joined once, not per row."""
+def _csv_rows_by_cell(records: PassRecords) -> str:
+    """The CSV rows of ``records`` joined cell by cell in Python (for text holding NUL, which
+    :func:`_csv_rows` cannot carry); runs of constant columns are joined once, not per row."""
     cols: list[Iterable[str]] = []
     run: list[str] = []
     for key in CSV_FIELDS:
@@ -247,11 +271,113 @@ def _csv_rows(records: PassRecords) -> str:
     return "\n".join(map(",".join, zip(*cols, strict=False))) + "\n"  # repeat: endless
 
 
+class _CategoryText:
+    """The CSV cells (UTF-8 bytes) of categories' values, each value list formatted once per
+    document (the same list of names comes with every part of a table)."""
+
+    def __init__(self) -> None:
+        self.known: dict[int, tuple[Sequence, np.ndarray]] = {}
+
+    def __call__(self, values: Sequence) -> np.ndarray | None:
+        hit = self.known.get(id(values))
+        if hit is not None and hit[0] is values and len(hit[1]) == len(values):
+            return hit[1]
+        cells = _utf8_cells([_csv_text(v) for v in values])
+        if cells is not None:
+            self.known[id(values)] = (values, cells)  # the reference keeps the id valid
+        return cells
+
+
+def _utf8_cells(texts: list[str]) -> np.ndarray | None:
+    """``texts`` as a numpy ``S`` array of UTF-8 bytes, or None when one holds NUL (the ``S``
+    type would strip it at the end, and :func:`_csv_rows` takes NUL for padding)."""
+    if any("\0" in t for t in texts):
+        return None
+    cells = _ascii(np.array(texts, dtype=str))
+    return cells if cells is not None else np.array([t.encode() for t in texts], dtype=bytes)
+
+
+def _ascii(text: np.ndarray) -> np.ndarray | None:
+    """A numpy ``U`` array of ASCII text as the ``S`` array of the same text, else None.
+    (Through the code points as integers: numpy's own U to S cast costs about 1 us a cell.)"""
+    points = np.ascontiguousarray(text).view(np.uint32)
+    if points.size and points.max() >= 128:
+        return None
+    return points.astype(np.uint8).view(f"S{max(text.dtype.itemsize // 4, 1)}")
+
+
+def _csv_cells(records: PassRecords, key: str, category_text: _CategoryText
+               ) -> np.ndarray | None:
+    """The cells of one column as UTF-8 bytes (a numpy ``S`` array, one per row), or None
+    for text holding NUL (the ``S`` type strips it at the end)."""
+    col = records[key]
+    cat = records.categories.get(key)
+    if cat is not None and cat[0] is col:
+        cells = category_text(cat[2])
+        return None if cells is None else cells[cat[1]]
+    if col.dtype == bool:
+        return np.where(col, b"true", b"false")
+    if col.dtype.kind == "f":
+        decimals = _DECIMALS.get(key)
+        text = None if decimals is None else _rounded_text(col, decimals)
+        return _utf8_cells(list(map(repr, col.tolist()))) if text is None else text
+    if col.dtype.kind == "U":  # ISO times: ASCII, never need quoting
+        cells = _ascii(col)
+        return cells if cells is not None else np.array([t.encode() for t in col.tolist()],
+                                                        dtype=bytes)
+    # As in _csv_column: each distinct value of an object column formatted once.
+    values = col.tolist()
+    distinct = list(set(values))
+    text = _utf8_cells([_csv_text(v) for v in distinct])
+    if text is None:
+        return None
+    index = {v: i for i, v in enumerate(distinct)}
+    return text[np.fromiter(map(index.__getitem__, values), np.intp, len(values))]
+
+
+def _rounded_text(col: np.ndarray, decimals: int) -> np.ndarray | None:
+    """:func:`_rounded_cells` as UTF-8 bytes (a numpy ``S`` array)."""
+    scale = 10.0 ** decimals
+    steps = np.rint(col * scale)
+    if not (np.all(np.isfinite(steps)) and np.all(np.abs(steps) < 2.0**52)
+            and np.array_equal(steps / scale, col) and not np.any(np.signbit(col) & (col == 0))):
+        return None
+    values, index = np.unique(steps, return_inverse=True)
+    text = _ascii(np.array(list(map(repr, (values / scale).tolist())), dtype=str))
+    return None if text is None else text[index.ravel()]
+
+
+def _csv_rows(records: PassRecords, category_text: _CategoryText | None = None) -> str:
+    """The CSV rows of ``records``, assembled as bytes column by column: each column's cells
+    are copied into a row-major byte matrix (cells padded with NUL to the column's widest),
+    commas and line ends go between, and the padding is dropped. No Python object per row."""
+    category_text = category_text or _CategoryText()
+    n = len(records)
+    if n == 0:
+        return ""
+    cells = []
+    for key in CSV_FIELDS:
+        column = _csv_cells(records, key, category_text)
+        if column is None:
+            return _csv_rows_by_cell(records)
+        cells.append(column.view(np.uint8).reshape(n, -1))
+    matrix = np.zeros((n, sum(c.shape[1] for c in cells) + len(cells)), np.uint8)
+    at = 0
+    for c in cells:
+        matrix[:, at:at + c.shape[1]] = c
+        at += c.shape[1]
+        matrix[:, at] = ord(",")
+        at += 1
+    matrix[:, -1] = ord("\n")
+    return matrix[matrix != 0].tobytes().decode("utf-8")
+
+
 def _csv_chunks(chunks: Iterable[PassRecords]) -> Iterator[str]:
     yield ",".join(CSV_FIELDS) + "\n"
+    category_text = _CategoryText()
     for records in chunks:
         if len(records):
-            yield _csv_rows(records)
+            yield _csv_rows(records, category_text)
 
 
 def to_csv(records: PassRecords) -> str:
