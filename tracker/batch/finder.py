@@ -114,8 +114,11 @@ class PassTable:
 
     @classmethod
     def concat(cls, parts: list[PassTable]) -> PassTable:
-        """Consecutive parts of one table (as :func:`iter_passes_batch` gives them) as one."""
+        """Consecutive parts of one table (as :func:`iter_passes_batch` gives them) as one
+        (a single part is returned as it is)."""
         first = parts[0]
+        if len(parts) == 1:
+            return first
         passes = np.concatenate([p.passes for p in parts])
         return cls(passes, first.names, first.stations, first.start, first.end, first.errors,
                    first.stats)
@@ -969,7 +972,8 @@ def _passes_in_parts(satrecs, names, stations, start, end, min_el_deg, *, step_s
     errors: dict[int, SatError] = {}
     stats: dict = {}
     with RowSpill(PASS_DTYPE, "aos_s", start.timestamp(), end.timestamp(),
-                  math.ceil(est_rows / budget_rows) if spill else 1) as store:
+                  math.ceil(est_rows / budget_rows) if spill else 1,
+                  rows_hint=min(est_rows, budget_rows)) as store:
         if workers <= 1 or len(satrecs) < 2 * workers:
             found = _local_rows(satrecs, names, stations, blocks, min_el_deg, kwargs, errors,
                                 stats)
@@ -984,11 +988,21 @@ def _passes_in_parts(satrecs, names, stations, start, end, min_el_deg, *, step_s
         given = False
         for passes in store.spans():
             given = True
-            yield PassTable(passes[table_order(passes)], list(names), list(stations), start,
+            yield PassTable(_sorted_in_place(passes), list(names), list(stations), start,
                             end, errs, stats)
         if not given:
             yield PassTable(np.zeros(0, PASS_DTYPE), list(names), list(stations), start, end,
                             errs, stats)
+
+
+def _sorted_in_place(passes: np.ndarray) -> np.ndarray:
+    """``passes`` put in table order (:func:`table_order`) field by field, so a large
+    result never has a second copy of itself."""
+    order = table_order(passes)
+    if np.any(order[1:] < order[:-1]):
+        for name in passes.dtype.names:
+            passes[name] = passes[name][order]
+    return passes
 
 
 def _note_block(errors: dict, stats: dict, block_errors, block_stats: dict) -> None:
