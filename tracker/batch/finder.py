@@ -921,9 +921,11 @@ def find_passes_batch(satrecs, names, stations, start: datetime, end: datetime,
     :class:`~tracker.station.Station` list; ``min_el_deg`` overrides each station's own
     minimum elevation (the horizon mask still applies). ``step_s`` is the fine sampling step,
     ``tol_s`` the time tolerance of AOS/TCA/LOS, ``memory_mb`` the working-set budget per
-    process. ``workers > 1`` splits the satellites over forked processes (POSIX); the result
-    is identical because every satellite is computed independently. For results too large
-    to hold, :func:`iter_passes_batch` gives the same table in parts.
+    process (the compiled kernels' own memory, :data:`kernels.COMPILED_RUNTIME_MB`, is
+    counted in it when they run). ``workers > 1`` splits the satellites over forked
+    processes (POSIX); the result is identical because every satellite is computed
+    independently. For results too large to hold, :func:`iter_passes_batch` gives the same
+    table in parts.
     """
     return PassTable.concat(list(_passes_in_parts(
         satrecs, names, stations, start, end, min_el_deg, step_s=step_s, tol_s=tol_s,
@@ -964,9 +966,11 @@ def _passes_in_parts(satrecs, names, stations, start, end, min_el_deg, *, step_s
                           f"in MB above 0")
     blocks = time_blocks(start, end, block_days)
     start, end = _to_utc(start), _to_utc(end)
-    kwargs = dict(step_s=step_s, tol_s=tol_s, memory_mb=memory_mb)
     days = (end - start).total_seconds() / geo.DAY_S
     kernels.announce_work(len(satrecs) * len(stations) * days)
+    # The budget is the process's: the compiled kernels' own memory leaves less for arrays.
+    kwargs = dict(step_s=step_s, tol_s=tol_s,
+                  memory_mb=max(memory_mb - kernels.runtime_mb(), memory_mb / 4))
     budget_rows = memory_mb * 2**20 / (4 * PASS_DTYPE.itemsize)
     est_rows = len(satrecs) * len(stations) * days * PASSES_PER_DAY
     errors: dict[int, SatError] = {}
