@@ -250,6 +250,14 @@ def test_csv_of_awkward_names_is_what_the_csv_module_writes(table):
             w.writerow([("true" if v else "false") if isinstance(v, bool) else v
                         for v in (rec[k] for k in CSV_FIELDS)])
         assert to_csv(records) == buf.getvalue()
+        # JSON likewise, column-wise, is json.dumps of each record's dict (NaN included).
+        records.columns["tca_s"] = records["tca_s"].copy()
+        records.columns["tca_s"][1] = float("nan")
+        doc = to_json(records, {"a": 1})
+        lines = [json.dumps(rec) for rec in records.rows()]
+        assert doc.split('"passes": [\n  ')[1].split("\n ],")[0] == ",\n  ".join(lines)
+        assert json.loads(doc.replace("NaN", "null"))["passes"][0]["target"] == \
+            records["target"][0]
     assert any(t in to_csv(pass_records(odd)) for t in ('"A,""B"""', "Ωmega-1 «sat»"))
 
 

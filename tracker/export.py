@@ -13,7 +13,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
 from typing import Any
@@ -272,25 +272,26 @@ def _csv_rows_by_cell(records: PassRecords) -> str:
 
 
 class _CategoryText:
-    """The CSV cells (UTF-8 bytes) of categories' values, each value list formatted once per
-    document (the same list of names comes with every part of a table)."""
+    """The cells (UTF-8 bytes) of categories' values in one format (``text``: a value's
+    cell), each value list formatted once per document (the same list of names comes with
+    every part of a table)."""
 
-    def __init__(self) -> None:
-        self.known: dict[int, tuple[Sequence, np.ndarray]] = {}
+    def __init__(self, text: Callable[[Any], str]) -> None:
+        self.text = text
+        self.known: dict[int, tuple[Sequence, np.ndarray | None]] = {}
 
     def __call__(self, values: Sequence) -> np.ndarray | None:
         hit = self.known.get(id(values))
-        if hit is not None and hit[0] is values and len(hit[1]) == len(values):
+        if hit is not None and hit[0] is values:
             return hit[1]
-        cells = _utf8_cells([_csv_text(v) for v in values])
-        if cells is not None:
-            self.known[id(values)] = (values, cells)  # the reference keeps the id valid
+        cells = _utf8_cells([self.text(v) for v in values])
+        self.known[id(values)] = (values, cells)  # the reference keeps the id valid
         return cells
 
 
 def _utf8_cells(texts: list[str]) -> np.ndarray | None:
     """``texts`` as a numpy ``S`` array of UTF-8 bytes, or None when one holds NUL (the ``S``
-    type would strip it at the end, and :func:`_csv_rows` takes NUL for padding)."""
+    type would strip it at the end, and :func:`_joined_rows` takes NUL for padding)."""
     if any("\0" in t for t in texts):
         return None
     cells = _ascii(np.array(texts, dtype=str))
@@ -306,10 +307,23 @@ def _ascii(text: np.ndarray) -> np.ndarray | None:
     return points.astype(np.uint8).view(f"S{max(text.dtype.itemsize // 4, 1)}")
 
 
-def _csv_cells(records: PassRecords, key: str, category_text: _CategoryText
-               ) -> np.ndarray | None:
-    """The cells of one column as UTF-8 bytes (a numpy ``S`` array, one per row), or None
-    for text holding NUL (the ``S`` type strips it at the end)."""
+def _float_text(col: np.ndarray, decimals: int | None, text: Callable[[Any], str]
+                ) -> np.ndarray | None:
+    """The cells of a float column: a rounded column (:func:`_rounded_text`) formats each
+    distinct value once; otherwise ``repr`` of each value (what ``text`` gives for a finite
+    float), or ``text`` of each where one is not finite."""
+    cells = None if decimals is None else _rounded_text(col, decimals)
+    if cells is not None:
+        return cells
+    values = col.tolist()
+    return _utf8_cells(list(map(repr if np.isfinite(col).all() else text, values)))
+
+
+def _column_cells(records: PassRecords, key: str, category_text: _CategoryText
+                  ) -> np.ndarray | None:
+    """The cells of one column in ``category_text``'s format as UTF-8 bytes (a numpy ``S``
+    array, one per row), or None for text holding NUL (the ``S`` type strips it at the
+    end). Flags are ``true``/``false`` and floats their ``repr`` in both CSV and JSON."""
     col = records[key]
     cat = records.categories.get(key)
     if cat is not None and cat[0] is col:
@@ -318,17 +332,17 @@ def _csv_cells(records: PassRecords, key: str, category_text: _CategoryText
     if col.dtype == bool:
         return np.where(col, b"true", b"false")
     if col.dtype.kind == "f":
-        decimals = _DECIMALS.get(key)
-        text = None if decimals is None else _rounded_text(col, decimals)
-        return _utf8_cells(list(map(repr, col.tolist()))) if text is None else text
-    if col.dtype.kind == "U":  # ISO times: ASCII, never need quoting
+        return _float_text(col, _DECIMALS.get(key), category_text.text)
+    if col.dtype.kind == "U":  # ISO times: ASCII, never need quoting or escapes
         cells = _ascii(col)
-        return cells if cells is not None else np.array([t.encode() for t in col.tolist()],
-                                                        dtype=bytes)
+        if cells is None:
+            return _utf8_cells(list(map(category_text.text, col.tolist())))
+        return cells if category_text.text is _csv_text else np.char.add(
+            np.char.add(b'"', cells), b'"')
     # As in _csv_column: each distinct value of an object column formatted once.
     values = col.tolist()
     distinct = list(set(values))
-    text = _utf8_cells([_csv_text(v) for v in distinct])
+    text = _utf8_cells([category_text.text(v) for v in distinct])
     if text is None:
         return None
     index = {v: i for i, v in enumerate(distinct)}
@@ -347,34 +361,43 @@ def _rounded_text(col: np.ndarray, decimals: int) -> np.ndarray | None:
     return None if text is None else text[index.ravel()]
 
 
-def _csv_rows(records: PassRecords, category_text: _CategoryText | None = None) -> str:
-    """The CSV rows of ``records``, assembled as bytes column by column: each column's cells
-    are copied into a row-major byte matrix (cells padded with NUL to the column's widest),
-    commas and line ends go between, and the padding is dropped. No Python object per row."""
-    category_text = category_text or _CategoryText()
+def _joined_rows(records: PassRecords, fields: Sequence[str], category_text: _CategoryText,
+                 glue: Callable[[int], bytes]) -> bytes | None:
+    """Every row of ``records`` as ``glue(0)``, the cell of ``fields[0]``, ``glue(1)``, ...,
+    the cell of the last field, ``glue(len(fields))``, assembled as bytes column by column:
+    each column's cells are copied into a row-major byte matrix (padded with NUL to the
+    column's widest cell) and the padding is dropped. No Python object per row. None when a
+    cell holds NUL."""
     n = len(records)
-    if n == 0:
-        return ""
-    cells = []
-    for key in CSV_FIELDS:
-        column = _csv_cells(records, key, category_text)
-        if column is None:
-            return _csv_rows_by_cell(records)
-        cells.append(column.view(np.uint8).reshape(n, -1))
-    matrix = np.zeros((n, sum(c.shape[1] for c in cells) + len(cells)), np.uint8)
+    pieces = [np.frombuffer(glue(0), np.uint8).reshape(1, -1)]
+    for i, key in enumerate(fields):
+        cells = _column_cells(records, key, category_text)
+        if cells is None:
+            return None
+        pieces += [cells.view(np.uint8).reshape(n, -1),
+                   np.frombuffer(glue(i + 1), np.uint8).reshape(1, -1)]
+    matrix = np.zeros((n, sum(p.shape[1] for p in pieces)), np.uint8)
     at = 0
-    for c in cells:
-        matrix[:, at:at + c.shape[1]] = c
-        at += c.shape[1]
-        matrix[:, at] = ord(",")
-        at += 1
-    matrix[:, -1] = ord("\n")
-    return matrix[matrix != 0].tobytes().decode("utf-8")
+    for p in pieces:
+        matrix[:, at:at + p.shape[1]] = p
+        at += p.shape[1]
+    return matrix[matrix != 0].tobytes()
+
+
+def _csv_glue(i: int) -> bytes:
+    return b"" if i == 0 else b"\n" if i == len(CSV_FIELDS) else b","
+
+
+def _csv_rows(records: PassRecords, category_text: _CategoryText | None = None) -> str:
+    """The CSV rows of ``records`` (:func:`_joined_rows`; text holding NUL cell by cell)."""
+    rows = _joined_rows(records, CSV_FIELDS, category_text or _CategoryText(_csv_text),
+                        _csv_glue) if len(records) else b""
+    return _csv_rows_by_cell(records) if rows is None else rows.decode("utf-8")
 
 
 def _csv_chunks(chunks: Iterable[PassRecords]) -> Iterator[str]:
     yield ",".join(CSV_FIELDS) + "\n"
-    category_text = _CategoryText()
+    category_text = _CategoryText(_csv_text)
     for records in chunks:
         if len(records):
             yield _csv_rows(records, category_text)
@@ -386,6 +409,25 @@ def to_csv(records: PassRecords) -> str:
     return "".join(_csv_chunks([records]))
 
 
+# json.dumps of one pass record (its dict, default separators), between the cells.
+_JSON_GLUE = [("{" if i == 0 else ", ") + json.dumps(k) + ": " for i, k in
+              enumerate(PASS_FIELDS)]
+_JSON_ROW_SEP = ",\n  "
+
+
+def _json_glue(i: int) -> bytes:
+    return (_JSON_GLUE[i] if i < len(PASS_FIELDS) else "}" + _JSON_ROW_SEP).encode()
+
+
+def _json_rows(records: PassRecords, category_text: _CategoryText) -> str:
+    """``json.dumps`` of each pass record's dict, joined by :data:`_JSON_ROW_SEP`, built
+    column-wise (:func:`_joined_rows`)."""
+    rows = _joined_rows(records, PASS_FIELDS, category_text, _json_glue)
+    if rows is None:
+        return _JSON_ROW_SEP.join(map(json.dumps, records.rows()))
+    return rows[:-len(_JSON_ROW_SEP)].decode("ascii")
+
+
 def _json_chunks(chunks: Iterable[PassRecords], meta: dict | None,
                  errors: Sequence[dict]) -> Iterator[str]:
     def block(value: Any) -> str:
@@ -394,11 +436,11 @@ def _json_chunks(chunks: Iterable[PassRecords], meta: dict | None,
     yield (f'{{\n "schema": {json.dumps(JSON_SCHEMA_ID)},\n "meta": {block(dict(meta or {}))},'
            f'\n "passes": ')
     sep = "[\n  "
+    category_text = _CategoryText(json.dumps)
     for records in chunks:
-        rows = records.rows()
-        if rows:
-            yield sep + ",\n  ".join(map(json.dumps, rows))
-            sep = ",\n  "
+        if len(records):
+            yield sep + _json_rows(records, category_text)
+            sep = _JSON_ROW_SEP
     yield ("[]" if sep == "[\n  " else "\n ]") + f',\n "errors": {block(list(errors))}\n}}\n'
 
 
