@@ -270,3 +270,12 @@ def test_categories_follow_take_and_a_replaced_column_is_written(records):
     replaced.columns["target"] = np.array(["X", "Y", "Z"], dtype=object)
     rows = list(csv.DictReader(io.StringIO(to_csv(replaced))))
     assert [r["target"] for r in rows] == ["X", "Y", "Z"]
+
+
+def test_text_columns_with_quotes_or_commas_are_escaped_as_csv_and_json_do(records):
+    odd = records.take(np.arange(3))
+    odd.columns["aos"] = np.array(['say "hi"', "a,b", "back\\slash"])
+    rows = list(csv.DictReader(io.StringIO(to_csv(odd))))
+    assert [r["aos"] for r in rows] == ['say "hi"', "a,b", "back\\slash"]
+    passes = json.loads(to_json(odd))["passes"]
+    assert [p["aos"] for p in passes] == ['say "hi"', "a,b", "back\\slash"]

@@ -307,6 +307,14 @@ def _ascii(text: np.ndarray) -> np.ndarray | None:
     return points.astype(np.uint8).view(f"S{max(text.dtype.itemsize // 4, 1)}")
 
 
+def _needs_escape(cells: np.ndarray) -> bool:
+    """Does ASCII text (an ``S`` array) hold a byte CSV quotes or JSON escapes (a comma, a
+    double quote, a backslash or a control character)?"""
+    b = cells.view(np.uint8)
+    return bool(np.any((b == ord(",")) | (b == ord('"')) | (b == ord("\\"))
+                       | ((b > 0) & (b < 32))))
+
+
 def _float_text(col: np.ndarray, decimals: int | None, text: Callable[[Any], str]
                 ) -> np.ndarray | None:
     """The cells of a float column: a rounded column (:func:`_rounded_text`) formats each
@@ -333,9 +341,9 @@ def _column_cells(records: PassRecords, key: str, category_text: _CategoryText
         return np.where(col, b"true", b"false")
     if col.dtype.kind == "f":
         return _float_text(col, _DECIMALS.get(key), category_text.text)
-    if col.dtype.kind == "U":  # ISO times: ASCII, never need quoting or escapes
+    if col.dtype.kind == "U":  # ISO times: plain ASCII, written as they are (JSON: quoted)
         cells = _ascii(col)
-        if cells is None:
+        if cells is None or _needs_escape(cells):
             return _utf8_cells(list(map(category_text.text, col.tolist())))
         return cells if category_text.text is _csv_text else np.char.add(
             np.char.add(b'"', cells), b'"')
