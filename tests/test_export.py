@@ -230,3 +230,52 @@ def test_csv_numbers_are_the_values_repr_whatever_the_column_holds(records):
                  repr(x) if isinstance(x, float) else str(x) for x in
                  (row[k] for k in CSV_FIELDS)] for row in odd.rows()]
     assert rows == expected
+
+
+def test_csv_of_awkward_names_is_what_the_csv_module_writes(table):
+    # Non-ASCII, quoting and line breaks through the column-wise byte assembly; a name with
+    # NUL (which that assembly uses as padding) through the cell-by-cell path, per part.
+    awkward = ["Ωmega-1 «sat»", 'A,"B"', "line\nbreak", "tab\tname", ""]
+    names = list(table.names)
+    names[:len(awkward)] = awkward
+    odd = type(table)(table.passes, names, table.stations, table.start, table.end)
+    with_nul = type(table)(table.passes, ["NUL\0END"] * len(names), table.stations,
+                           table.start, table.end)
+    for t in (odd, with_nul):
+        records = pass_records(t)
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(CSV_FIELDS)
+        for rec in records.rows():
+            w.writerow([("true" if v else "false") if isinstance(v, bool) else v
+                        for v in (rec[k] for k in CSV_FIELDS)])
+        assert to_csv(records) == buf.getvalue()
+        # JSON likewise, column-wise, is json.dumps of each record's dict (NaN included).
+        records.columns["tca_s"] = records["tca_s"].copy()
+        records.columns["tca_s"][1] = float("nan")
+        doc = to_json(records, {"a": 1})
+        lines = [json.dumps(rec) for rec in records.rows()]
+        assert doc.split('"passes": [\n  ')[1].split("\n ],")[0] == ",\n  ".join(lines)
+        assert json.loads(doc.replace("NaN", "null"))["passes"][0]["target"] == \
+            records["target"][0]
+    assert any(t in to_csv(pass_records(odd)) for t in ('"A,""B"""', "Ωmega-1 «sat»"))
+
+
+def test_categories_follow_take_and_a_replaced_column_is_written(records):
+    part = records.take(np.arange(len(records))[::-2])
+    column, codes, values = part.categories["target"]
+    assert column is part["target"] and list(np.asarray(values, dtype=object)[codes]) == \
+        list(part["target"])
+    replaced = records.take(np.arange(3))
+    replaced.columns["target"] = np.array(["X", "Y", "Z"], dtype=object)
+    rows = list(csv.DictReader(io.StringIO(to_csv(replaced))))
+    assert [r["target"] for r in rows] == ["X", "Y", "Z"]
+
+
+def test_text_columns_with_quotes_or_commas_are_escaped_as_csv_and_json_do(records):
+    odd = records.take(np.arange(3))
+    odd.columns["aos"] = np.array(['say "hi"', "a,b", "back\\slash"])
+    rows = list(csv.DictReader(io.StringIO(to_csv(odd))))
+    assert [r["aos"] for r in rows] == ['say "hi"', "a,b", "back\\slash"]
+    passes = json.loads(to_json(odd))["passes"]
+    assert [p["aos"] for p in passes] == ['say "hi"', "a,b", "back\\slash"]

@@ -59,3 +59,16 @@ def test_a_temporary_folder_that_cannot_take_the_rows_is_one_clear_error(tmp_pat
         with pytest.raises(ConfigError, match="cannot keep rows of a large result"):
             spill.add(rows([10.0]))
         os.mkdir(spill.dir.name)                 # for the clean-up
+
+
+def test_rows_in_memory_are_gathered_in_one_array_past_the_hint():
+    # Room for two rows reserved; five come: the array grows, nothing is lost or reordered,
+    # and the span given back is that one array (no copy of all the rows).
+    with RowSpill(DTYPE, "t", 0.0, 100.0, 1, rows_hint=2) as spill:
+        assert len(spill.mem) == 2
+        for batch in ([5.0], [1.0, 7.0], [], [3.0, 2.0]):
+            spill.add(rows(batch))
+        kept = spill.mem
+        (part,) = spill.spans()
+    assert list(part["t"]) == [5.0, 1.0, 7.0, 3.0, 2.0]
+    assert np.shares_memory(part, kept)

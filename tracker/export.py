@@ -13,15 +13,15 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
-from collections.abc import Iterable, Iterator, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass, field
 from datetime import datetime
 from typing import Any
 
 import numpy as np
 
 from tracker.errors import ConfigError
-from tracker.skytrack import compass_point
+from tracker.skytrack import COMPASS_POINTS, compass_index
 from tracker.timescale import iso_utc, iso_utc_array, to_datetime
 
 JSON_SCHEMA_ID = "rotator-tracker/passes/2"
@@ -48,9 +48,17 @@ _OPTIONAL = ("plan_mode", "plan_max_error_deg", "plan_preposition", "plan_reason
 @dataclass
 class PassRecords:
     """Pass records as columns: ``columns[field]`` is an array with one entry per pass, for
-    every field of :data:`PASS_FIELDS` (object arrays holding None where a field is unset)."""
+    every field of :data:`PASS_FIELDS` (object arrays holding None where a field is unset).
+
+    ``categories[field]`` = ``(column, codes, values)`` says that ``column`` (the field's
+    column when it was built) is ``values[codes]``: CSV then formats each of the few values
+    once (a catalogue's names, the compass points) instead of every cell. It is ignored
+    once ``columns[field]`` is another array.
+    """
 
     columns: dict[str, np.ndarray]
+    categories: dict[str, tuple[np.ndarray, np.ndarray, Sequence]] = field(
+        default_factory=dict)
 
     def __len__(self) -> int:
         return len(self.columns["aos_s"])
@@ -63,7 +71,10 @@ class PassRecords:
         index = np.asarray(index)
         if index.dtype != bool:
             index = index.astype(np.intp)
-        return PassRecords({k: v[index] for k, v in self.columns.items()})
+        columns = {k: v[index] for k, v in self.columns.items()}
+        return PassRecords(columns, {k: (columns[k], codes[index], values)
+                                     for k, (column, codes, values) in self.categories.items()
+                                     if self.columns.get(k) is column})
 
     def set(self, name: str, values: Iterable) -> None:
         """Fill an optional field (``priority``, ``chosen``, ...) for every record."""
@@ -92,11 +103,14 @@ def _none(n: int) -> np.ndarray:
 
 
 def _records(target, kind, station, t_s: dict[str, np.ndarray], angles: dict[str, np.ndarray],
-             flags: dict[str, np.ndarray], plans: Sequence[dict | None] | None) -> PassRecords:
+             flags: dict[str, np.ndarray], plans: Sequence[dict | None] | None,
+             codes: dict[str, tuple[np.ndarray, Sequence]] | None = None) -> PassRecords:
     """The one builder of the record, from arrays (``t_s``: aos/tca/los; ``angles``: max_el_deg,
-    aos/tca/los_az_deg; ``flags``: :data:`_FLAGS`)."""
+    aos/tca/los_az_deg; ``flags``: :data:`_FLAGS`; ``codes``: (codes, values) of the fields
+    given as categories, see :class:`PassRecords`)."""
     n = len(t_s["aos"])
     cols: dict[str, np.ndarray] = {"target": target, "kind": kind, "station": station}
+    codes = dict(codes or {})
     for key in ("aos", "tca", "los"):
         cols[key] = iso_utc_array(t_s[key])
     for key in ("aos", "tca", "los"):
@@ -104,20 +118,27 @@ def _records(target, kind, station, t_s: dict[str, np.ndarray], angles: dict[str
     cols["duration_s"] = np.round(cols["los_s"] - cols["aos_s"], _DECIMALS["duration_s"])
     for key, value in angles.items():
         cols[key] = np.round(np.asarray(value, dtype=float), _DECIMALS[key])
-    cols["aos_compass"] = compass_point(angles["aos_az_deg"])
-    cols["los_compass"] = compass_point(angles["los_az_deg"])
+    points = np.array(COMPASS_POINTS, dtype=object)
+    for key in ("aos", "los"):
+        index = compass_index(angles[f"{key}_az_deg"])
+        cols[f"{key}_compass"] = points[index]
+        codes[f"{key}_compass"] = (index, COMPASS_POINTS)
     for key in _FLAGS:
         cols[key] = np.asarray(flags[key], dtype=bool)
+    unset = np.zeros(n, np.intp)
     for key in _OPTIONAL:
         cols[key] = _none(n)
+        codes[key] = (unset, (None,))
     if plans is not None:
+        for key in ("plan_mode", "plan_max_error_deg", "plan_preposition", "plan_reason"):
+            del codes[key]
         for i, plan in enumerate(plans):
             if plan:
                 cols["plan_mode"][i] = plan["mode"]
                 cols["plan_max_error_deg"][i] = plan["max_error_deg"]
                 cols["plan_preposition"][i] = iso_utc(plan["preposition_s"])
                 cols["plan_reason"][i] = plan.get("reason", "")
-    return PassRecords(cols)
+    return PassRecords(cols, {k: (cols[k], c, values) for k, (c, values) in codes.items()})
 
 
 def pass_records(passes, plans: Sequence[dict | None] | None = None) -> PassRecords:
@@ -135,15 +156,17 @@ def pass_records(passes, plans: Sequence[dict | None] | None = None) -> PassReco
         st = table["station"].astype(np.intp)
         aos_clipped = table["aos_clipped"].astype(bool)
         los_clipped = table["los_clipped"].astype(bool)
+        stations = [s.name for s in passes.stations]
         return _records(
             np.array(passes.names, dtype=object)[sat], np.full(n, "satellite", dtype=object),
-            np.array([s.name for s in passes.stations], dtype=object)[st],
+            np.array(stations, dtype=object)[st],
             {k: table[f"{k}_s"] for k in ("aos", "tca", "los")},
             {k: table[k] for k in ("max_el_deg", "aos_az_deg", "tca_az_deg", "los_az_deg")},
             {"sunlit": table["sunlit"], "visible": table["visible"],
              "in_progress_at_start": aos_clipped, "aos_known": ~aos_clipped,
              "los_known": ~los_clipped, "always_up": aos_clipped & los_clipped},
-            plans)
+            plans, {"target": (sat, passes.names), "kind": (np.zeros(n, np.intp), ("satellite",)),
+                    "station": (st, stations)})
     passes = list(passes)
 
     def column(get, dtype=object) -> np.ndarray:
@@ -229,8 +252,9 @@ def _csv_constant(col: np.ndarray) -> str | None:
     return _csv_text(first) if isinstance(same, np.ndarray) and same.all() else None
 
 
-def _csv_rows(records: PassRecords) -> str:
-    """The CSV rows of ``records``; runs of constant columns are joined once, not per row."""
+def _csv_rows_by_cell(records: PassRecords) -> str:
+    """The CSV rows of ``records`` joined cell by cell in Python (for text holding NUL, which
+    :func:`_csv_rows` cannot carry); runs of constant columns are joined once, not per row."""
     cols: list[Iterable[str]] = []
     run: list[str] = []
     for key in CSV_FIELDS:
@@ -247,17 +271,169 @@ def _csv_rows(records: PassRecords) -> str:
     return "\n".join(map(",".join, zip(*cols, strict=False))) + "\n"  # repeat: endless
 
 
+class _CategoryText:
+    """The cells (UTF-8 bytes) of categories' values in one format (``text``: a value's
+    cell), each value list formatted once per document (the same list of names comes with
+    every part of a table)."""
+
+    def __init__(self, text: Callable[[Any], str]) -> None:
+        self.text = text
+        self.known: dict[int, tuple[Sequence, np.ndarray | None]] = {}
+
+    def __call__(self, values: Sequence) -> np.ndarray | None:
+        hit = self.known.get(id(values))
+        if hit is not None and hit[0] is values:
+            return hit[1]
+        cells = _utf8_cells([self.text(v) for v in values])
+        self.known[id(values)] = (values, cells)  # the reference keeps the id valid
+        return cells
+
+
+def _utf8_cells(texts: list[str]) -> np.ndarray | None:
+    """``texts`` as a numpy ``S`` array of UTF-8 bytes, or None when one holds NUL (the ``S``
+    type would strip it at the end, and :func:`_joined_rows` takes NUL for padding)."""
+    if any("\0" in t for t in texts):
+        return None
+    cells = _ascii(np.array(texts, dtype=str))
+    return cells if cells is not None else np.array([t.encode() for t in texts], dtype=bytes)
+
+
+def _ascii(text: np.ndarray) -> np.ndarray | None:
+    """A numpy ``U`` array of ASCII text as the ``S`` array of the same text, else None.
+    (Through the code points as integers: numpy's own U to S cast costs about 1 us a cell.)"""
+    points = np.ascontiguousarray(text).view(np.uint32)
+    if points.size and points.max() >= 128:
+        return None
+    return points.astype(np.uint8).view(f"S{max(text.dtype.itemsize // 4, 1)}")
+
+
+def _needs_escape(cells: np.ndarray) -> bool:
+    """Does ASCII text (an ``S`` array) hold a byte CSV quotes or JSON escapes (a comma, a
+    double quote, a backslash or a control character)?"""
+    b = cells.view(np.uint8)
+    return bool(np.any((b == ord(",")) | (b == ord('"')) | (b == ord("\\"))
+                       | ((b > 0) & (b < 32))))
+
+
+def _float_text(col: np.ndarray, decimals: int | None, text: Callable[[Any], str]
+                ) -> np.ndarray | None:
+    """The cells of a float column: a rounded column (:func:`_rounded_text`) formats each
+    distinct value once; otherwise ``repr`` of each value (what ``text`` gives for a finite
+    float), or ``text`` of each where one is not finite."""
+    cells = None if decimals is None else _rounded_text(col, decimals)
+    if cells is not None:
+        return cells
+    values = col.tolist()
+    return _utf8_cells(list(map(repr if np.isfinite(col).all() else text, values)))
+
+
+def _column_cells(records: PassRecords, key: str, category_text: _CategoryText
+                  ) -> np.ndarray | None:
+    """The cells of one column in ``category_text``'s format as UTF-8 bytes (a numpy ``S``
+    array, one per row), or None for text holding NUL (the ``S`` type strips it at the
+    end). Flags are ``true``/``false`` and floats their ``repr`` in both CSV and JSON."""
+    col = records[key]
+    cat = records.categories.get(key)
+    if cat is not None and cat[0] is col:
+        cells = category_text(cat[2])
+        return None if cells is None else cells[cat[1]]
+    if col.dtype == bool:
+        return np.where(col, b"true", b"false")
+    if col.dtype.kind == "f":
+        return _float_text(col, _DECIMALS.get(key), category_text.text)
+    if col.dtype.kind == "U":  # ISO times: plain ASCII, written as they are (JSON: quoted)
+        cells = _ascii(col)
+        if cells is None or _needs_escape(cells):
+            return _utf8_cells(list(map(category_text.text, col.tolist())))
+        return cells if category_text.text is _csv_text else np.char.add(
+            np.char.add(b'"', cells), b'"')
+    # As in _csv_column: each distinct value of an object column formatted once.
+    values = col.tolist()
+    distinct = list(set(values))
+    text = _utf8_cells([category_text.text(v) for v in distinct])
+    if text is None:
+        return None
+    index = {v: i for i, v in enumerate(distinct)}
+    return text[np.fromiter(map(index.__getitem__, values), np.intp, len(values))]
+
+
+def _rounded_text(col: np.ndarray, decimals: int) -> np.ndarray | None:
+    """:func:`_rounded_cells` as UTF-8 bytes (a numpy ``S`` array)."""
+    scale = 10.0 ** decimals
+    steps = np.rint(col * scale)
+    if not (np.all(np.isfinite(steps)) and np.all(np.abs(steps) < 2.0**52)
+            and np.array_equal(steps / scale, col) and not np.any(np.signbit(col) & (col == 0))):
+        return None
+    values, index = np.unique(steps, return_inverse=True)
+    text = _ascii(np.array(list(map(repr, (values / scale).tolist())), dtype=str))
+    return None if text is None else text[index.ravel()]
+
+
+def _joined_rows(records: PassRecords, fields: Sequence[str], category_text: _CategoryText,
+                 glue: Callable[[int], bytes]) -> bytes | None:
+    """Every row of ``records`` as ``glue(0)``, the cell of ``fields[0]``, ``glue(1)``, ...,
+    the cell of the last field, ``glue(len(fields))``, assembled as bytes column by column:
+    each column's cells are copied into a row-major byte matrix (padded with NUL to the
+    column's widest cell) and the padding is dropped. No Python object per row. None when a
+    cell holds NUL."""
+    n = len(records)
+    pieces = [np.frombuffer(glue(0), np.uint8).reshape(1, -1)]
+    for i, key in enumerate(fields):
+        cells = _column_cells(records, key, category_text)
+        if cells is None:
+            return None
+        pieces += [cells.view(np.uint8).reshape(n, -1),
+                   np.frombuffer(glue(i + 1), np.uint8).reshape(1, -1)]
+    matrix = np.zeros((n, sum(p.shape[1] for p in pieces)), np.uint8)
+    at = 0
+    for p in pieces:
+        matrix[:, at:at + p.shape[1]] = p
+        at += p.shape[1]
+    return matrix[matrix != 0].tobytes()
+
+
+def _csv_glue(i: int) -> bytes:
+    return b"" if i == 0 else b"\n" if i == len(CSV_FIELDS) else b","
+
+
+def _csv_rows(records: PassRecords, category_text: _CategoryText | None = None) -> str:
+    """The CSV rows of ``records`` (:func:`_joined_rows`; text holding NUL cell by cell)."""
+    rows = _joined_rows(records, CSV_FIELDS, category_text or _CategoryText(_csv_text),
+                        _csv_glue) if len(records) else b""
+    return _csv_rows_by_cell(records) if rows is None else rows.decode("utf-8")
+
+
 def _csv_chunks(chunks: Iterable[PassRecords]) -> Iterator[str]:
     yield ",".join(CSV_FIELDS) + "\n"
+    category_text = _CategoryText(_csv_text)
     for records in chunks:
         if len(records):
-            yield _csv_rows(records)
+            yield _csv_rows(records, category_text)
 
 
 def to_csv(records: PassRecords) -> str:
     """CSV with a header row (columns :data:`CSV_FIELDS`; times ISO-8601 UTC, flags
     ``true``/``false``, unset fields empty)."""
     return "".join(_csv_chunks([records]))
+
+
+# json.dumps of one pass record (its dict, default separators), between the cells.
+_JSON_GLUE = [("{" if i == 0 else ", ") + json.dumps(k) + ": " for i, k in
+              enumerate(PASS_FIELDS)]
+_JSON_ROW_SEP = ",\n  "
+
+
+def _json_glue(i: int) -> bytes:
+    return (_JSON_GLUE[i] if i < len(PASS_FIELDS) else "}" + _JSON_ROW_SEP).encode()
+
+
+def _json_rows(records: PassRecords, category_text: _CategoryText) -> str:
+    """``json.dumps`` of each pass record's dict, joined by :data:`_JSON_ROW_SEP`, built
+    column-wise (:func:`_joined_rows`)."""
+    rows = _joined_rows(records, PASS_FIELDS, category_text, _json_glue)
+    if rows is None:
+        return _JSON_ROW_SEP.join(map(json.dumps, records.rows()))
+    return rows[:-len(_JSON_ROW_SEP)].decode("ascii")
 
 
 def _json_chunks(chunks: Iterable[PassRecords], meta: dict | None,
@@ -268,11 +444,11 @@ def _json_chunks(chunks: Iterable[PassRecords], meta: dict | None,
     yield (f'{{\n "schema": {json.dumps(JSON_SCHEMA_ID)},\n "meta": {block(dict(meta or {}))},'
            f'\n "passes": ')
     sep = "[\n  "
+    category_text = _CategoryText(json.dumps)
     for records in chunks:
-        rows = records.rows()
-        if rows:
-            yield sep + ",\n  ".join(map(json.dumps, rows))
-            sep = ",\n  "
+        if len(records):
+            yield sep + _json_rows(records, category_text)
+            sep = _JSON_ROW_SEP
     yield ("[]" if sep == "[\n  " else "\n ]") + f',\n "errors": {block(list(errors))}\n}}\n'
 
 

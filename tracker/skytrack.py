@@ -189,10 +189,16 @@ COMPASS_POINTS = ("N", "NNE", "NE", "ENE", "E", "ESE", "SE", "SSE",
                   "S", "SSW", "SW", "WSW", "W", "WNW", "NW", "NNW")
 
 
+def compass_index(az_deg) -> np.ndarray:
+    """The index into :data:`COMPASS_POINTS` of bearings (an int array, or an int array
+    of no dimensions for one bearing)."""
+    return ((np.mod(np.asarray(az_deg, dtype=float), 360.0) + 11.25) // 22.5).astype(int) % 16
+
+
 def compass_point(az_deg):
     """16-point compass name (N, NNE, NE, ... NNW) of a bearing; for an array of bearings,
     an array of names."""
-    index = ((np.mod(np.asarray(az_deg, dtype=float), 360.0) + 11.25) // 22.5).astype(int) % 16
+    index = compass_index(az_deg)
     if np.ndim(index) == 0:
         return COMPASS_POINTS[int(index)]
     return np.array(COMPASS_POINTS, dtype=object)[index]

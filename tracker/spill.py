@@ -4,6 +4,8 @@ The batch finder's streamed result (:func:`tracker.batch.iter_passes_batch`) gat
 rows here while the search runs and gives them back span by span (AOS times), so the rows of
 a result of any size are never all in memory. With one span the rows stay in memory; with
 more, each span is a temporary file (removed as it is read, and with the folder on close).
+Rows kept in memory are copied into one array as they come (grown by doubling), so giving
+them back needs no second copy of them all.
 """
 
 from __future__ import annotations
@@ -19,13 +21,17 @@ from tracker.errors import ConfigError
 
 class RowSpill:
     """Rows of ``dtype`` collected by the value of ``field``: ``n`` equal spans of
-    [``lo``, ``hi``] (values outside go to the first or last span)."""
+    [``lo``, ``hi``] (values outside go to the first or last span). ``rows_hint``: about how
+    many rows to expect with one span (room for them is reserved, but memory is only taken
+    as they come; more are taken too)."""
 
-    def __init__(self, dtype: np.dtype, field: str, lo: float, hi: float, n: int):
+    def __init__(self, dtype: np.dtype, field: str, lo: float, hi: float, n: int,
+                 rows_hint: int = 0):
         self.dtype, self.field = dtype, field
         self.n = max(1, int(n))
         self.inner = np.linspace(lo, hi, self.n + 1)[1:-1]
-        self.mem: list[np.ndarray] = []
+        self.mem = np.empty(max(0, int(rows_hint)) if self.n == 1 else 0, dtype)
+        self.n_mem = 0  # rows of mem in use
         self.dir: tempfile.TemporaryDirectory | None = None
 
     def __enter__(self) -> RowSpill:
@@ -46,7 +52,14 @@ class RowSpill:
 
     def add(self, rows: np.ndarray) -> None:
         if self.dir is None:
-            self.mem.append(rows)
+            end = self.n_mem + len(rows)
+            if end > len(self.mem):
+                # np.empty: the pages of the spare room are only taken once written.
+                grown = np.empty(max(end, 2 * len(self.mem), 4096), self.dtype)
+                grown[:self.n_mem] = self.mem[:self.n_mem]
+                self.mem = grown
+            self.mem[self.n_mem:end] = rows
+            self.n_mem = end
             return
         span = np.searchsorted(self.inner, rows[self.field], "right")
         order = np.argsort(span, kind="stable")
@@ -61,11 +74,9 @@ class RowSpill:
     def spans(self) -> Iterator[np.ndarray]:
         """Each non-empty span's rows, first span first (in the order they were added)."""
         if self.dir is None:
-            if self.mem:
-                rows = np.concatenate(self.mem)
-                self.mem = []
-                if len(rows):
-                    yield rows
+            rows, self.mem, self.n_mem = self.mem[:self.n_mem], np.zeros(0, self.dtype), 0
+            if len(rows):
+                yield rows
             return
         for k in range(self.n):
             path = self._path(k)

@@ -137,7 +137,8 @@ def iso_utc_array(t_s) -> np.ndarray:
     out = np.empty((*t.shape, 20), dtype=np.uint8)
     out[..., :11] = dates.view(np.uint8).reshape(span, 20)[:, :11][days - first]
     out[..., 11:] = _iso_clock_bytes()[sod]
-    return out.view("S20")[..., 0].astype("U20")
+    # The code points as integers: numpy's own S to U cast costs about 0.5 us a cell.
+    return out.astype(np.uint32).view("U20")[..., 0]
 
 
 def utc_strftime(t: datetime | float, layout: str) -> str:

@@ -362,3 +362,32 @@ def test_an_impossible_memory_budget_is_a_clear_error(amateur, memory_mb):
         with pytest.raises(ConfigError, match=r"memory_mb .* is invalid"):
             finder(amateur[0][:2], amateur[1][:2], [DELFT], START, START + timedelta(hours=6),
                    memory_mb=memory_mb)
+
+
+def test_compiled_kernels_memory_counts_against_the_budget(amateur, monkeypatch):
+    """The kernels' own resident memory leaves less of ``memory_mb`` for the arrays: more,
+    smaller chunks, the same passes."""
+    from tracker.batch import kernels
+
+    monkeypatch.setattr(kernels, "runtime_mb", lambda: 0.0)
+    plain = run(amateur, memory_mb=2.0)
+    monkeypatch.setattr(kernels, "runtime_mb", lambda: 1.5)
+    counted = run(amateur, memory_mb=2.0)
+    assert counted.stats["chunks"] > plain.stats["chunks"]
+    assert np.array_equal(counted.passes, plain.passes)
+
+
+def test_a_whole_result_is_held_once(amateur):
+    """The streamed result comes sorted in the array it was gathered in; concat of one part
+    and select_passes keeping every pass add no copy."""
+    from tracker.batch import PassTable, select_passes
+
+    args = (*amateur, [DELFT], START, START + timedelta(days=1))
+    (part,) = iter_passes_batch(*args)
+    order = np.lexsort((part.passes["station"], part.passes["sat"], part.passes["aos_s"]))
+    assert np.array_equal(order, np.arange(len(part)))
+    assert PassTable.concat([part]) is part
+    assert np.shares_memory(select_passes(part).passes, part.passes)
+    fewer = select_passes(part, 30.0)
+    assert 0 < len(fewer) < len(part) and not np.shares_memory(fewer.passes, part.passes)
+    assert np.array_equal(find_passes_batch(*args).passes, part.passes)

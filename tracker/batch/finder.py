@@ -114,8 +114,11 @@ class PassTable:
 
     @classmethod
     def concat(cls, parts: list[PassTable]) -> PassTable:
-        """Consecutive parts of one table (as :func:`iter_passes_batch` gives them) as one."""
+        """Consecutive parts of one table (as :func:`iter_passes_batch` gives them) as one
+        (a single part is returned as it is)."""
         first = parts[0]
+        if len(parts) == 1:
+            return first
         passes = np.concatenate([p.passes for p in parts])
         return cls(passes, first.names, first.stations, first.start, first.end, first.errors,
                    first.stats)
@@ -918,9 +921,11 @@ def find_passes_batch(satrecs, names, stations, start: datetime, end: datetime,
     :class:`~tracker.station.Station` list; ``min_el_deg`` overrides each station's own
     minimum elevation (the horizon mask still applies). ``step_s`` is the fine sampling step,
     ``tol_s`` the time tolerance of AOS/TCA/LOS, ``memory_mb`` the working-set budget per
-    process. ``workers > 1`` splits the satellites over forked processes (POSIX); the result
-    is identical because every satellite is computed independently. For results too large
-    to hold, :func:`iter_passes_batch` gives the same table in parts.
+    process (the compiled kernels' own memory, :data:`kernels.COMPILED_RUNTIME_MB`, is
+    counted in it when they run). ``workers > 1`` splits the satellites over forked
+    processes (POSIX); the result is identical because every satellite is computed
+    independently. For results too large to hold, :func:`iter_passes_batch` gives the same
+    table in parts.
     """
     return PassTable.concat(list(_passes_in_parts(
         satrecs, names, stations, start, end, min_el_deg, step_s=step_s, tol_s=tol_s,
@@ -961,15 +966,18 @@ def _passes_in_parts(satrecs, names, stations, start, end, min_el_deg, *, step_s
                           f"in MB above 0")
     blocks = time_blocks(start, end, block_days)
     start, end = _to_utc(start), _to_utc(end)
-    kwargs = dict(step_s=step_s, tol_s=tol_s, memory_mb=memory_mb)
     days = (end - start).total_seconds() / geo.DAY_S
     kernels.announce_work(len(satrecs) * len(stations) * days)
+    # The budget is the process's: the compiled kernels' own memory leaves less for arrays.
+    kwargs = dict(step_s=step_s, tol_s=tol_s,
+                  memory_mb=max(memory_mb - kernels.runtime_mb(), memory_mb / 4))
     budget_rows = memory_mb * 2**20 / (4 * PASS_DTYPE.itemsize)
     est_rows = len(satrecs) * len(stations) * days * PASSES_PER_DAY
     errors: dict[int, SatError] = {}
     stats: dict = {}
     with RowSpill(PASS_DTYPE, "aos_s", start.timestamp(), end.timestamp(),
-                  math.ceil(est_rows / budget_rows) if spill else 1) as store:
+                  math.ceil(est_rows / budget_rows) if spill else 1,
+                  rows_hint=min(est_rows, budget_rows)) as store:
         if workers <= 1 or len(satrecs) < 2 * workers:
             found = _local_rows(satrecs, names, stations, blocks, min_el_deg, kwargs, errors,
                                 stats)
@@ -984,11 +992,21 @@ def _passes_in_parts(satrecs, names, stations, start, end, min_el_deg, *, step_s
         given = False
         for passes in store.spans():
             given = True
-            yield PassTable(passes[table_order(passes)], list(names), list(stations), start,
+            yield PassTable(_sorted_in_place(passes), list(names), list(stations), start,
                             end, errs, stats)
         if not given:
             yield PassTable(np.zeros(0, PASS_DTYPE), list(names), list(stations), start, end,
                             errs, stats)
+
+
+def _sorted_in_place(passes: np.ndarray) -> np.ndarray:
+    """``passes`` put in table order (:func:`table_order`) field by field, so a large
+    result never has a second copy of itself."""
+    order = table_order(passes)
+    if np.any(order[1:] < order[:-1]):
+        for name in passes.dtype.names:
+            passes[name] = passes[name][order]
+    return passes
 
 
 def _note_block(errors: dict, stats: dict, block_errors, block_stats: dict) -> None:

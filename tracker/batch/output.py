@@ -40,7 +40,8 @@ def select_passes(table, min_max_el_deg: float = 0.0, only: str | None = None):
     keep = table.passes["max_el_deg"] >= min_max_el_deg
     if only is not None:
         keep &= table.passes[only]
-    return table.select(keep)
+    # Keeping every pass (the usual case) is a view: no copy of a large table.
+    return table.select(slice(None) if keep.all() else keep)
 
 
 def check_output_dir(path: str | Path, *, force: bool = False, label: str = "") -> Path:

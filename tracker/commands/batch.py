@@ -34,9 +34,9 @@ from tracker.commands._common import (
 )
 
 MAX_SKY_PLOTS = 50
-# Passes converted to records and written at a time: bounds the export's memory (Python
-# strings per cell) whatever the catalogue size; the finder's table itself is a compact
-# numpy array (about 70 bytes per pass).
+# Passes converted to records and written at a time: bounds the export's memory (a part's
+# columns and its text) whatever the catalogue size; the finder's table itself is a compact
+# numpy array (64 bytes per pass).
 ROWS_PER_PART = 20_000
 FORMATS = ("table", "csv", "json", "ics")
 
