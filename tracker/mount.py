@@ -104,8 +104,10 @@ class MountFrame:
         if self.wire_takes_bearing:
             return self.mech_candidates(wire_az_deg % 360.0)
         top = self.az_span_deg + 2.0
-        out = [m for m in (wire_az_deg - 360.0, wire_az_deg, wire_az_deg + 360.0)
-               if -2.0 <= m <= top]
+        out = []
+        for m in (wire_az_deg - 360.0, wire_az_deg, wire_az_deg + 360.0):
+            if -2.0 <= m <= top:     # (a loop, not a comprehension: once a live-loop cycle)
+                out.append(m)
         return out or [min(max(wire_az_deg, 0.0), self.az_span_deg)]
 
     def nearest_mech_of_wire(self, wire_az_deg: float, belief_m_deg: float | None = None
@@ -429,10 +431,14 @@ class AxisMotor:
             return 0
         return 1 if self._target > p else -1
 
-    def moving(self, t_s: float) -> bool:
+    def moving(self, t_s: float, position_deg: float | None = None) -> bool:
+        """True while the axis runs at ``t_s``; ``position_deg``, if given, is
+        :meth:`position` at ``t_s`` (a caller that has it saves evaluating it again)."""
         if self.jammed or self._p0 == self._target:
             return False
-        return not abs(self._target - self.position(t_s)) < 1e-9
+        if position_deg is None:
+            position_deg = self.position(t_s)
+        return not abs(self._target - position_deg) < 1e-9
 
     def rests_on(self, position_deg: float) -> bool:
         """True if the axis stands on ``position_deg`` with that as its target (exactly, not

@@ -328,7 +328,8 @@ class TrackCore:
         # The belief: the motor model, else the last read-back, else the reading's own scale.
         motor = self.motor
         contradiction_deg = self.settings.contradiction_deg
-        expected_az = float(motor.az.position(t_s)) if motor is not None else None
+        # (the scalar position is a float already)
+        expected_az = motor.az.position(t_s) if motor is not None else None
         belief = expected_az if expected_az is not None else (
             self.antenna[0] if self.antenna else None)
         m_az = self._frame.nearest_mech_of_wire(wire_az_deg, belief)
@@ -345,7 +346,7 @@ class TrackCore:
                                    or still_s >= spec.start_delay_s + 1.5)
         if motor is not None and (
                 abs(m_az - expected_az) > contradiction_deg
-                or (still and motor.az.moving(t_s))):
+                or (still and motor.az.moving(t_s, expected_az))):
             # Far from the belief (or standing still while believed moving), but the reading
             # names the commanded target: it arrived sooner than believed (the start was
             # guessed on the wrong side of the overlap; the controller knew better). Take it,
@@ -378,7 +379,7 @@ class TrackCore:
                 w.reset()
             expected_az = m_az
         off_az = abs(m_az - expected_az)
-        off_el = 0.0 if el is None else abs(el - float(self.motor.el.position(t_s)))
+        off_el = 0.0 if el is None else abs(el - self.motor.el.position(t_s))
         if off_az > contradiction_deg or off_el > contradiction_deg:
             # Not where it can be if it obeyed us: someone turned it by hand, the controller
             # was recalibrated, or it folded its scale. Stop believing; wait for it to settle.
@@ -489,9 +490,12 @@ class TrackCore:
 
     # The per-cycle decision by phase; the phases share the cycle's state.
     def _decide(self, t_s: float) -> Command | None:  # noqa: C901
-        phase = self._phase_at(t_s)
-        if phase is not self.phase:
-            self.phase = phase
+        phase = self.phase
+        # Most cycles stay in TRACK: _phase_at's answer then, without the call.
+        if phase is not Phase.TRACK or not self.track_from_s <= t_s <= self.los_s:
+            phase = self._phase_at(t_s)
+            if phase is not self.phase:
+                self.phase = phase
         if self.motor is None or self.untrusted:
             return None       # no trusted position: never a blind move
         if phase is Phase.WAIT or phase is Phase.DONE:
@@ -817,9 +821,9 @@ class TrackCore:
         # Once a cycle: floats throughout (the track's span and the scalar paths).
         if self.sky is not None and not (self._track_from_s <= t_s <= self._track_to_s):
             taz, tel = self.sky(t_s)
+            taz, tel = float(taz), float(tel)
         else:
-            taz, tel = self.track.direction_at(float(t_s))
-        taz, tel = float(taz), float(tel)
+            taz, tel = self.track.direction_at(float(t_s))    # floats on a float time
         ant = self.antenna
         err = bearing = None
         if ant is not None:
@@ -838,14 +842,17 @@ class TrackCore:
                 # after LOS the antenna leaves the target on purpose: no pointing error
                 err = (look_error_deg(look[2], taz, tel) if look[2] is not None else
                        float(pointing_error_deg(self.spec, ant[0], el, (taz, tel))))
-        span = max(self.los_s - self.aos_s, 1e-9)
+        aos_s, los_s = self.aos_s, self.los_s
+        span = los_s - aos_s
+        # min(max(x, 0), 1) and max(span, 1e-9), without the calls
+        progress = (t_s - aos_s) / (1e-9 if 1e-9 > span else span)
+        progress = 0.0 if progress < 0.0 else 1.0 if progress > 1.0 else progress
         cmd = self.last_command
         return Status(t_s, self.phase, self.mode, taz, tel,
                       None if ant is None else ant[0], None if ant is None else ant[1],
                       bearing, None if cmd is None else cmd.az_m_deg,
-                      None if cmd is None else cmd.el_deg, err, self.aos_s, self.los_s,
-                      min(max((t_s - self.aos_s) / span, 0.0), 1.0), self.commands,
-                      self.note)
+                      None if cmd is None else cmd.el_deg, err, aos_s, los_s, progress,
+                      self.commands, self.note)
 
 
 def safe_target(spec: RotatorSpec, station: Station, az_m_deg: float, el_deg: float | None
