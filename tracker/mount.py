@@ -405,15 +405,19 @@ class AxisMotor:
 
     def position(self, t_s):
         """Position at time(s) ``t_s`` >= the last command (scalar or array)."""
-        if isinstance(t_s, (float, int)):  # scalar fast path (emulator ticks, command())
+        if type(t_s) is float or isinstance(t_s, (float, int)):  # scalar fast path
             if self.jammed:
                 return float(self._p0)
             dist = self._target - self._p0
             if dist == 0.0 and t_s == t_s:   # at rest on its target (most live-loop asks)
                 return self._p0 + 0.0
-            travelled = min(max((t_s - self._t0 - self._delay) * self.rate_deg_s, 0.0),
-                            abs(dist))
-            return self._p0 + math.copysign(travelled, dist)
+            # min(max(run, 0.0), abs(dist)) without the calls (several times a live-loop
+            # cycle, and every emulator tick)
+            run = (t_s - self._t0 - self._delay) * self.rate_deg_s
+            if 0.0 > run:
+                run = 0.0
+            span = abs(dist)
+            return self._p0 + math.copysign(span if span < run else run, dist)
         t = np.asarray(t_s, dtype=float)
         if self.jammed:
             return np.full(t.shape, self._p0) if t.ndim else float(self._p0)

@@ -267,6 +267,7 @@ class TrackCore:
         self.untrusted = 0          # agreeing read-backs still needed after a contradiction
         self.note = ""
         self._watch = {"az": AxisWatch(), "el": AxisWatch()}
+        self._w_az, self._w_el = self._watch["az"], self._watch["el"]   # (asked every cycle)
         self._phase_commanded: Phase | None = None
         # (phase, move index) of a pre-position/park sequence cut short by a reconnect or an
         # all-stop: it resumes at the move under way, not back at the first one (which would
@@ -274,8 +275,8 @@ class TrackCore:
         self._resume: tuple[Phase, int] | None = None
         self._hold_until_s = -math.inf
         self._hold_level_deg = self.settings.deadband_deg
-        # (from, until, level, motor stamps): needs_command is False all along (_quiet).
-        self._quiet_span: tuple[float, float, float, tuple] | None = None
+        # (from, until, level, az stamp, el stamp): needs_command is False all along (_quiet).
+        self._quiet_span: tuple[float, float, float, int, int | None] | None = None
         self._park_sent_s: float | None = None
         self._last_wire_az: float | None = None
         self._wire_still_since_s = -math.inf
@@ -421,7 +422,7 @@ class TrackCore:
         Until then ask for a copy (:attr:`_resend_due`)."""
         s = self.settings
         res = self.spec.resolution_deg
-        w_az, w_el = self._watch["az"], self._watch["el"]
+        w_az, w_el = self._w_az, self._w_el
         az, el = self.antenna
         stuck_az = w_az.check(t_s, az, res, s.stall_travel_deg)
         stuck_el = None if el is None else w_el.check(t_s, el, res, s.stall_travel_deg)
@@ -588,9 +589,10 @@ class TrackCore:
         :attr:`~tracker.mount.AxisMotor.stamp`)."""
         motor = self.motor
         assert motor is not None, "only asked with a belief"
-        key = (motor.az.stamp, None if motor.el is None else motor.el.stamp)
+        az_stamp, el_stamp = motor.az.stamp, None if motor.el is None else motor.el.stamp
         q = self._quiet_span
-        if q is not None and q[0] <= t_s <= q[1] and level_deg >= q[2] and key == q[3]:
+        if (q is not None and q[0] <= t_s <= q[1] and level_deg >= q[2] and az_stamp == q[3]
+                and el_stamp == q[4]):
             return True
         until = quiet_until_s(self.path, motor.az, motor.el, t_s, level_deg, lookahead_s,
                               first_s=self.settings.cycle_s)
@@ -598,7 +600,7 @@ class TrackCore:
             if needs_command(self.path, motor.az, motor.el, t_s, level_deg, lookahead_s):
                 return False
             until = t_s
-        self._quiet_span = (t_s, until, level_deg, key)
+        self._quiet_span = (t_s, until, level_deg, az_stamp, el_stamp)
         return True
 
     def _plan_index_near(self, t_s: float) -> int:
