@@ -69,6 +69,14 @@ class Phase(str, Enum):
     DONE = "done"
 
 
+# The members as module names: on Python 3.11 reading one off the class (``Phase.TRACK``) is a
+# descriptor call, about 0.3 us, and the live loop asks several each cycle.
+_WAIT, _PREPOSITION, _TRACK, _PARK, _DONE = (Phase.WAIT, Phase.PREPOSITION, Phase.TRACK,
+                                             Phase.PARK, Phase.DONE)
+# The phase a command of each reason belongs to (TrackCore.commanded).
+_PHASE_OF_REASON = {"preposition": _PREPOSITION, "track": _TRACK, "park": _PARK}
+
+
 @dataclass(frozen=True)
 class StreamSettings:
     """Tuning of the live loop; defaults suit a G-5500 behind a GS-232B."""
@@ -259,7 +267,7 @@ class TrackCore:
                                                    spec.park_el_deg))
         self._move_i = 0
         self.motor: MotorModel | None = None       # belief of where the motors are/go
-        self.phase = Phase.WAIT
+        self.phase = _WAIT
         self.last_command: Command | None = None
         self.commands = 0
         self.antenna: tuple[float, float | None] | None = None   # mechanical read-back
@@ -468,21 +476,21 @@ class TrackCore:
     # Decisions -------------------------------------------------------------------------------
 
     def _phase_at(self, t_s: float) -> Phase:
-        if self.phase is Phase.DONE:
-            return Phase.DONE
+        if self.phase is _DONE:
+            return _DONE
         if t_s > self.los_s:
-            return Phase.PARK
+            return _PARK
         if t_s >= self.track_from_s:
-            return Phase.TRACK
+            return _TRACK
         if t_s >= self.preposition_t_s:
-            return Phase.PREPOSITION
-        return Phase.WAIT
+            return _PREPOSITION
+        return _WAIT
 
     def decide(self, t_s: float) -> Command | None:
         """What to send now (None: nothing). Call after :meth:`observe` each cycle."""
         cmd = self._decide(t_s)
         if cmd is None and self._resend_due and self.motor is not None and not self.untrusted \
-                and self.phase is not Phase.WAIT and self.phase is not Phase.DONE:
+                and self.phase is not _WAIT and self.phase is not _DONE:
             # The last command moved nothing so far: it may have been lost on the line. (A
             # new command, when one is due, is a fresh chance in itself.)
             last = self.last_command
@@ -493,22 +501,22 @@ class TrackCore:
     def _decide(self, t_s: float) -> Command | None:  # noqa: C901
         phase = self.phase
         # Most cycles stay in TRACK: _phase_at's answer then, without the call.
-        if phase is not Phase.TRACK or not self.track_from_s <= t_s <= self.los_s:
+        if phase is not _TRACK or not self.track_from_s <= t_s <= self.los_s:
             phase = self._phase_at(t_s)
             if phase is not self.phase:
                 self.phase = phase
         if self.motor is None or self.untrusted:
             return None       # no trusted position: never a blind move
-        if phase is Phase.WAIT or phase is Phase.DONE:
+        if phase is _WAIT or phase is _DONE:
             return None
-        if phase is Phase.PREPOSITION:
+        if phase is _PREPOSITION:
             cmd = self._next_move(t_s, self.pre_moves, "preposition")
             if cmd is not None and self._move_i == len(self.pre_moves) - 1:
                 cmd = self._lead_in(t_s, cmd)
             return cmd
-        if phase is Phase.PARK:
+        if phase is _PARK:
             if not self.settings.park_after_pass:
-                self.phase = Phase.DONE
+                self.phase = _DONE
                 return None
             cmd = self._next_move(t_s, self.park_moves, "park")
             if cmd is not None:
@@ -524,7 +532,7 @@ class TrackCore:
             timed_out = (self._park_sent_s is not None
                          and t_s - self._park_sent_s > self.settings.park_timeout_s)
             if arrived or timed_out:
-                self.phase = Phase.DONE
+                self.phase = _DONE
             return None
         # TRACK
         s = self.settings
@@ -542,7 +550,7 @@ class TrackCore:
             cmd = self._safe(self._plan_az[i], el, "track")
             self._hold_until_s = -math.inf
             motor = self.motor
-            if self._staircase and self._phase_commanded is Phase.TRACK and abs(
+            if self._staircase and self._phase_commanded is _TRACK and abs(
                     motor.az.target_deg - cmd.az_m_deg) < 1e-9 and (
                     cmd.el_deg is None or motor.el is None
                     or abs(motor.el.target_deg - cmd.el_deg) < 1e-9):
@@ -555,8 +563,8 @@ class TrackCore:
         else:
             # After the whole pre-position (which already leads into the pass) the antenna
             # may hold where it is, as within the pass.
-            settled = self._phase_commanded is Phase.TRACK or (
-                self._phase_commanded is Phase.PREPOSITION
+            settled = self._phase_commanded is _TRACK or (
+                self._phase_commanded is _PREPOSITION
                 and self._move_i >= len(self.pre_moves))
             if settled and (self._schedule is not None or not self._schedule_tried):
                 planned = self._planned(t_s, lookahead)
@@ -568,7 +576,7 @@ class TrackCore:
                              step_s=s.aim_step_s)
             cmd = self._safe(aim.az_m_deg, aim.el_deg, "track", aim)
         last = self.last_command
-        if self._phase_commanded is Phase.TRACK and last is not None and self.motor.moving(
+        if self._phase_commanded is _TRACK and last is not None and self.motor.moving(
                 t_s):
             # Already on its way (or one step off it): a repeat would only cost relay clicks.
             res = self.spec.resolution_deg
@@ -778,8 +786,7 @@ class TrackCore:
         self.last_command = cmd
         self.commands += 1
         self._resend_due = False
-        phase = {"preposition": Phase.PREPOSITION, "track": Phase.TRACK,
-                 "park": Phase.PARK}.get(cmd.reason, self.phase)
+        phase = _PHASE_OF_REASON.get(cmd.reason, self.phase)
         if cmd.reason in ("preposition", "park"):
             self._move_i += 1     # _next_move set it to the index of this move
         self._phase_commanded = phase
@@ -807,7 +814,7 @@ class TrackCore:
         sent again. Called repeatedly while the port is gone: only the first call records."""
         self._schedule = None     # the motion it planned from was cut: the aim policy goes on
         if self._phase_commanded is not None:
-            seq = self._phase_commanded in (Phase.PREPOSITION, Phase.PARK)
+            seq = self._phase_commanded in (_PREPOSITION, _PARK)
             self._resume = (self._phase_commanded, max(self._move_i - 1, 0)) if seq else None
         self._phase_commanded = None
 
@@ -840,7 +847,7 @@ class TrackCore:
             bearing = look[1]
             # an azimuth-only beam's elevation is set by hand: only azimuth is ours to get
             # right, as in the planner's prediction
-            if self.phase is not Phase.PARK and self.phase is not Phase.DONE:
+            if self.phase is not _PARK and self.phase is not _DONE:
                 # after LOS the antenna leaves the target on purpose: no pointing error
                 err = (look_error_deg(look[2], taz, tel) if look[2] is not None else
                        float(pointing_error_deg(self.spec, ant[0], el, (taz, tel))))
@@ -1084,7 +1091,7 @@ def run_pass(core: TrackCore, link: Link, clock: Clock, on_status: Callable[[Sta
                 errors.append(st.error_deg)
                 error_t_s.append(t)
             on_status(st)
-            if core.phase is Phase.DONE:
+            if core.phase is _DONE:
                 ok = True
                 break
             if should_stop():
