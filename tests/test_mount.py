@@ -300,3 +300,24 @@ def test_axis_stamp_changes_with_every_change_of_its_segment():
     assert b.stamp != a.stamp
     asked = (a.position(40.0), a.moving(40.0), a.direction(40.0))   # asking changes nothing
     assert asked and a.stamp in seen
+
+
+def test_axis_scalar_position_is_the_segment_formula_and_moving_takes_it():
+    """The scalar position (asked several times a live-loop cycle) is the array path's and
+    the segment's clamped travel, before the start delay, during the move and after arrival;
+    moving() handed that position answers as moving() on its own."""
+    rng = np.random.default_rng(5)
+    for case in range(300):
+        a = AxisMotor(0.0, 450.0, float(rng.uniform(1.0, 8.0)), float(rng.uniform(0.0, 2.0)),
+                      1.0, float(rng.uniform(0.0, 450.0)), 10.0)
+        if case % 5:
+            a.command(float(rng.uniform(0.0, 450.0)), float(rng.uniform(10.0, 12.0)))
+        if case % 11 == 0:
+            a.jam(12.5)
+        t0_s, p0, target, delay_s, rate, jammed = a.segment()
+        ts = rng.uniform(t0_s - 2.0, t0_s + 200.0, 25)
+        for t, from_array in zip(ts.tolist(), a.position(ts).tolist(), strict=True):
+            run = min(max((t - t0_s - delay_s) * rate, 0.0), abs(target - p0))
+            expected = p0 if jammed else p0 + float(np.copysign(run, target - p0))
+            assert a.position(t) == from_array == expected
+            assert a.moving(t, a.position(t)) is a.moving(t)

@@ -6,6 +6,7 @@ GS-232B emulator is in test_stream_e2e.py.
 
 from __future__ import annotations
 
+import copy
 from datetime import datetime, timedelta, timezone
 
 import numpy as np
@@ -423,3 +424,40 @@ def test_a_staircase_step_cut_by_an_all_stop_is_sent_again_on_the_next_cycle():
     commands, last = cut["next"]
     assert commands == cut["commands"] + 1                 # sent on the very next cycle
     assert (last.az_m_deg, last.el_deg) == (cut["last"].az_m_deg, cut["last"].el_deg)
+
+
+def test_quiet_proof_is_dropped_when_either_motor_is_commanded():
+    """TrackCore._quiet keeps a proof that no command is needed while the motors' stamps
+    stay; a command to either axis (a new stamp) must end it: the answer is needs_command's
+    again, not the proof's."""
+    from tracker.aim import needs_command
+    from tracker.mount import MotorModel
+
+    track = arc_pass(duration_s=300, pad_s=30)
+    core = TrackCore(simple_plan(track, SPEC), track, SPEC, Station(),
+                     StreamSettings(deadband_deg=3.0))
+    t = core.preposition_t_s - 0.5
+    truth = MotorModel(SPEC, 90.0, 0.0, t)
+    look = core._lookahead_s
+    proved = None
+    while t < core.los_s and proved is None:
+        core.observe(t, *(round(v) for v in truth.position(t)))
+        cmd = core.decide(t)
+        if cmd is not None:
+            core.commanded(t, cmd)
+            truth.command(cmd.az_m_deg, cmd.el_deg, t)
+        q = core._quiet_span
+        if core.phase is Phase.TRACK and cmd is None and q is not None and q[1] >= t + 10.0:
+            proved = t
+        t += 0.5
+    assert proved is not None, "no quiet span proved for a while ahead"
+    level = core._quiet_span[2]
+    for axis in ("az", "el"):
+        c = copy.deepcopy(core)
+        t_s = proved + 0.5
+        assert c._quiet(t_s, level, look)          # within the proved span
+        moved = getattr(c.motor, axis)
+        moved.command(moved.target_deg + 40.0, t_s)
+        # (the motor is well under way by then, and the proof still spans that time)
+        assert needs_command(c.path, c.motor.az, c.motor.el, t_s + 8.0, level, look)
+        assert not c._quiet(t_s + 8.0, level, look)

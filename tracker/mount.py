@@ -104,8 +104,10 @@ class MountFrame:
         if self.wire_takes_bearing:
             return self.mech_candidates(wire_az_deg % 360.0)
         top = self.az_span_deg + 2.0
-        out = [m for m in (wire_az_deg - 360.0, wire_az_deg, wire_az_deg + 360.0)
-               if -2.0 <= m <= top]
+        out = []
+        for m in (wire_az_deg - 360.0, wire_az_deg, wire_az_deg + 360.0):
+            if -2.0 <= m <= top:     # (a loop, not a comprehension: once a live-loop cycle)
+                out.append(m)
         return out or [min(max(wire_az_deg, 0.0), self.az_span_deg)]
 
     def nearest_mech_of_wire(self, wire_az_deg: float, belief_m_deg: float | None = None
@@ -403,15 +405,19 @@ class AxisMotor:
 
     def position(self, t_s):
         """Position at time(s) ``t_s`` >= the last command (scalar or array)."""
-        if isinstance(t_s, (float, int)):  # scalar fast path (emulator ticks, command())
+        if type(t_s) is float or isinstance(t_s, (float, int)):  # scalar fast path
             if self.jammed:
                 return float(self._p0)
             dist = self._target - self._p0
             if dist == 0.0 and t_s == t_s:   # at rest on its target (most live-loop asks)
                 return self._p0 + 0.0
-            travelled = min(max((t_s - self._t0 - self._delay) * self.rate_deg_s, 0.0),
-                            abs(dist))
-            return self._p0 + math.copysign(travelled, dist)
+            # min(max(run, 0.0), abs(dist)) without the calls (several times a live-loop
+            # cycle, and every emulator tick)
+            run = (t_s - self._t0 - self._delay) * self.rate_deg_s
+            if 0.0 > run:
+                run = 0.0
+            span = abs(dist)
+            return self._p0 + math.copysign(span if span < run else run, dist)
         t = np.asarray(t_s, dtype=float)
         if self.jammed:
             return np.full(t.shape, self._p0) if t.ndim else float(self._p0)
@@ -429,10 +435,14 @@ class AxisMotor:
             return 0
         return 1 if self._target > p else -1
 
-    def moving(self, t_s: float) -> bool:
+    def moving(self, t_s: float, position_deg: float | None = None) -> bool:
+        """True while the axis runs at ``t_s``; ``position_deg``, if given, is
+        :meth:`position` at ``t_s`` (a caller that has it saves evaluating it again)."""
         if self.jammed or self._p0 == self._target:
             return False
-        return not abs(self._target - self.position(t_s)) < 1e-9
+        if position_deg is None:
+            position_deg = self.position(t_s)
+        return not abs(self._target - position_deg) < 1e-9
 
     def rests_on(self, position_deg: float) -> bool:
         """True if the axis stands on ``position_deg`` with that as its target (exactly, not

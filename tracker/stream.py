@@ -69,6 +69,14 @@ class Phase(str, Enum):
     DONE = "done"
 
 
+# The members as module names: on Python 3.11 reading one off the class (``Phase.TRACK``) is a
+# descriptor call, about 0.3 us, and the live loop asks several each cycle.
+_WAIT, _PREPOSITION, _TRACK, _PARK, _DONE = (Phase.WAIT, Phase.PREPOSITION, Phase.TRACK,
+                                             Phase.PARK, Phase.DONE)
+# The phase a command of each reason belongs to (TrackCore.commanded).
+_PHASE_OF_REASON = {"preposition": _PREPOSITION, "track": _TRACK, "park": _PARK}
+
+
 @dataclass(frozen=True)
 class StreamSettings:
     """Tuning of the live loop; defaults suit a G-5500 behind a GS-232B."""
@@ -259,7 +267,7 @@ class TrackCore:
                                                    spec.park_el_deg))
         self._move_i = 0
         self.motor: MotorModel | None = None       # belief of where the motors are/go
-        self.phase = Phase.WAIT
+        self.phase = _WAIT
         self.last_command: Command | None = None
         self.commands = 0
         self.antenna: tuple[float, float | None] | None = None   # mechanical read-back
@@ -267,6 +275,7 @@ class TrackCore:
         self.untrusted = 0          # agreeing read-backs still needed after a contradiction
         self.note = ""
         self._watch = {"az": AxisWatch(), "el": AxisWatch()}
+        self._w_az, self._w_el = self._watch["az"], self._watch["el"]   # (asked every cycle)
         self._phase_commanded: Phase | None = None
         # (phase, move index) of a pre-position/park sequence cut short by a reconnect or an
         # all-stop: it resumes at the move under way, not back at the first one (which would
@@ -274,8 +283,8 @@ class TrackCore:
         self._resume: tuple[Phase, int] | None = None
         self._hold_until_s = -math.inf
         self._hold_level_deg = self.settings.deadband_deg
-        # (from, until, level, motor stamps): needs_command is False all along (_quiet).
-        self._quiet_span: tuple[float, float, float, tuple] | None = None
+        # (from, until, level, az stamp, el stamp): needs_command is False all along (_quiet).
+        self._quiet_span: tuple[float, float, float, int, int | None] | None = None
         self._park_sent_s: float | None = None
         self._last_wire_az: float | None = None
         self._wire_still_since_s = -math.inf
@@ -328,7 +337,8 @@ class TrackCore:
         # The belief: the motor model, else the last read-back, else the reading's own scale.
         motor = self.motor
         contradiction_deg = self.settings.contradiction_deg
-        expected_az = float(motor.az.position(t_s)) if motor is not None else None
+        # (the scalar position is a float already)
+        expected_az = motor.az.position(t_s) if motor is not None else None
         belief = expected_az if expected_az is not None else (
             self.antenna[0] if self.antenna else None)
         m_az = self._frame.nearest_mech_of_wire(wire_az_deg, belief)
@@ -345,7 +355,7 @@ class TrackCore:
                                    or still_s >= spec.start_delay_s + 1.5)
         if motor is not None and (
                 abs(m_az - expected_az) > contradiction_deg
-                or (still and motor.az.moving(t_s))):
+                or (still and motor.az.moving(t_s, expected_az))):
             # Far from the belief (or standing still while believed moving), but the reading
             # names the commanded target: it arrived sooner than believed (the start was
             # guessed on the wrong side of the overlap; the controller knew better). Take it,
@@ -378,7 +388,7 @@ class TrackCore:
                 w.reset()
             expected_az = m_az
         off_az = abs(m_az - expected_az)
-        off_el = 0.0 if el is None else abs(el - float(self.motor.el.position(t_s)))
+        off_el = 0.0 if el is None else abs(el - self.motor.el.position(t_s))
         if off_az > contradiction_deg or off_el > contradiction_deg:
             # Not where it can be if it obeyed us: someone turned it by hand, the controller
             # was recalibrated, or it folded its scale. Stop believing; wait for it to settle.
@@ -420,7 +430,7 @@ class TrackCore:
         Until then ask for a copy (:attr:`_resend_due`)."""
         s = self.settings
         res = self.spec.resolution_deg
-        w_az, w_el = self._watch["az"], self._watch["el"]
+        w_az, w_el = self._w_az, self._w_el
         az, el = self.antenna
         stuck_az = w_az.check(t_s, az, res, s.stall_travel_deg)
         stuck_el = None if el is None else w_el.check(t_s, el, res, s.stall_travel_deg)
@@ -466,21 +476,21 @@ class TrackCore:
     # Decisions -------------------------------------------------------------------------------
 
     def _phase_at(self, t_s: float) -> Phase:
-        if self.phase is Phase.DONE:
-            return Phase.DONE
+        if self.phase is _DONE:
+            return _DONE
         if t_s > self.los_s:
-            return Phase.PARK
+            return _PARK
         if t_s >= self.track_from_s:
-            return Phase.TRACK
+            return _TRACK
         if t_s >= self.preposition_t_s:
-            return Phase.PREPOSITION
-        return Phase.WAIT
+            return _PREPOSITION
+        return _WAIT
 
     def decide(self, t_s: float) -> Command | None:
         """What to send now (None: nothing). Call after :meth:`observe` each cycle."""
         cmd = self._decide(t_s)
         if cmd is None and self._resend_due and self.motor is not None and not self.untrusted \
-                and self.phase is not Phase.WAIT and self.phase is not Phase.DONE:
+                and self.phase is not _WAIT and self.phase is not _DONE:
             # The last command moved nothing so far: it may have been lost on the line. (A
             # new command, when one is due, is a fresh chance in itself.)
             last = self.last_command
@@ -489,21 +499,24 @@ class TrackCore:
 
     # The per-cycle decision by phase; the phases share the cycle's state.
     def _decide(self, t_s: float) -> Command | None:  # noqa: C901
-        phase = self._phase_at(t_s)
-        if phase is not self.phase:
-            self.phase = phase
+        phase = self.phase
+        # Most cycles stay in TRACK: _phase_at's answer then, without the call.
+        if phase is not _TRACK or not self.track_from_s <= t_s <= self.los_s:
+            phase = self._phase_at(t_s)
+            if phase is not self.phase:
+                self.phase = phase
         if self.motor is None or self.untrusted:
             return None       # no trusted position: never a blind move
-        if phase is Phase.WAIT or phase is Phase.DONE:
+        if phase is _WAIT or phase is _DONE:
             return None
-        if phase is Phase.PREPOSITION:
+        if phase is _PREPOSITION:
             cmd = self._next_move(t_s, self.pre_moves, "preposition")
             if cmd is not None and self._move_i == len(self.pre_moves) - 1:
                 cmd = self._lead_in(t_s, cmd)
             return cmd
-        if phase is Phase.PARK:
+        if phase is _PARK:
             if not self.settings.park_after_pass:
-                self.phase = Phase.DONE
+                self.phase = _DONE
                 return None
             cmd = self._next_move(t_s, self.park_moves, "park")
             if cmd is not None:
@@ -519,7 +532,7 @@ class TrackCore:
             timed_out = (self._park_sent_s is not None
                          and t_s - self._park_sent_s > self.settings.park_timeout_s)
             if arrived or timed_out:
-                self.phase = Phase.DONE
+                self.phase = _DONE
             return None
         # TRACK
         s = self.settings
@@ -537,7 +550,7 @@ class TrackCore:
             cmd = self._safe(self._plan_az[i], el, "track")
             self._hold_until_s = -math.inf
             motor = self.motor
-            if self._staircase and self._phase_commanded is Phase.TRACK and abs(
+            if self._staircase and self._phase_commanded is _TRACK and abs(
                     motor.az.target_deg - cmd.az_m_deg) < 1e-9 and (
                     cmd.el_deg is None or motor.el is None
                     or abs(motor.el.target_deg - cmd.el_deg) < 1e-9):
@@ -550,8 +563,8 @@ class TrackCore:
         else:
             # After the whole pre-position (which already leads into the pass) the antenna
             # may hold where it is, as within the pass.
-            settled = self._phase_commanded is Phase.TRACK or (
-                self._phase_commanded is Phase.PREPOSITION
+            settled = self._phase_commanded is _TRACK or (
+                self._phase_commanded is _PREPOSITION
                 and self._move_i >= len(self.pre_moves))
             if settled and (self._schedule is not None or not self._schedule_tried):
                 planned = self._planned(t_s, lookahead)
@@ -563,7 +576,7 @@ class TrackCore:
                              step_s=s.aim_step_s)
             cmd = self._safe(aim.az_m_deg, aim.el_deg, "track", aim)
         last = self.last_command
-        if self._phase_commanded is Phase.TRACK and last is not None and self.motor.moving(
+        if self._phase_commanded is _TRACK and last is not None and self.motor.moving(
                 t_s):
             # Already on its way (or one step off it): a repeat would only cost relay clicks.
             res = self.spec.resolution_deg
@@ -584,9 +597,10 @@ class TrackCore:
         :attr:`~tracker.mount.AxisMotor.stamp`)."""
         motor = self.motor
         assert motor is not None, "only asked with a belief"
-        key = (motor.az.stamp, None if motor.el is None else motor.el.stamp)
+        az_stamp, el_stamp = motor.az.stamp, None if motor.el is None else motor.el.stamp
         q = self._quiet_span
-        if q is not None and q[0] <= t_s <= q[1] and level_deg >= q[2] and key == q[3]:
+        if (q is not None and q[0] <= t_s <= q[1] and level_deg >= q[2] and az_stamp == q[3]
+                and el_stamp == q[4]):
             return True
         until = quiet_until_s(self.path, motor.az, motor.el, t_s, level_deg, lookahead_s,
                               first_s=self.settings.cycle_s)
@@ -594,7 +608,7 @@ class TrackCore:
             if needs_command(self.path, motor.az, motor.el, t_s, level_deg, lookahead_s):
                 return False
             until = t_s
-        self._quiet_span = (t_s, until, level_deg, key)
+        self._quiet_span = (t_s, until, level_deg, az_stamp, el_stamp)
         return True
 
     def _plan_index_near(self, t_s: float) -> int:
@@ -772,8 +786,7 @@ class TrackCore:
         self.last_command = cmd
         self.commands += 1
         self._resend_due = False
-        phase = {"preposition": Phase.PREPOSITION, "track": Phase.TRACK,
-                 "park": Phase.PARK}.get(cmd.reason, self.phase)
+        phase = _PHASE_OF_REASON.get(cmd.reason, self.phase)
         if cmd.reason in ("preposition", "park"):
             self._move_i += 1     # _next_move set it to the index of this move
         self._phase_commanded = phase
@@ -801,7 +814,7 @@ class TrackCore:
         sent again. Called repeatedly while the port is gone: only the first call records."""
         self._schedule = None     # the motion it planned from was cut: the aim policy goes on
         if self._phase_commanded is not None:
-            seq = self._phase_commanded in (Phase.PREPOSITION, Phase.PARK)
+            seq = self._phase_commanded in (_PREPOSITION, _PARK)
             self._resume = (self._phase_commanded, max(self._move_i - 1, 0)) if seq else None
         self._phase_commanded = None
 
@@ -817,9 +830,9 @@ class TrackCore:
         # Once a cycle: floats throughout (the track's span and the scalar paths).
         if self.sky is not None and not (self._track_from_s <= t_s <= self._track_to_s):
             taz, tel = self.sky(t_s)
+            taz, tel = float(taz), float(tel)
         else:
-            taz, tel = self.track.direction_at(float(t_s))
-        taz, tel = float(taz), float(tel)
+            taz, tel = self.track.direction_at(float(t_s))    # floats on a float time
         ant = self.antenna
         err = bearing = None
         if ant is not None:
@@ -834,18 +847,21 @@ class TrackCore:
             bearing = look[1]
             # an azimuth-only beam's elevation is set by hand: only azimuth is ours to get
             # right, as in the planner's prediction
-            if self.phase is not Phase.PARK and self.phase is not Phase.DONE:
+            if self.phase is not _PARK and self.phase is not _DONE:
                 # after LOS the antenna leaves the target on purpose: no pointing error
                 err = (look_error_deg(look[2], taz, tel) if look[2] is not None else
                        float(pointing_error_deg(self.spec, ant[0], el, (taz, tel))))
-        span = max(self.los_s - self.aos_s, 1e-9)
+        aos_s, los_s = self.aos_s, self.los_s
+        span = los_s - aos_s
+        # min(max(x, 0), 1) and max(span, 1e-9), without the calls
+        progress = (t_s - aos_s) / (1e-9 if 1e-9 > span else span)
+        progress = 0.0 if progress < 0.0 else 1.0 if progress > 1.0 else progress
         cmd = self.last_command
         return Status(t_s, self.phase, self.mode, taz, tel,
                       None if ant is None else ant[0], None if ant is None else ant[1],
                       bearing, None if cmd is None else cmd.az_m_deg,
-                      None if cmd is None else cmd.el_deg, err, self.aos_s, self.los_s,
-                      min(max((t_s - self.aos_s) / span, 0.0), 1.0), self.commands,
-                      self.note)
+                      None if cmd is None else cmd.el_deg, err, aos_s, los_s, progress,
+                      self.commands, self.note)
 
 
 def safe_target(spec: RotatorSpec, station: Station, az_m_deg: float, el_deg: float | None
@@ -1075,7 +1091,7 @@ def run_pass(core: TrackCore, link: Link, clock: Clock, on_status: Callable[[Sta
                 errors.append(st.error_deg)
                 error_t_s.append(t)
             on_status(st)
-            if core.phase is Phase.DONE:
+            if core.phase is _DONE:
                 ok = True
                 break
             if should_stop():
