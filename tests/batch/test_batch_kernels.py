@@ -163,6 +163,34 @@ def test_fine_screen_decides_like_the_numpy_screen(numba_kernels):
     assert np.mean(ref != fast) < 1e-3
 
 
+@pytest.mark.parametrize("impl", ["numpy", "numba"])
+def test_fine_screen_decides_alike_with_the_stations_shared_sub_arcs(impl, request):
+    """The sub-arcs computed once for many stations (shared_arcs) give each station the
+    decisions of its own screen, bit for bit, with either implementation."""
+    if impl == "numba":
+        request.getfixturevalue("numba_kernels")
+    rng = np.random.default_rng(4)
+    S, K, n = 200, 30, 8
+    A, q, phi, ecc, track, cos_lim, screenable = random_arcs(rng, S, K, n)
+    any_ss, any_kk = np.nonzero(rng.random((S, K)) < 0.5)
+    rows = np.full((S, K), -1, np.int64)
+    rows[any_ss, any_kk] = np.arange(len(any_ss))
+    pick = rng.random(len(any_ss)) < 0.6  # one station's candidates among all stations'
+    ss, kk = any_ss[pick], any_kk[pick]
+
+    def run():
+        arcs = kernels.shared_arcs(phi, any_ss, any_kk, ecc, n, 3600.0)
+        assert arcs.kind == impl
+        return (kernels.fine_screen(A, q, phi, ss, kk, ecc, n, 3600.0, track, cos_lim,
+                                    screenable, arcs, rows[ss, kk]),
+                kernels.fine_screen(A, q, phi, ss, kk, ecc, n, 3600.0, track, cos_lim,
+                                    screenable))
+
+    shared, own = with_impl(impl, run)
+    assert 0.05 < own.mean() < 0.95
+    assert np.array_equal(shared, own)
+
+
 @pytest.mark.parametrize("slope", [False, True])
 def test_hermite_root_is_the_same(numba_kernels, slope):
     rng = np.random.default_rng(5)

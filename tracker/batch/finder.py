@@ -425,7 +425,7 @@ def _coarse_candidates(job: _Job, arc, tau_c, coarse_s, r_apo, screenable):
 
 
 def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc,
-                     screenable, sub_arcs=None):
+                     screenable, shared=None):
     """(S, K * n) booleans: fine steps of the candidate coarse intervals where a pass is still
     possible.
 
@@ -434,8 +434,8 @@ def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc
     mean rate times the Kepler perigee/apogee rate ratio for the eccentricity (plus 1 % for
     SGP4's short-period terms and drag). Each fine step then sweeps a sub-arc of known
     bounds, tested against the horizon cone like the coarse interval
-    (:func:`kernels.fine_screen`). No SGP4 calls. ``sub_arcs``: :func:`kernels.sub_arcs` of
-    every coarse interval, (S, K, n) each, when many stations share them.
+    (:func:`kernels.fine_screen`). No SGP4 calls. ``shared``: (:func:`kernels.shared_arcs`
+    of the coarse intervals of any station, their rows (S, K)) when many stations share them.
     """
     S, K = cand.shape
     out = np.zeros((S, K * n), bool)
@@ -451,10 +451,10 @@ def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc
     u = job.frames.unit[st]
     psi = job.theta((np.arange(K * n) + 0.5) * fine_s) + math.atan2(u[1], u[0])
     track = kernels.StationTrack(psi, math.hypot(u[0], u[1]), float(u[2]))
-    arcs = None if sub_arcs is None else (sub_arcs[0][ss, kk], sub_arcs[1][ss, kk])
+    arcs, rows = (None, None) if shared is None else (shared[0], shared[1][ss, kk])
     cos_lim = _cone_limits(job, st, r_apo, fine_s)[0]
     sub = kernels.fine_screen(arc["A"], arc["q"], arc["phi"], ss, kk, ecc, n, coarse_s, track,
-                              cos_lim, screenable, arcs)
+                              cos_lim, screenable, arcs, rows)
     out.reshape(S, K, n)[ss, kk] = sub
     return out
 
@@ -486,15 +486,15 @@ def _run_chunk(job: _Job, sat_ids: np.ndarray, n: int, fine_step_s: float, r_apo
     arc = _arc_geometry(r, v, valid)
     cands = _coarse_candidates(job, arc, tau_c, coarse_s, r_apo, screenable)
     cand_any = np.logical_or.reduce(cands) if len(cands) > 1 else cands[0]
-    sub_arcs = None
-    if len(cands) > 1 and n > 1 and kernels.backend() == "numpy":  # shared by the stations
+    shared = None
+    if len(cands) > 1 and n > 1:  # the sub-arcs of an interval are the same for every station
         ss, kk = np.nonzero(cand_any)
-        a1, a2 = kernels.sub_arcs(arc["phi"][ss, kk], ecc[ss], n, coarse_s)
-        shape = (*cand_any.shape, n)
-        sub_arcs = (np.zeros(shape), np.zeros(shape))
-        sub_arcs[0][ss, kk], sub_arcs[1][ss, kk] = a1, a2
+        rows = np.full(cand_any.shape, -1, np.int64)
+        rows[ss, kk] = np.arange(len(ss))
+        shared = (kernels.shared_arcs(arc["phi"], ss, kk, ecc, n, coarse_s), rows)
     subs = [_fine_candidates(job, st, cand, arc, n, coarse_s, r_apo, ecc, screenable,
-                             sub_arcs) for st, cand in enumerate(cands)]
+                             shared) for st, cand in enumerate(cands)]
+    del shared
     sub_any = np.logical_or.reduce(subs) if len(subs) > 1 else subs[0]
     # "intervals": fine steps of the whole window; "candidate_intervals": those the two
     # screening levels kept (the only ones SGP4 samples).
