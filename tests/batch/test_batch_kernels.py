@@ -269,6 +269,32 @@ def test_solve_cubic_and_correct_take_the_same_steps(numba_kernels, tca):
     assert np.max(np.abs(out_a[3] - out_b[3])) <= 1e-6          # position, km
 
 
+def test_sample_flags_are_the_same(numba_kernels):
+    """The bracketing flags of stations' samples: runs of consecutive grid times per
+    satellite, invalid samples, station and satellite changes, window edges."""
+    rng = np.random.default_rng(17)
+    shared = 4000
+    s_loc = np.repeat(np.arange(40), shared // 40)
+    j = np.tile(np.arange(shared // 40), 40) + rng.integers(0, 2, shared).cumsum() % 3
+    ok = rng.random(shared) < 0.97
+    per_station = [np.sort(rng.choice(shared, 1500, replace=False)) for _ in range(3)]
+    sel = np.concatenate(per_station)
+    st = np.repeat(np.arange(3), 1500)
+    el = rng.normal(0.0, 10.0, len(sel))
+    rate = rng.normal(0.0, 0.05, len(sel))
+    thr = np.array([0.0, 5.0, 10.0])[st]
+
+    def run():
+        return kernels.sample_flags(el, rate, thr, sel, ok, s_loc, j, st)
+
+    ref, fast = with_impl("numpy", run), with_impl("numba", run)
+    for a, b in zip(ref, fast, strict=True):
+        assert a.dtype == b.dtype and np.array_equal(a, b)
+    f, _rate, _ss, _jj, contig, up, cut_start, cut_end = ref
+    assert 0.2 < contig.mean() < 0.9 and np.any(f == -1e3)
+    assert 0 < cut_start.sum() < up.sum() and cut_end.sum() > 0
+
+
 def test_look_angles_and_the_peak_bound_are_the_same(numba_kernels):
     rng = np.random.default_rng(13)
     m = 5000

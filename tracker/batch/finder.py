@@ -560,22 +560,14 @@ def _station_samples(job: _Job, st, sel, s_loc, j, ok, sat_ids, r_apo, fine_s: f
     az = np.full(len(sel), np.nan)
     masked = np.flatnonzero(np.isin(st, job.masked))
     az[masked] = azimuth(masked)
-    good = ok[sel]
-    f = np.where(good, el - job.threshold(st, az), -1e3)
-    rate = np.where(good, rate, 0.0)
-    ss, jj = s_loc[sel], j[sel]
-    tau = jj * fine_s
-    contig = ((ss[1:] == ss[:-1]) & (jj[1:] == jj[:-1] + 1) & good[1:] & good[:-1]
-              & (st[1:] == st[:-1]))
-    up = f >= 0
+    f, rate, ss, jj, contig, up, cut_start, cut_end = kernels.sample_flags(
+        el, rate, job.threshold(st, az), sel, ok, s_loc, j, st)
     # Up samples with no contiguous neighbour: the window edge (or decay) cuts the pass.
-    prev_c = np.concatenate([[False], contig])
-    next_c = np.concatenate([contig, [False]])
-    cut = np.flatnonzero(up & ~(prev_c & next_c) & np.isnan(az))
+    cut = np.flatnonzero((cut_start | cut_end) & np.isnan(az))
     az[cut] = azimuth(cut)
-    return dict(st=st, sat=sat_ids[ss], tau=tau, f=f, rate=rate, el=el, az=az, contig=contig,
-                up=up, cut_start=up & ~prev_c, cut_end=up & ~next_c, fine_s=fine_s, r=P[sel],
-                v=V[sel], r_apo=r_apo[ss])
+    return dict(st=st, sat=sat_ids[ss], tau=jj * fine_s, f=f, rate=rate, el=el, az=az,
+                contig=contig, up=up, cut_start=cut_start, cut_end=cut_end, fine_s=fine_s,
+                r=P[sel], v=V[sel], r_apo=r_apo[ss])
 
 
 def _refine_station_chunk(job: _Job, b: dict):

@@ -768,6 +768,59 @@ def _el_rate_loop(x, y, z, vx, vy, vz, sel, st, ecef, up, el, rate
         rate[j] = d_sin / math.sqrt(max(1.0 - sin_el * sin_el, 1e-12)) * deg
 
 
+def sample_flags(el, rate, thr, sel, ok, s_loc, j, st) -> tuple:
+    """Bracketing flags of samples ``sel`` of the shared fine samples (valid where ``ok``,
+    of chunk satellite ``s_loc`` at grid index ``j``) seen from stations ``st`` (one per
+    sample; each station's samples consecutive, in time order), with elevation ``el``, its
+    rate and the horizon ``thr`` (deg): (elevation above the horizon f, rate (0 where
+    invalid), ``s_loc`` and ``j`` of each sample, contig (sample and the next are
+    consecutive valid samples of one satellite and station), up (f >= 0), cut_start and
+    cut_end (up without a contiguous sample before / after)). All stations' samples in one
+    pass."""
+    if backend() == "numba":
+        m = len(sel)
+        f, rate_out = np.empty(m), np.empty(m)
+        ss, jj = np.empty(m, s_loc.dtype), np.empty(m, j.dtype)
+        contig = np.empty(max(m - 1, 0), np.bool_)
+        up, cut_start, cut_end = (np.empty(m, np.bool_) for _ in range(3))
+        _jit("_sample_flags_loop")(el, rate, thr, sel, ok, s_loc, j, st, f, rate_out, ss, jj,
+                                   contig, up, cut_start, cut_end)
+        return f, rate_out, ss, jj, contig, up, cut_start, cut_end
+    good = ok[sel]
+    f = np.where(good, el - thr, -1e3)
+    rate = np.where(good, rate, 0.0)
+    ss, jj = s_loc[sel], j[sel]
+    contig = ((ss[1:] == ss[:-1]) & (jj[1:] == jj[:-1] + 1) & good[1:] & good[:-1]
+              & (st[1:] == st[:-1]))
+    up = f >= 0
+    prev_c = np.concatenate([[False], contig])
+    next_c = np.concatenate([contig, [False]])
+    return f, rate, ss, jj, contig, up, up & ~prev_c, up & ~next_c
+
+
+def _sample_flags_loop(el, rate_in, thr, sel, ok, s_loc, j, st, f, rate, ss, jj, contig, up,
+                       cut_start, cut_end):  # pragma: no cover - compiled (its twin)
+    m = len(sel)
+    for i in range(m):
+        k = sel[i]
+        if ok[k]:
+            f[i] = el[i] - thr[i]
+            rate[i] = rate_in[i]
+        else:
+            f[i] = -1e3
+            rate[i] = 0.0
+        ss[i], jj[i] = s_loc[k], j[k]
+        up[i] = f[i] >= 0
+    for i in range(m - 1):
+        contig[i] = (ss[i + 1] == ss[i] and jj[i + 1] == jj[i] + 1 and ok[sel[i + 1]]
+                     and ok[sel[i]] and st[i + 1] == st[i])
+    for i in range(m):
+        before = i > 0 and contig[i - 1]
+        after = i < m - 1 and contig[i]
+        cut_start[i] = up[i] and not before
+        cut_end[i] = up[i] and not after
+
+
 # --- the near-miss test of maxima ------------------------------------------------------------
 
 def peak_bound_deg(theta0: float, theta_rate: float, frames: geo.StationFrames, idx, st, tau, r,
