@@ -567,7 +567,7 @@ def _station_samples(job: _Job, st, sel, s_loc, j, ok, sat_ids, r_apo, fine_s: f
     az[cut] = azimuth(cut)
     return dict(st=st, sat=sat_ids[ss], tau=jj * fine_s, f=f, rate=rate, el=el, az=az,
                 contig=contig, up=up, cut_start=cut_start, cut_end=cut_end, fine_s=fine_s,
-                r=P[sel], v=V[sel], r_apo=r_apo[ss])
+                r=P.take(sel, 0), v=V.take(sel, 0), r_apo=r_apo[ss])
 
 
 def _refine_station_chunk(job: _Job, b: dict):
@@ -588,9 +588,9 @@ def _refine_station_chunk(job: _Job, b: dict):
     max_i = max_i[bound >= job.frames.min_el_deg[st[max_i]] - ELLIPSOID_MARGIN_DEG]
     guess = tau[max_i] + h * kernels.hermite_root(el[max_i], rate[max_i], el[max_i + 1],
                                                   rate[max_i + 1], h, slope=True)
-    rv = (b["r"], b["v"])
-    cubic = kernels.Cubic.through(tau[max_i], h, *(x[max_i] for x in rv),
-                                  *(x[max_i + 1] for x in rv))
+    rv = (b["r"], b["v"])  # (n, 3) rows gathered with take: a third of indexing's cost
+    cubic = kernels.Cubic.through(tau[max_i], h, *(x.take(max_i, 0) for x in rv),
+                                  *(x.take(max_i + 1, 0) for x in rv))
     m_st = st[max_i]
     m_tau, m_el, m_az, m_r = _refine(job, m_st, sat[max_i], tau[max_i], tau[max_i + 1],
                                      np.zeros(len(max_i), bool), guess, cubic, tca=True)
@@ -613,8 +613,8 @@ def _refine_station_chunk(job: _Job, b: dict):
     width = c_hi - c_lo
     guess = c_lo + width * kernels.hermite_root(c_glo, d_lo, c_ghi, d_hi, width)
     c_iv = np.concatenate([aos_i, los_i, hi_idx, hi_idx])
-    cubic = kernels.Cubic.through(tau[c_iv], h, *(x[c_iv] for x in rv),
-                                  *(x[c_iv + 1] for x in rv))
+    cubic = kernels.Cubic.through(tau[c_iv], h, *(x.take(c_iv, 0) for x in rv),
+                                  *(x.take(c_iv + 1, 0) for x in rv))
     c_tau, c_el, c_az, c_r = _refine(job, c_st, c_sat, c_lo, c_hi, c_glo < 0, guess, cubic,
                                      tca=False)
 
@@ -627,7 +627,7 @@ def _refine_station_chunk(job: _Job, b: dict):
         kind=np.concatenate([c_kind, np.zeros(len(cs), int), np.ones(len(ce), int)]),
         az=np.concatenate([c_az, az[cs], az[ce]]),
         el=np.concatenate([c_el, el[cs], el[ce]]),
-        r=np.concatenate([c_r, r[cs], r[ce]]),
+        r=np.concatenate([c_r, r.take(cs, 0), r.take(ce, 0)]),
         clip=np.concatenate([np.zeros(len(c_sat), bool), np.ones(len(cs) + len(ce), bool)]))
     mx = dict(sat=sat[max_i], st=m_st, tau=m_tau, el=m_el, az=m_az, r=m_r)
     return _assemble(job, ev, mx)
@@ -664,7 +664,7 @@ def _assemble(job: _Job, ev: dict, mx: dict) -> np.ndarray:
     t_idx = np.where(hi_end, l_idx, a_idx)
     rows["tca_s"], rows["max_el_deg"] = ev["tau"][t_idx], ev["el"][t_idx]
     rows["tca_az_deg"] = ev["az"][t_idx]
-    tca_r = ev["r"][t_idx]
+    tca_r = ev["r"].take(t_idx, 0)
     if n and len(mx["sat"]):
         pa = comb[a_idx]
         order = np.argsort(pa, kind="stable")
@@ -685,7 +685,9 @@ def _assemble(job: _Job, ev: dict, mx: dict) -> np.ndarray:
     # Sunlit: the satellite sees the Sun at AOS, TCA or LOS; visible: at one of those
     # instants the station is also in nautical twilight or darker. One call for all three.
     tau = np.concatenate([rows["aos_s"], rows["tca_s"], rows["los_s"]])
-    lit, sun_el_sin = geo.sun_flags(np.concatenate([ev["r"][a_idx], tca_r, ev["r"][l_idx]]),
+    r_ev = ev["r"]
+    lit, sun_el_sin = geo.sun_flags(np.concatenate([r_ev.take(a_idx, 0), tca_r,
+                                                    r_ev.take(l_idx, 0)]),
                                     tau, job.jd0, job.fr0, job.theta(tau), job.frames,
                                     np.tile(rows["station"], 3))
     vis = lit & (sun_el_sin < math.sin(math.radians(TWILIGHT_DEG)))
