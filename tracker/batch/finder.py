@@ -24,13 +24,19 @@ How one job runs (every step is numpy over all satellites of a chunk at once):
    series (a second SGP4 call only for the rare root that moved by more than a second):
    about one SGP4 call per event, to ``tol_s``.
 
-The fused per-element loops of steps 1-4 (fine screen, look angles of the samples, first
-guesses, the solves on the cubic and the correction from SGP4's state) live in
-:mod:`tracker.batch.kernels`, in numpy and as compiled loops when numba is installed.
+The fused per-element loops of steps 1-4 (fine screen, look angles and bracketing flags of
+the samples, first guesses, the solves on the cubic and the correction from SGP4's state) live
+in :mod:`tracker.batch.kernels`, in numpy and as compiled loops when numba is installed.
 
 Steps 3 and 4 run for all stations of a chunk at once (a station index per sample and
 bracket), in groups of stations sized by the memory budget; a pass does not depend on the
-other stations.
+other stations (bit for bit). What is station-independent is computed once for all of them:
+the coarse SGP4 screen, the fine samples' SGP4 states, and the sub-arcs of each coarse
+interval that the fine screen tests against each station's cone. The refinement's SGP4
+evaluation is per event: a satellite's events at different stations fall at different
+times, and interpolating shared states instead is not accurate enough for grazing passes
+(SGP4's velocity differs from the derivative of its position by about 1 cm/s, up to
+0.5 m/s, so a Hermite interpolant through its states is off by metres over minutes).
 
 SGP4 errors (decayed elements) are collected per satellite and reported, never raised.
 Memory is bounded by chunking over satellites (sized from ``memory_mb``) and over time (blocks
