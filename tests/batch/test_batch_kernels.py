@@ -163,6 +163,34 @@ def test_fine_screen_decides_like_the_numpy_screen(numba_kernels):
     assert np.mean(ref != fast) < 1e-3
 
 
+@pytest.mark.parametrize("impl", ["numpy", "numba"])
+def test_fine_screen_decides_alike_with_the_stations_shared_sub_arcs(impl, request):
+    """The sub-arcs computed once for many stations (shared_arcs) give each station the
+    decisions of its own screen, bit for bit, with either implementation."""
+    if impl == "numba":
+        request.getfixturevalue("numba_kernels")
+    rng = np.random.default_rng(4)
+    S, K, n = 200, 30, 8
+    A, q, phi, ecc, track, cos_lim, screenable = random_arcs(rng, S, K, n)
+    any_ss, any_kk = np.nonzero(rng.random((S, K)) < 0.5)
+    rows = np.full((S, K), -1, np.int64)
+    rows[any_ss, any_kk] = np.arange(len(any_ss))
+    pick = rng.random(len(any_ss)) < 0.6  # one station's candidates among all stations'
+    ss, kk = any_ss[pick], any_kk[pick]
+
+    def run():
+        arcs = kernels.shared_arcs(phi, any_ss, any_kk, ecc, n, 3600.0)
+        assert arcs.kind == impl
+        return (kernels.fine_screen(A, q, phi, ss, kk, ecc, n, 3600.0, track, cos_lim,
+                                    screenable, arcs, rows[ss, kk]),
+                kernels.fine_screen(A, q, phi, ss, kk, ecc, n, 3600.0, track, cos_lim,
+                                    screenable))
+
+    shared, own = with_impl(impl, run)
+    assert 0.05 < own.mean() < 0.95
+    assert np.array_equal(shared, own)
+
+
 @pytest.mark.parametrize("slope", [False, True])
 def test_hermite_root_is_the_same(numba_kernels, slope):
     rng = np.random.default_rng(5)
@@ -239,6 +267,32 @@ def test_solve_cubic_and_correct_take_the_same_steps(numba_kernels, tca):
     assert np.max(np.abs(out_a[1] - out_b[1])) <= 1e-9          # elevation
     assert np.max(np.abs(out_a[2] - out_b[2])) <= 1e-9          # azimuth
     assert np.max(np.abs(out_a[3] - out_b[3])) <= 1e-6          # position, km
+
+
+def test_sample_flags_are_the_same(numba_kernels):
+    """The bracketing flags of stations' samples: runs of consecutive grid times per
+    satellite, invalid samples, station and satellite changes, window edges."""
+    rng = np.random.default_rng(17)
+    shared = 4000
+    s_loc = np.repeat(np.arange(40), shared // 40)
+    j = np.tile(np.arange(shared // 40), 40) + rng.integers(0, 2, shared).cumsum() % 3
+    ok = rng.random(shared) < 0.97
+    per_station = [np.sort(rng.choice(shared, 1500, replace=False)) for _ in range(3)]
+    sel = np.concatenate(per_station)
+    st = np.repeat(np.arange(3), 1500)
+    el = rng.normal(0.0, 10.0, len(sel))
+    rate = rng.normal(0.0, 0.05, len(sel))
+    thr = np.array([0.0, 5.0, 10.0])[st]
+
+    def run():
+        return kernels.sample_flags(el, rate, thr, sel, ok, s_loc, j, st)
+
+    ref, fast = with_impl("numpy", run), with_impl("numba", run)
+    for a, b in zip(ref, fast, strict=True):
+        assert a.dtype == b.dtype and np.array_equal(a, b)
+    f, _rate, _ss, _jj, contig, up, cut_start, cut_end = ref
+    assert 0.2 < contig.mean() < 0.9 and np.any(f == -1e3)
+    assert 0 < cut_start.sum() < up.sum() and cut_end.sum() > 0
 
 
 def test_look_angles_and_the_peak_bound_are_the_same(numba_kernels):

@@ -24,13 +24,19 @@ How one job runs (every step is numpy over all satellites of a chunk at once):
    series (a second SGP4 call only for the rare root that moved by more than a second):
    about one SGP4 call per event, to ``tol_s``.
 
-The fused per-element loops of steps 1-4 (fine screen, look angles of the samples, first
-guesses, the solves on the cubic and the correction from SGP4's state) live in
-:mod:`tracker.batch.kernels`, in numpy and as compiled loops when numba is installed.
+The fused per-element loops of steps 1-4 (fine screen, look angles and bracketing flags of
+the samples, first guesses, the solves on the cubic and the correction from SGP4's state) live
+in :mod:`tracker.batch.kernels`, in numpy and as compiled loops when numba is installed.
 
 Steps 3 and 4 run for all stations of a chunk at once (a station index per sample and
 bracket), in groups of stations sized by the memory budget; a pass does not depend on the
-other stations.
+other stations (bit for bit). What is station-independent is computed once for all of them:
+the coarse SGP4 screen, the fine samples' SGP4 states, and the sub-arcs of each coarse
+interval that the fine screen tests against each station's cone. The refinement's SGP4
+evaluation is per event: a satellite's events at different stations fall at different
+times, and interpolating shared states instead is not accurate enough for grazing passes
+(SGP4's velocity differs from the derivative of its position by about 1 cm/s, up to
+0.5 m/s, so a Hermite interpolant through its states is off by metres over minutes).
 
 SGP4 errors (decayed elements) are collected per satellite and reported, never raised.
 Memory is bounded by chunking over satellites (sized from ``memory_mb``) and over time (blocks
@@ -180,6 +186,11 @@ class _Job:
         return [k for k, s in enumerate(self.stations) if s.mask is not None]
 
     @cached_property
+    def deep_space(self) -> np.ndarray:
+        """Per satellite: propagated by SDP4 (period of 225 minutes or more)."""
+        return np.array([sr.method == "d" for sr in self.satrecs], dtype=bool)
+
+    @cached_property
     def sky(self) -> kernels.Sky:
         """What the kernels need to turn TEME states into sin(elevation) at the stations."""
         self.theta(0.0)
@@ -201,11 +212,9 @@ def _sgp4_pairs(job: _Job, sat: np.ndarray, tau: np.ndarray, kind: str = "sgp4_r
     v = np.empty((m, 3))
     if m == 0:
         return err, r, v
-    # Each satellite's times in increasing order: SDP4's resonance integrator restarts from
-    # the epoch whenever time goes backwards (deep-space objects run 30 % slower shuffled).
     step = sat[1:] - sat[:-1]
     presorted = bool(np.all((step > 0) | ((step == 0) & (tau[1:] >= tau[:-1]))))
-    order = np.arange(m) if presorted else np.lexsort((tau, sat))
+    order = np.arange(m) if presorted else _satellite_order(job, sat, tau)
     s_sorted = sat if presorted else sat[order]
     jd = np.full(m, job.jd0)
     fr = job.fr(tau if presorted else tau[order])
@@ -226,6 +235,22 @@ def _sgp4_pairs(job: _Job, sat: np.ndarray, tau: np.ndarray, kind: str = "sgp4_r
     job.stats[kind] = job.stats.get(kind, 0) + m
     job.note_errors(sat, tau, err)
     return err, r, v
+
+
+def _satellite_order(job: _Job, sat: np.ndarray, tau: np.ndarray) -> np.ndarray:
+    """Indices grouping (satellite, time) pairs by satellite, for one SGP4 call each.
+
+    A deep-space (SDP4) satellite's times go in increasing order: its resonance integrator
+    restarts from the epoch whenever time goes backwards (30 % slower shuffled). SGP4 keeps
+    no state between times, so near-Earth satellites keep the given order: an integer sort
+    costs a tenth of sorting every pair by time too, and SGP4 gives the same values in any
+    order."""
+    order = np.argsort(sat, kind="stable")
+    deep = np.flatnonzero(job.deep_space[sat[order]])
+    if deep.size:
+        sub = order[deep]
+        order[deep] = sub[np.lexsort((tau[sub], sat[sub]))]
+    return order
 
 
 def _finite(x):
@@ -409,7 +434,7 @@ def _coarse_candidates(job: _Job, arc, tau_c, coarse_s, r_apo, screenable):
 
 
 def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc,
-                     screenable, sub_arcs=None):
+                     screenable, shared=None):
     """(S, K * n) booleans: fine steps of the candidate coarse intervals where a pass is still
     possible.
 
@@ -418,8 +443,8 @@ def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc
     mean rate times the Kepler perigee/apogee rate ratio for the eccentricity (plus 1 % for
     SGP4's short-period terms and drag). Each fine step then sweeps a sub-arc of known
     bounds, tested against the horizon cone like the coarse interval
-    (:func:`kernels.fine_screen`). No SGP4 calls. ``sub_arcs``: :func:`kernels.sub_arcs` of
-    every coarse interval, (S, K, n) each, when many stations share them.
+    (:func:`kernels.fine_screen`). No SGP4 calls. ``shared``: (:func:`kernels.shared_arcs`
+    of the coarse intervals of any station, their rows (S, K)) when many stations share them.
     """
     S, K = cand.shape
     out = np.zeros((S, K * n), bool)
@@ -435,10 +460,10 @@ def _fine_candidates(job: _Job, st: int, cand, arc, n: int, coarse_s, r_apo, ecc
     u = job.frames.unit[st]
     psi = job.theta((np.arange(K * n) + 0.5) * fine_s) + math.atan2(u[1], u[0])
     track = kernels.StationTrack(psi, math.hypot(u[0], u[1]), float(u[2]))
-    arcs = None if sub_arcs is None else (sub_arcs[0][ss, kk], sub_arcs[1][ss, kk])
+    arcs, rows = (None, None) if shared is None else (shared[0], shared[1][ss, kk])
     cos_lim = _cone_limits(job, st, r_apo, fine_s)[0]
     sub = kernels.fine_screen(arc["A"], arc["q"], arc["phi"], ss, kk, ecc, n, coarse_s, track,
-                              cos_lim, screenable, arcs)
+                              cos_lim, screenable, arcs, rows)
     out.reshape(S, K, n)[ss, kk] = sub
     return out
 
@@ -470,15 +495,15 @@ def _run_chunk(job: _Job, sat_ids: np.ndarray, n: int, fine_step_s: float, r_apo
     arc = _arc_geometry(r, v, valid)
     cands = _coarse_candidates(job, arc, tau_c, coarse_s, r_apo, screenable)
     cand_any = np.logical_or.reduce(cands) if len(cands) > 1 else cands[0]
-    sub_arcs = None
-    if len(cands) > 1 and n > 1 and kernels.backend() == "numpy":  # shared by the stations
+    shared = None
+    if len(cands) > 1 and n > 1:  # the sub-arcs of an interval are the same for every station
         ss, kk = np.nonzero(cand_any)
-        a1, a2 = kernels.sub_arcs(arc["phi"][ss, kk], ecc[ss], n, coarse_s)
-        shape = (*cand_any.shape, n)
-        sub_arcs = (np.zeros(shape), np.zeros(shape))
-        sub_arcs[0][ss, kk], sub_arcs[1][ss, kk] = a1, a2
+        rows = np.full(cand_any.shape, -1, np.int64)
+        rows[ss, kk] = np.arange(len(ss))
+        shared = (kernels.shared_arcs(arc["phi"], ss, kk, ecc, n, coarse_s), rows)
     subs = [_fine_candidates(job, st, cand, arc, n, coarse_s, r_apo, ecc, screenable,
-                             sub_arcs) for st, cand in enumerate(cands)]
+                             shared) for st, cand in enumerate(cands)]
+    del shared
     sub_any = np.logical_or.reduce(subs) if len(subs) > 1 else subs[0]
     # "intervals": fine steps of the whole window; "candidate_intervals": those the two
     # screening levels kept (the only ones SGP4 samples).
@@ -544,22 +569,14 @@ def _station_samples(job: _Job, st, sel, s_loc, j, ok, sat_ids, r_apo, fine_s: f
     az = np.full(len(sel), np.nan)
     masked = np.flatnonzero(np.isin(st, job.masked))
     az[masked] = azimuth(masked)
-    good = ok[sel]
-    f = np.where(good, el - job.threshold(st, az), -1e3)
-    rate = np.where(good, rate, 0.0)
-    ss, jj = s_loc[sel], j[sel]
-    tau = jj * fine_s
-    contig = ((ss[1:] == ss[:-1]) & (jj[1:] == jj[:-1] + 1) & good[1:] & good[:-1]
-              & (st[1:] == st[:-1]))
-    up = f >= 0
+    f, rate, ss, jj, contig, up, cut_start, cut_end = kernels.sample_flags(
+        el, rate, job.threshold(st, az), sel, ok, s_loc, j, st)
     # Up samples with no contiguous neighbour: the window edge (or decay) cuts the pass.
-    prev_c = np.concatenate([[False], contig])
-    next_c = np.concatenate([contig, [False]])
-    cut = np.flatnonzero(up & ~(prev_c & next_c) & np.isnan(az))
+    cut = np.flatnonzero((cut_start | cut_end) & np.isnan(az))
     az[cut] = azimuth(cut)
-    return dict(st=st, sat=sat_ids[ss], tau=tau, f=f, rate=rate, el=el, az=az, contig=contig,
-                up=up, cut_start=up & ~prev_c, cut_end=up & ~next_c, fine_s=fine_s, r=P[sel],
-                v=V[sel], r_apo=r_apo[ss])
+    return dict(st=st, sat=sat_ids[ss], tau=jj * fine_s, f=f, rate=rate, el=el, az=az,
+                contig=contig, up=up, cut_start=cut_start, cut_end=cut_end, fine_s=fine_s,
+                r=P.take(sel, 0), v=V.take(sel, 0), r_apo=r_apo[ss])
 
 
 def _refine_station_chunk(job: _Job, b: dict):
@@ -580,9 +597,9 @@ def _refine_station_chunk(job: _Job, b: dict):
     max_i = max_i[bound >= job.frames.min_el_deg[st[max_i]] - ELLIPSOID_MARGIN_DEG]
     guess = tau[max_i] + h * kernels.hermite_root(el[max_i], rate[max_i], el[max_i + 1],
                                                   rate[max_i + 1], h, slope=True)
-    rv = (b["r"], b["v"])
-    cubic = kernels.Cubic.through(tau[max_i], h, *(x[max_i] for x in rv),
-                                  *(x[max_i + 1] for x in rv))
+    rv = (b["r"], b["v"])  # (n, 3) rows gathered with take: a third of indexing's cost
+    cubic = kernels.Cubic.through(tau[max_i], h, *(x.take(max_i, 0) for x in rv),
+                                  *(x.take(max_i + 1, 0) for x in rv))
     m_st = st[max_i]
     m_tau, m_el, m_az, m_r = _refine(job, m_st, sat[max_i], tau[max_i], tau[max_i + 1],
                                      np.zeros(len(max_i), bool), guess, cubic, tca=True)
@@ -605,8 +622,8 @@ def _refine_station_chunk(job: _Job, b: dict):
     width = c_hi - c_lo
     guess = c_lo + width * kernels.hermite_root(c_glo, d_lo, c_ghi, d_hi, width)
     c_iv = np.concatenate([aos_i, los_i, hi_idx, hi_idx])
-    cubic = kernels.Cubic.through(tau[c_iv], h, *(x[c_iv] for x in rv),
-                                  *(x[c_iv + 1] for x in rv))
+    cubic = kernels.Cubic.through(tau[c_iv], h, *(x.take(c_iv, 0) for x in rv),
+                                  *(x.take(c_iv + 1, 0) for x in rv))
     c_tau, c_el, c_az, c_r = _refine(job, c_st, c_sat, c_lo, c_hi, c_glo < 0, guess, cubic,
                                      tca=False)
 
@@ -619,7 +636,7 @@ def _refine_station_chunk(job: _Job, b: dict):
         kind=np.concatenate([c_kind, np.zeros(len(cs), int), np.ones(len(ce), int)]),
         az=np.concatenate([c_az, az[cs], az[ce]]),
         el=np.concatenate([c_el, el[cs], el[ce]]),
-        r=np.concatenate([c_r, r[cs], r[ce]]),
+        r=np.concatenate([c_r, r.take(cs, 0), r.take(ce, 0)]),
         clip=np.concatenate([np.zeros(len(c_sat), bool), np.ones(len(cs) + len(ce), bool)]))
     mx = dict(sat=sat[max_i], st=m_st, tau=m_tau, el=m_el, az=m_az, r=m_r)
     return _assemble(job, ev, mx)
@@ -656,7 +673,7 @@ def _assemble(job: _Job, ev: dict, mx: dict) -> np.ndarray:
     t_idx = np.where(hi_end, l_idx, a_idx)
     rows["tca_s"], rows["max_el_deg"] = ev["tau"][t_idx], ev["el"][t_idx]
     rows["tca_az_deg"] = ev["az"][t_idx]
-    tca_r = ev["r"][t_idx]
+    tca_r = ev["r"].take(t_idx, 0)
     if n and len(mx["sat"]):
         pa = comb[a_idx]
         order = np.argsort(pa, kind="stable")
@@ -677,7 +694,9 @@ def _assemble(job: _Job, ev: dict, mx: dict) -> np.ndarray:
     # Sunlit: the satellite sees the Sun at AOS, TCA or LOS; visible: at one of those
     # instants the station is also in nautical twilight or darker. One call for all three.
     tau = np.concatenate([rows["aos_s"], rows["tca_s"], rows["los_s"]])
-    lit, sun_el_sin = geo.sun_flags(np.concatenate([ev["r"][a_idx], tca_r, ev["r"][l_idx]]),
+    r_ev = ev["r"]
+    lit, sun_el_sin = geo.sun_flags(np.concatenate([r_ev.take(a_idx, 0), tca_r,
+                                                    r_ev.take(l_idx, 0)]),
                                     tau, job.jd0, job.fr0, job.theta(tau), job.frames,
                                     np.tile(rows["station"], 3))
     vis = lit & (sun_el_sin < math.sin(math.radians(TWILIGHT_DEG)))

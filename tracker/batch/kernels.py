@@ -97,7 +97,7 @@ def use(name: str | None) -> str | None:
 
 # Functions the loops call: compiled (in place of the Python ones, which only the loops use)
 # before the first loop is.
-_HELPERS = ("_sin_el_newton", "_bracket_step")
+_HELPERS = ("_sin_el_newton", "_bracket_step", "_rates", "_sub_arc_trig")
 
 
 def _jit(name: str):
@@ -181,20 +181,55 @@ class StationTrack:
     z: float
 
 
+@dataclass(frozen=True)
+class SharedArcs:
+    """The station-independent part of the fine screen, computed once for the candidate
+    coarse intervals of every station (:func:`shared_arcs`): per interval (row) and fine
+    step, the sub-arc bounds (numpy: ``a1``, ``a2``, float32) or the cosine and sine of
+    its middle and of its half-width (compiled: ``trig``, float64, the loop's own values);
+    ``kind`` is the implementation that made it."""
+
+    kind: str
+    a1: np.ndarray
+    a2: np.ndarray
+    trig: np.ndarray
+
+
+def shared_arcs(phi, ss, kk, ecc, n: int, coarse_s: float) -> SharedArcs:
+    """:class:`SharedArcs` of the coarse intervals (``ss``, ``kk``) (their rows in that
+    order) for :func:`fine_screen` at many stations: its trigonometry then runs once per
+    interval, not once per station."""
+    kind = backend()
+    if kind == "numba":
+        trig = np.empty((len(kk), n, 4))
+        _jit("_arc_trig_loop")(phi, ss, kk, ecc, n, coarse_s, trig)
+        return SharedArcs(kind, np.zeros((0, n), np.float32), np.zeros((0, n), np.float32),
+                          trig)
+    a1, a2 = sub_arcs(phi[ss, kk], ecc[ss], n, coarse_s)
+    return SharedArcs(kind, a1, a2, np.zeros((0, n, 4)))
+
+
 def fine_screen(A, q, phi, ss, kk, ecc, n: int, coarse_s: float, track: StationTrack,
-                cos_lim, screenable, arcs=None):
+                cos_lim, screenable, arcs: SharedArcs | None = None, rows=None):
     """(C, n) booleans: the fine steps of the C candidate coarse intervals (``ss``, ``kk``)
     whose sub-arc comes within the station's cone. ``A``, ``q`` (S, K, 3): in-plane axes,
     ``phi`` (S, K): arc angles of every coarse interval; per satellite (S,): eccentricity,
-    cone cosine and ``screenable``. ``arcs``: :func:`sub_arcs` of the candidates when
-    already computed."""
+    cone cosine and ``screenable``. ``arcs``: :func:`shared_arcs` already computed for
+    many stations, ``rows`` the row of each candidate in it (same decisions as without)."""
+    if arcs is not None and arcs.kind != backend():
+        arcs = None
     if backend() == "numba":
         out = np.empty((len(kk), n), np.bool_)
+        trig, at = ((np.zeros((0, n, 4)), np.zeros(0, np.int64)) if arcs is None
+                    else (arcs.trig, np.asarray(rows, np.int64)))
         _jit("_fine_screen_loop")(A, q, phi, ss, kk, ecc, n, coarse_s, track.psi, track.rho,
-                                  track.z, cos_lim, screenable, out)
+                                  track.z, cos_lim, screenable, trig, at, out)
         return out
     f32 = np.float32
-    a1, a2 = sub_arcs(phi[ss, kk], ecc[ss], n, coarse_s) if arcs is None else arcs
+    if arcs is None:
+        a1, a2 = sub_arcs(phi[ss, kk], ecc[ss], n, coarse_s)
+    else:
+        a1, a2 = arcs.a1[rows], arcs.a2[rows]
     K = len(track.psi) // n
     cp = (np.cos(track.psi) * track.rho).astype(f32).reshape(K, n)[kk]
     sp = (np.sin(track.psi) * track.rho).astype(f32).reshape(K, n)[kk]
@@ -210,9 +245,41 @@ def fine_screen(A, q, phi, ss, kk, ecc, n: int, coarse_s: float, track: StationT
     return sub
 
 
-def _fine_screen_loop(A, q, phi, ss, kk, ecc, n, coarse_s, psi, rho, z, cos_lim, screenable,
-                      out):  # pragma: no cover - compiled by numba (fine_screen's twin)
+def _rates(ph, ecc, coarse_s):  # pragma: no cover - compiled by numba (sub_arcs' rates)
+    """Slowest and fastest angular rate along a coarse arc of angle ``ph``."""
+    e_eff = min(ecc + 0.002, 0.9)
+    ratio = ((1.0 + e_eff) / (1.0 - e_eff)) ** 2 * 1.01
+    w_mean = ph / coarse_s
+    return w_mean / ratio, w_mean * ratio
+
+
+def _sub_arc_trig(ph, w_lo, w_hi, i, fine_s, coarse_s
+                  ):  # pragma: no cover - compiled by numba (one sub-arc of sub_arcs)
+    """cos and sin of the middle and of the half-width of fine step ``i``'s sub-arc."""
+    t_a = i * fine_s
+    t_b = t_a + fine_s
+    a1 = min(max(max(w_lo * t_a, ph - w_hi * (coarse_s - t_a)), 0.0), ph)
+    a2 = min(max(min(w_hi * t_b, ph - w_lo * (coarse_s - t_b)), a1), ph)
+    mid = 0.5 * (a1 + a2)
+    half = 0.5 * (a2 - a1)
+    return math.cos(mid), math.sin(mid), math.cos(half), math.sin(half)
+
+
+def _arc_trig_loop(phi, ss, kk, ecc, n, coarse_s, out
+                   ):  # pragma: no cover - compiled by numba (shared_arcs' twin)
     fine_s = coarse_s / n
+    for c in range(len(kk)):
+        ph = phi[ss[c], kk[c]]
+        w_lo, w_hi = _rates(ph, ecc[ss[c]], coarse_s)
+        for i in range(n):
+            out[c, i, 0], out[c, i, 1], out[c, i, 2], out[c, i, 3] = _sub_arc_trig(
+                ph, w_lo, w_hi, i, fine_s, coarse_s)
+
+
+def _fine_screen_loop(A, q, phi, ss, kk, ecc, n, coarse_s, psi, rho, z, cos_lim, screenable,
+                      trig, rows, out):  # pragma: no cover - compiled by numba (its twin)
+    fine_s = coarse_s / n
+    shared = len(rows) > 0
     cps = np.empty(len(psi))
     sps = np.empty(len(psi))
     for j in range(len(psi)):
@@ -223,28 +290,24 @@ def _fine_screen_loop(A, q, phi, ss, kk, ecc, n, coarse_s, psi, rho, z, cos_lim,
         if not screenable[si]:
             out[c, :] = True
             continue
-        e_eff = min(ecc[si] + 0.002, 0.9)
-        ratio = ((1.0 + e_eff) / (1.0 - e_eff)) ** 2 * 1.01
         ph = phi[si, ki]
-        w_mean = ph / coarse_s
-        w_lo, w_hi = w_mean / ratio, w_mean * ratio
+        w_lo, w_hi = _rates(ph, ecc[si], coarse_s)
         lim = cos_lim[si]
         a0x, a0y, a0z = A[si, ki, 0], A[si, ki, 1], A[si, ki, 2] * z
         q0x, q0y, q0z = q[si, ki, 0], q[si, ki, 1], q[si, ki, 2] * z
         base = ki * n
         for i in range(n):
-            t_a = i * fine_s
-            t_b = t_a + fine_s
-            a1 = min(max(max(w_lo * t_a, ph - w_hi * (coarse_s - t_a)), 0.0), ph)
-            a2 = min(max(min(w_hi * t_b, ph - w_lo * (coarse_s - t_b)), a1), ph)
+            if shared:
+                row = rows[c]
+                cm, sm = trig[row, i, 0], trig[row, i, 1]
+                ch, sh = trig[row, i, 2], trig[row, i, 3]
+            else:
+                cm, sm, ch, sh = _sub_arc_trig(ph, w_lo, w_hi, i, fine_s, coarse_s)
             cp, sp = cps[base + i], sps[base + i]
             pa = a0x * cp + a0y * sp + a0z
             pq = q0x * cp + q0y * sp + q0z
-            mid = 0.5 * (a1 + a2)
-            half = 0.5 * (a2 - a1)
-            cm, sm, ch = math.cos(mid), math.sin(mid), math.cos(half)
             pm = pa * cm + pq * sm
-            if abs(pq * cm - pa * sm) * math.sin(half) + pm * ch >= lim:
+            if abs(pq * cm - pa * sm) * sh + pm * ch >= lim:
                 out[c, i] = True
             else:
                 r_in = math.sqrt(pa * pa + pq * pq)
@@ -713,6 +776,59 @@ def _el_rate_loop(x, y, z, vx, vy, vz, sel, st, ecef, up, el, rate
         rv = dx * vx[i] + dy * vy[i] + dz * vz[i]
         d_sin = (vu - ru * rv / dist2) * inv
         rate[j] = d_sin / math.sqrt(max(1.0 - sin_el * sin_el, 1e-12)) * deg
+
+
+def sample_flags(el, rate, thr, sel, ok, s_loc, j, st) -> tuple:
+    """Bracketing flags of samples ``sel`` of the shared fine samples (valid where ``ok``,
+    of chunk satellite ``s_loc`` at grid index ``j``) seen from stations ``st`` (one per
+    sample; each station's samples consecutive, in time order), with elevation ``el``, its
+    rate and the horizon ``thr`` (deg): (elevation above the horizon f, rate (0 where
+    invalid), ``s_loc`` and ``j`` of each sample, contig (sample and the next are
+    consecutive valid samples of one satellite and station), up (f >= 0), cut_start and
+    cut_end (up without a contiguous sample before / after)). All stations' samples in one
+    pass."""
+    if backend() == "numba":
+        m = len(sel)
+        f, rate_out = np.empty(m), np.empty(m)
+        ss, jj = np.empty(m, s_loc.dtype), np.empty(m, j.dtype)
+        contig = np.empty(max(m - 1, 0), np.bool_)
+        up, cut_start, cut_end = (np.empty(m, np.bool_) for _ in range(3))
+        _jit("_sample_flags_loop")(el, rate, thr, sel, ok, s_loc, j, st, f, rate_out, ss, jj,
+                                   contig, up, cut_start, cut_end)
+        return f, rate_out, ss, jj, contig, up, cut_start, cut_end
+    good = ok[sel]
+    f = np.where(good, el - thr, -1e3)
+    rate = np.where(good, rate, 0.0)
+    ss, jj = s_loc[sel], j[sel]
+    contig = ((ss[1:] == ss[:-1]) & (jj[1:] == jj[:-1] + 1) & good[1:] & good[:-1]
+              & (st[1:] == st[:-1]))
+    up = f >= 0
+    prev_c = np.concatenate([[False], contig])
+    next_c = np.concatenate([contig, [False]])
+    return f, rate, ss, jj, contig, up, up & ~prev_c, up & ~next_c
+
+
+def _sample_flags_loop(el, rate_in, thr, sel, ok, s_loc, j, st, f, rate, ss, jj, contig, up,
+                       cut_start, cut_end):  # pragma: no cover - compiled (its twin)
+    m = len(sel)
+    for i in range(m):
+        k = sel[i]
+        if ok[k]:
+            f[i] = el[i] - thr[i]
+            rate[i] = rate_in[i]
+        else:
+            f[i] = -1e3
+            rate[i] = 0.0
+        ss[i], jj[i] = s_loc[k], j[k]
+        up[i] = f[i] >= 0
+    for i in range(m - 1):
+        contig[i] = (ss[i + 1] == ss[i] and jj[i + 1] == jj[i] + 1 and ok[sel[i + 1]]
+                     and ok[sel[i]] and st[i + 1] == st[i])
+    for i in range(m):
+        before = i > 0 and contig[i - 1]
+        after = i < m - 1 and contig[i]
+        cut_start[i] = up[i] and not before
+        cut_end[i] = up[i] and not after
 
 
 # --- the near-miss test of maxima ------------------------------------------------------------
