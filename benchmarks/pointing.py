@@ -82,7 +82,7 @@ def print_table(results: dict[str, dict], n_passes: int) -> None:
     rows = [
         ("passes", lambda r: f"{n_passes}"),
         *[(f"mode {m}", _mode_count(m))
-          for m in ("normal", "overlap", "flip", "keyhole", "unwind")],
+          for m in ("normal", "overlap", "flip", "keyhole", "unwind", "ahead")],
         ("max error deg", lambda r: f"{r['max']:.2f}"),
         ("p99 error deg", lambda r: f"{r['p99']:.2f}"),
         ("mean error deg", lambda r: f"{r['mean']:.3f}"),

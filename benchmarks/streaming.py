@@ -21,8 +21,9 @@ simulated rotator (THE motor model, tracker.mount, G-5500 at 50 Hz rates), start
   mirrored about the culmination point so the antenna goes over the top.
 
 Per deadband D, for the stream policy: lost-track seconds (error > 5 deg while up; all passes
-and the followable ones: those some schedule keeps within 5 deg, shown by a deadband flown
-without loss or by the bound over every mount branch, :func:`any_branch_bound`), the share of
+and the ones not ruled out: every pass some deadband flew without loss, and every other one
+unless the bound over every mount branch, :func:`any_branch_bound`, shows that no schedule
+keeps it within 5 deg (the bound can rule a pass out, never prove it followable), the share of
 passes whose max error is within D and within D + 0.25, max and p99 great-circle error over all
 visible time (sampled every 0.25 s), motor starts per pass, and two clairvoyant references: the
 lower bound on starts (:func:`start_bound`, tracker/startbound.py: no schedule on the planner's
@@ -193,8 +194,9 @@ def start_bound(track, spec, station, bound_deg: float) -> int | None:
 def any_branch_bound(track, spec, station, bound_deg: float) -> tuple[int, str] | None:
     """:func:`start_bound` over every mount branch (upright or over the top, every turn,
     either side of the culmination: :func:`tracker.startbound.start_lower_bound_any_branch`):
-    the fewest starts of any schedule whatsoever that keeps ``bound_deg`` over AOS..LOS, with
-    its branch; None when none can (the rotator cannot follow the pass within it)."""
+    a lower bound on the starts of any schedule whatsoever that keeps ``bound_deg`` over
+    AOS..LOS, with the branch where the relaxed model keeps it; None when no schedule can (the
+    rotator cannot follow the pass within it)."""
     aos_s, los_s = pass_window(track, station)
     ts = np.arange(aos_s, los_s + 1e-9, SAMPLE_S)
     if len(ts) < 2:
@@ -440,8 +442,9 @@ def _fly_pass(sp, spec, deadbands: list[float], schedule: bool) -> dict:
             out["sched_cpu"][d] = time.process_time() - c0
         if row["lost_s"] > 0:
             lossy_at.append((d, row["lost_s"]))
-    # Followable: some schedule keeps the pass within the lost-track limit. A deadband flown
-    # without loss is such a schedule; otherwise the bound over every branch decides.
+    # Not ruled out: a deadband flown without loss shows a schedule that keeps the lost-track
+    # limit; otherwise only the bound over every branch can rule the pass out (None), and a
+    # pass it does not rule out counts as followable, so its losses count against the loop.
     witness = any(out["rows"][d]["lost_s"] == 0 for d in deadbands)
     reach = None if witness or not lossy_at else any_branch_bound(tr, spec, st, LOST_DEG)
     out["followable"] = witness or reach is not None
@@ -568,9 +571,9 @@ def _compare(suite, spec, deadbands: list[float], peers: bool, joint: bool, sche
 def print_results(res: dict, n_passes: int) -> None:
     """Per deadband: our loop, the clairvoyant bound, and the peers tuned to our p99."""
     followable = res["followable"]
-    print(f"\npasses: {n_passes}; followable within {LOST_DEG:g} deg (flown without loss at "
-          f"some deadband, or the bound over every branch finds a schedule): "
-          f"{int(followable.sum())}; the planner predicts no loss on "
+    print(f"\npasses: {n_passes}; not ruled out within {LOST_DEG:g} deg (flown without loss "
+          f"at some deadband, or the bound over every branch does not rule them out; losses on "
+          f"them count as 'lost fol.'): {int(followable.sum())}; the planner predicts no loss on "
           f"{res['planner_followable']}")
     print("\nstream policy (tracker.stream.TrackCore + tracker.aim, as tracker track runs it), "
           "per deadband:")
@@ -628,10 +631,11 @@ def print_results(res: dict, n_passes: int) -> None:
     for name, target, station, max_el, lost_s, plan_lost_s, reach in res["lossy"]:
         why = ("the planner predicts loss too" if plan_lost_s > 0 else
                "FOLLOWABLE by the planner's prediction")
-        bound = ("followable: flown without loss at another deadband" if reach == "flown"
-                 else f"INFEASIBLE: no schedule on any branch keeps within {LOST_DEG:g} deg"
+        bound = ("flown without loss at another deadband" if reach == "flown"
+                 else f"RULED OUT: no schedule on any branch keeps within {LOST_DEG:g} deg"
                  if reach is None else
-                 f"FOLLOWABLE {reach[1]} (at least {reach[0]} starts, knowing the future)")
+                 f"NOT RULED OUT: the relaxed model keeps it {reach[1]} (at least {reach[0]} "
+                 f"starts)")
         print(f"  lossy {name}: {target} from {station}, max el {max_el:.1f}: lost "
               f"{lost_s:.2f} s; planner predicts {plan_lost_s:.1f} s ({why}); clairvoyant "
               f"bound: {bound}")
@@ -639,7 +643,7 @@ def print_results(res: dict, n_passes: int) -> None:
     for d, r in res["deadbands"].items():
         reached = [r["lost_followable_s"] == 0, r["in_db25"] >= 0.99,
                    r["stream_feasible_pp"] <= 1.15 * r["bound_pp"]]
-        print(f"D={d:g}: 0 lost s on followable passes: {'yes' if reached[0] else 'NO'}; "
+        print(f"D={d:g}: 0 lost s on passes not ruled out: {'yes' if reached[0] else 'NO'}; "
               f">= 99 % within D+0.25: {'yes' if reached[1] else 'NO'} "
               f"({100 * r['in_db25']:.1f} %); starts <= 1.15x bound: "
               f"{'yes' if reached[2] else 'NO'} "

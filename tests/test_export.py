@@ -279,3 +279,27 @@ def test_text_columns_with_quotes_or_commas_are_escaped_as_csv_and_json_do(recor
     assert [r["aos"] for r in rows] == ['say "hi"', "a,b", "back\\slash"]
     passes = json.loads(to_json(odd))["passes"]
     assert [p["aos"] for p in passes] == ['say "hi"', "a,b", "back\\slash"]
+
+
+def test_values_python_calls_equal_are_written_each_as_it_is(records):
+    # 1, 1.0 and True are equal in Python (and 0.0, -0.0), but each is written differently.
+    part = records.take(np.arange(4))
+    part.set("priority", [1, 1.0, True, 1])
+    part.set("plan_max_error_deg", [0.0, -0.0, 0.0, -0.0])
+    passes = json.loads(to_json(part))["passes"]
+    want = [json.loads(json.dumps(r)) for r in part.rows()]
+    assert [(p["priority"], type(p["priority"])) for p in passes] == \
+        [(r["priority"], type(r["priority"])) for r in want]
+    assert [str(p["plan_max_error_deg"]) for p in passes] == ["0.0", "-0.0", "0.0", "-0.0"]
+    rows = list(csv.DictReader(io.StringIO(to_csv(part))))
+    assert [r["priority"] for r in rows] == ["1", "1.0", "true", "1"]
+    assert [r["plan_max_error_deg"] for r in rows] == ["0.0", "-0.0", "0.0", "-0.0"]
+
+
+def test_a_category_column_cannot_be_edited_in_place(records):
+    # Its cells are written from the category's codes: an edit in place would not show.
+    part = records.take(np.arange(3))
+    with pytest.raises(ValueError):
+        part["target"][0] = "RENAMED"
+    part.columns["target"] = np.array(["X", "Y", "Z"], dtype=object)
+    assert [r["target"] for r in csv.DictReader(io.StringIO(to_csv(part)))] == ["X", "Y", "Z"]

@@ -8,6 +8,7 @@ from __future__ import annotations
 import copy
 
 import numpy as np
+import pytest
 from _stream_fakes import T0, arc_pass
 
 from tracker.geometry import MountPath, pointing_error_deg
@@ -193,9 +194,29 @@ def test_far_from_the_zenith_a_schedule_keeps_one_side_and_turn():
     kept = branch_paths(SPEC, bearing, low, may_cross=False)
     names = [name for name, _az, _el in kept]
     assert names and all(" then " not in n for n in names)
-    # Either side, on the one turn that fits the 450 deg span whole.
-    assert set(names) == {"upright, mech az 30..210", "over the top, mech az 210..390"}
+    # Either side, on each turn that comes within 180 deg of the 450 deg span.
+    assert set(names) == {"upright, mech az 30..210", "upright, mech az 390..570",
+                          "over the top, mech az -150..30", "over the top, mech az 210..390"}
     crossing = [n for n, _a, _e in branch_paths(SPEC, bearing, el)]
     assert "upright, mech az 30 then over the top, mech az 30" in crossing
     for _name, az, e in kept:
         assert len(az) == len(ts) == len(e)
+
+
+def test_every_branch_keeps_a_turn_whose_target_lies_just_beyond_the_stop():
+    # A 360 deg rotator parked at its clockwise stop (mech 360, bearing 0): a target at
+    # bearing 2 is mech 2 on turn 0 and mech 362 on turn 1, beyond the stop, yet the antenna
+    # resting at the stop keeps it within the band with no start at all.
+    spec = SPEC.with_(az_span_deg=360.0, park_az_deg=360.0, park_el_deg=12.0)
+    ts = np.arange(0.0, 12.0 + 1e-9, 0.25)
+    el = 13.0 - np.abs(ts - 6.0) / 2.0
+    found = start_lower_bound_any_branch(spec, ts, np.full_like(ts, 2.0), el, 5.0,
+                                         park=(360.0, 12.0))
+    assert found is not None and found[0] == 0
+
+
+def test_every_branch_refuses_samples_an_azimuth_turn_apart():
+    ts = np.arange(0.0, 400.0, 40.0)      # 40 s: over 180 deg of azimuth travel
+    with pytest.raises(ValueError, match="stride"):
+        start_lower_bound_any_branch(SPEC, ts, np.full_like(ts, 30.0), np.full_like(ts, 20.0),
+                                     5.0)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+import math
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
@@ -72,7 +73,7 @@ class PassRecords:
         if index.dtype != bool:
             index = index.astype(np.intp)
         columns = {k: v[index] for k, v in self.columns.items()}
-        return PassRecords(columns, {k: (columns[k], codes[index], values)
+        return PassRecords(columns, {k: (_frozen(columns[k]), codes[index], values)
                                      for k, (column, codes, values) in self.categories.items()
                                      if self.columns.get(k) is column})
 
@@ -138,7 +139,14 @@ def _records(target, kind, station, t_s: dict[str, np.ndarray], angles: dict[str
                 cols["plan_max_error_deg"][i] = plan["max_error_deg"]
                 cols["plan_preposition"][i] = iso_utc(plan["preposition_s"])
                 cols["plan_reason"][i] = plan.get("reason", "")
-    return PassRecords(cols, {k: (cols[k], c, values) for k, (c, values) in codes.items()})
+    return PassRecords(cols, {k: (_frozen(cols[k]), c, values) for k, (c, values) in codes.items()})
+
+
+def _frozen(column: np.ndarray) -> np.ndarray:
+    """``column`` made read-only: a category's cells are formatted from its codes, so an edit
+    in place would not show; a field is changed by giving it a new column (``set``)."""
+    column.flags.writeable = False
+    return column
 
 
 def pass_records(passes, plans: Sequence[dict | None] | None = None) -> PassRecords:
@@ -236,10 +244,10 @@ def _csv_column(col: np.ndarray, decimals: int | None = None) -> list[str]:
     if col.dtype.kind == "U":  # ISO times: never need quoting
         return col.tolist()
     values = col.tolist()
-    # Object columns hold few distinct values (names, modes, None): format each once. Each
-    # column holds one type besides None, so True and 1 never share a key.
-    text = {v: _csv_text(v) for v in set(values)}
-    return list(map(text.__getitem__, values))
+    # Object columns hold few distinct values (names, modes, None): format each once.
+    keys = list(map(_distinct_key, values))
+    text = {k: _csv_text(v) for k, v in zip(keys, values, strict=True)}
+    return list(map(text.__getitem__, keys))
 
 
 def _csv_constant(col: np.ndarray) -> str | None:
@@ -347,14 +355,27 @@ def _column_cells(records: PassRecords, key: str, category_text: _CategoryText
             return _utf8_cells(list(map(category_text.text, col.tolist())))
         return cells if category_text.text is _csv_text else np.char.add(
             np.char.add(b'"', cells), b'"')
-    # As in _csv_column: each distinct value of an object column formatted once.
+    # Each distinct value of an object column formatted once.
     values = col.tolist()
-    distinct = list(set(values))
+    keys = list(map(_distinct_key, values))
+    index: dict = {}
+    distinct = []
+    for key, value in zip(keys, values, strict=True):
+        if key not in index:
+            index[key] = len(distinct)
+            distinct.append(value)
     text = _utf8_cells([category_text.text(v) for v in distinct])
     if text is None:
         return None
-    index = {v: i for i, v in enumerate(distinct)}
-    return text[np.fromiter(map(index.__getitem__, values), np.intp, len(values))]
+    return text[np.fromiter(map(index.__getitem__, keys), np.intp, len(keys))]
+
+
+def _distinct_key(value: Any) -> Any:
+    """A key equal only for values written alike: 1, 1.0 and True are equal in Python, and so
+    are 0.0 and -0.0, but each is written differently."""
+    if isinstance(value, float):
+        return (float, value, math.copysign(1.0, value))
+    return (type(value), value)
 
 
 def _rounded_text(col: np.ndarray, decimals: int) -> np.ndarray | None:

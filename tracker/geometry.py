@@ -223,9 +223,9 @@ class MountPath:
 
     ``az_m_deg`` is mechanical azimuth (continuous, overlap and flip included), ``el_deg`` the
     mount elevation (> 90 on a flip path; ``None`` for an azimuth-only rotator), at ``t_s``
-    (UTC POSIX seconds). ``sky_enu`` (shape ``(n, 3)``) is where the target is: keyhole and
-    unwind paths are approximations, and the error that matters is the error to the target,
-    not to the path; ``None`` means the path itself is the target.
+    (UTC POSIX seconds). ``sky_enu`` (shape ``(n, 3)``) is where the target is: keyhole,
+    unwind and ahead paths are approximations, and the error that matters is the error to the
+    target, not to the path; ``None`` means the path itself is the target.
     """
 
     t_s: np.ndarray
@@ -262,8 +262,8 @@ class MountPath:
         The plan's commands are quantised and already led by ``plan.lead_s``; the aim policy
         does its own lead, so the lead is undone. Where the target is visible in an exact mode
         (normal, overlap, flip) the path is the exact mechanical pointing at the target on the
-        plan's branch (no 1-degree staircase); keyhole and unwind paths are approximations by
-        design and are followed as planned.
+        plan's branch (no 1-degree staircase); keyhole, unwind and ahead paths are
+        approximations by design and are followed as planned.
         """
         t = np.asarray(plan.t_s, dtype=float)
         lead = float(getattr(plan, "lead_s", 0.0) or 0.0)

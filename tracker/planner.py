@@ -427,6 +427,8 @@ def rate_limited_within(t_s: np.ndarray, target_deg: np.ndarray, half_width_deg:
     target turns too fast, the path therefore starts turning early, as far ahead as needed.
     """
     n = len(t_s)
+    if n == 0:
+        return np.zeros(0)
     lo = (target_deg - half_width_deg).tolist()
     hi = (target_deg + half_width_deg).tolist()
     step = (rate_deg_s * np.diff(t_s)).tolist()
@@ -456,7 +458,6 @@ def _ahead_candidate(ctx: _Ctx, can_flip: bool) -> _Result | None:
         e = _hold(180.0 - ctx.track.el_deg if flip else ctx.track.el_deg, ia, ib)
         cos_el = np.maximum(np.abs(np.cos(np.radians(e))), 1e-9)
         for m_raw in _unwrapped(spec, bearing, ia, ib):
-            ks, fits = _shifts(spec, m_raw[ia:ib + 1])
             for band in AHEAD_BANDS_DEG:
                 # The azimuth offset that moves the beam ``band`` deg of great circle.
                 half_width = np.degrees(np.arcsin(np.minimum(
@@ -466,6 +467,9 @@ def _ahead_candidate(ctx: _Ctx, can_flip: bool) -> _Result | None:
                                                share * spec.az_rate_deg_s)
                     if path is None:
                         continue
+                    # The path leaves the target's azimuth by up to the band: it decides
+                    # the turns that fit.
+                    ks, fits = _shifts(spec, path[ia:ib + 1])
                     for k in ks:
                         note = (f"{'flipped, ' if flip else ''}azimuth within {band:g} deg "
                                 f"of the target at {100 * share:.0f} % of the rotator's rate")

@@ -53,8 +53,8 @@ Why it is a lower bound (each relaxation only adds trajectories or lowers their 
 7. *Every branch* (:func:`start_lower_bound_any_branch`). Away from the zenith the points
    within reach of the target form disjoint boxes, one per side (upright, or over the top
    at az + 180, el 180 - el) and whole turn. A schedule cannot go from one box to another
-   between two such samples: another turn is at least 180 deg of azimuth away, far more than
-   an interval's travel; the other side is 180 - e1 - e2 - 2 r deg of elevation away (e1, e2
+   between two such samples: another turn is at least 180 deg of azimuth away, more than an
+   interval's travel (checked); the other side is 180 - e1 - e2 - 2 r deg of elevation away (e1, e2
    the target's elevations, r the reach), so crossing within one interval's elevation travel
    L puts the target within r + L/2 of the zenith at one of the two samples. The zenith
    region is therefore widened to r + L/2 and searched over every mechanical azimuth and both
@@ -344,10 +344,13 @@ def _side(spec: RotatorSpec, bearing_deg: np.ndarray, el_deg: np.ndarray, over: 
 
 
 def _turns(spec: RotatorSpec, m_deg: np.ndarray) -> list[int]:
-    """Whole turns k that put some of ``m_deg + 360 k`` within the azimuth limits."""
+    """Whole turns k whose ``m_deg + 360 k`` comes within 180 deg of the azimuth limits: a
+    branch's box reaches up to that far from the target's azimuth (an antenna at the stop
+    can keep the band of a target just beyond it)."""
     (az_lo, az_hi), _el = spec.axis_limits()
     lo, hi = float(np.min(m_deg)), float(np.max(m_deg))
-    return [k for k in range(-3, 4) if hi + 360.0 * k >= az_lo and lo + 360.0 * k <= az_hi]
+    return [k for k in range(-3, 4)
+            if hi + 360.0 * k >= az_lo - 180.0 and lo + 360.0 * k <= az_hi + 180.0]
 
 
 def _zenith_hull(target_el: np.ndarray, reach_deg: float) -> np.ndarray:
@@ -376,6 +379,11 @@ def _least_starts(spec: RotatorSpec, t_s: np.ndarray, bearing_deg: np.ndarray,
         step = rate * dt_s
         grids.append(_Grid(lo, hi, step, max(1, round(step / cell_deg))))
     ga, ge = grids
+    if any_turn and spec.az_rate_deg_s * dt_s >= 180.0 - 2.0 * ga.h:
+        # Item 7 needs another turn's box out of one interval's reach.
+        raise ValueError(f"the bound over every branch needs samples less than "
+                         f"{(180.0 - 2.0 * ga.h) / spec.az_rate_deg_s:.1f} s apart "
+                         f"(a smaller stride)")
     reach = band_deg + math.hypot(ga.h, ge.h) + _SLACK_DEG
     target_el = np.asarray(el_deg, dtype=float)[idx]
     # Any branch: widened by half an interval's elevation travel, so a schedule changing

@@ -781,9 +781,10 @@ def compile_pass(track: SkyTrack, spec: RotatorSpec, station: Station,
                  meta: dict | None = None) -> StepProgram:
     """Plan the mount path for ``track`` with the planner, then compile it.
 
-    The planner chooses the mode (normal / overlap / flip / keyhole); it runs without command
-    lead because the compiler places each point for its own hold window. Only the visible
-    part of the track (AOS..LOS against the mask) becomes table points.
+    The planner chooses the mode (normal / overlap / flip / keyhole / unwind / ahead); it
+    runs without command lead because the compiler places each point for its own hold
+    window. Only the visible part of the track (AOS..LOS against the mask) becomes table
+    points.
     """
     from tracker.planner import plan_pass
 

@@ -45,8 +45,8 @@ OUTPUTS: list[tuple[str, str, str, Callable]] = [
 def register(sub) -> None:
     p = sub.add_parser("plan", help="plan the rotator path for a pass (mode, errors, why)",
                        description="Plan how the rotator follows one pass: normal, 450 deg "
-                                   "overlap, flip, keyhole sweep or unwind, with predicted "
-                                   "pointing error after rate-limited motion.")
+                                   "overlap, flip, keyhole sweep, unwind or ahead, with "
+                                   "predicted pointing error after rate-limited motion.")
     p.add_argument("target", metavar="TARGET", help='satellite name or NORAD id, or Sun/Moon')
     p.add_argument("--pass", dest="pass_no", type=int, default=1, metavar="N",
                    help="which upcoming pass (1 = next, default; a pass in progress counts)")
