@@ -72,18 +72,23 @@ def test_csv_round_trips(records):
         assert row["priority"] == ""
 
 
+def _csv_module_text(records) -> str:
+    """What the csv module writes for the records (flags as true/false)."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(CSV_FIELDS)
+    for rec in records.rows():
+        w.writerow([("true" if v else "false") if isinstance(v, bool) else v
+                    for v in (rec[k] for k in CSV_FIELDS)])
+    return buf.getvalue()
+
+
 def test_csv_is_what_the_csv_module_writes(records):
     # The column-wise writer must quote exactly as csv.writer does.
     records.set("priority", range(len(records)))
     records.set("chosen", (i % 2 == 0 for i in range(len(records))))
     try:
-        buf = io.StringIO()
-        w = csv.writer(buf, lineterminator="\n")
-        w.writerow(CSV_FIELDS)
-        for rec in records.rows():
-            w.writerow([("true" if v else "false") if isinstance(v, bool) else v
-                        for v in (rec[k] for k in CSV_FIELDS)])
-        assert to_csv(records) == buf.getvalue()
+        assert to_csv(records) == _csv_module_text(records)
     finally:
         records.set("priority", [None] * len(records))
         records.set("chosen", [None] * len(records))
@@ -243,13 +248,7 @@ def test_csv_of_awkward_names_is_what_the_csv_module_writes(table):
                            table.start, table.end)
     for t in (odd, with_nul):
         records = pass_records(t)
-        buf = io.StringIO()
-        w = csv.writer(buf, lineterminator="\n")
-        w.writerow(CSV_FIELDS)
-        for rec in records.rows():
-            w.writerow([("true" if v else "false") if isinstance(v, bool) else v
-                        for v in (rec[k] for k in CSV_FIELDS)])
-        assert to_csv(records) == buf.getvalue()
+        assert to_csv(records) == _csv_module_text(records)
         # JSON likewise, column-wise, is json.dumps of each record's dict (NaN included).
         records.columns["tca_s"] = records["tca_s"].copy()
         records.columns["tca_s"][1] = float("nan")

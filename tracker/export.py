@@ -219,9 +219,9 @@ def _csv_text(value: Any) -> str:
     return text
 
 
-def _rounded_cells(col: np.ndarray, decimals: int) -> list[str] | None:
-    """``repr`` of each value of a column rounded to ``decimals`` (as :func:`_records` rounds),
-    formatting each distinct value once; None when the column is not such a column."""
+def _rounded_distinct(col: np.ndarray, decimals: int) -> tuple[list[str], np.ndarray] | None:
+    """``(repr of each distinct value, each row's index into them)`` of a column rounded to
+    ``decimals`` (as :func:`_records` rounds); None when the column is not such a column."""
     scale = 10.0 ** decimals
     steps = np.rint(col * scale)
     if not (np.all(np.isfinite(steps)) and np.all(np.abs(steps) < 2.0**52)
@@ -229,8 +229,17 @@ def _rounded_cells(col: np.ndarray, decimals: int) -> list[str] | None:
         return None
     values, index = np.unique(steps, return_inverse=True)
     # steps / scale is bit for bit the column value, so its repr is the cell.
-    text = np.array(list(map(repr, (values / scale).tolist())), dtype=object)
-    return text[index.ravel()].tolist()
+    return list(map(repr, (values / scale).tolist())), index.ravel()
+
+
+def _rounded_cells(col: np.ndarray, decimals: int) -> list[str] | None:
+    """``repr`` of each value of a rounded column (:func:`_rounded_distinct`), each distinct
+    value formatted once; None when the column is not such a column."""
+    found = _rounded_distinct(col, decimals)
+    if found is None:
+        return None
+    text, index = found
+    return np.array(text, dtype=object)[index].tolist()
 
 
 def _csv_column(col: np.ndarray, decimals: int | None = None) -> list[str]:
@@ -380,14 +389,11 @@ def _distinct_key(value: Any) -> Any:
 
 def _rounded_text(col: np.ndarray, decimals: int) -> np.ndarray | None:
     """:func:`_rounded_cells` as UTF-8 bytes (a numpy ``S`` array)."""
-    scale = 10.0 ** decimals
-    steps = np.rint(col * scale)
-    if not (np.all(np.isfinite(steps)) and np.all(np.abs(steps) < 2.0**52)
-            and np.array_equal(steps / scale, col) and not np.any(np.signbit(col) & (col == 0))):
+    found = _rounded_distinct(col, decimals)
+    if found is None:
         return None
-    values, index = np.unique(steps, return_inverse=True)
-    text = _ascii(np.array(list(map(repr, (values / scale).tolist())), dtype=str))
-    return None if text is None else text[index.ravel()]
+    text = _ascii(np.array(found[0], dtype=str))
+    return None if text is None else text[found[1]]
 
 
 def _joined_rows(records: PassRecords, fields: Sequence[str], category_text: _CategoryText,
