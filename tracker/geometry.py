@@ -53,6 +53,15 @@ _MEMO_SIZE = 256
 # Where a mount points ------------------------------------------------------------------------
 
 
+
+def az_extent_deg(band_deg: float, el_deg: ArrayLike) -> np.ndarray:
+    """How far in azimuth the points within ``band_deg`` (great circle) of a target at
+    ``el_deg`` reach: asin(sin band / cos el), 90 where the band holds the zenith. A point at
+    the target's own elevation that far off in azimuth is a little more than the band away."""
+    c = np.maximum(np.abs(np.cos(np.radians(np.asarray(el_deg, dtype=float)))), 1e-12)
+    s = math.sin(math.radians(min(band_deg, 90.0)))
+    return np.degrees(np.arcsin(np.minimum(s / c, 1.0)))
+
 def pointing_enu(az_m_deg: ArrayLike, el_deg: ArrayLike,
                  stop_bearing_deg: float = 0.0) -> np.ndarray:
     """Boresight unit vectors of a mount at mechanical az / el (el > 90 points over the top)."""

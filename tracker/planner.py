@@ -36,7 +36,7 @@ from datetime import datetime, timezone
 import numpy as np
 
 from tracker.errors import LimitError
-from tracker.geometry import pointing_error_deg, raise_to_mask, slew_s
+from tracker.geometry import az_extent_deg, pointing_error_deg, raise_to_mask, slew_s
 from tracker.mount import AxisMotor, RotatorSpec, drive_axis
 from tracker.skytrack import SkyTrack, angle_between_deg, azel_to_enu
 from tracker.station import Station
@@ -456,12 +456,11 @@ def _ahead_candidate(ctx: _Ctx, can_flip: bool) -> _Result | None:
     for flip in ((False, True) if can_flip else (False,)):
         bearing = np.mod(ctx.track.az_deg + (180.0 if flip else 0.0), 360.0)
         e = _hold(180.0 - ctx.track.el_deg if flip else ctx.track.el_deg, ia, ib)
-        cos_el = np.maximum(np.abs(np.cos(np.radians(e))), 1e-9)
         for m_raw in _unwrapped(spec, bearing, ia, ib):
             for band in AHEAD_BANDS_DEG:
-                # The azimuth offset that moves the beam ``band`` deg of great circle.
-                half_width = np.degrees(np.arcsin(np.minimum(
-                    1.0, math.sin(math.radians(band)) / cos_el)))
+                # The band's reach in azimuth around the target (a heuristic: the path is
+                # scored by its real great-circle error like every candidate).
+                half_width = az_extent_deg(band, e)
                 for share in AHEAD_RATE_SHARES:
                     path = rate_limited_within(ctx.t, m_raw, half_width,
                                                share * spec.az_rate_deg_s)

@@ -85,6 +85,7 @@ from typing import Any
 
 import numpy as np
 
+from tracker.geometry import az_extent_deg
 from tracker.mount import RotatorSpec
 
 # The state of one axis just before a sample: at rest, turning up, turning down.
@@ -164,13 +165,10 @@ def _boxes(spec: RotatorSpec, grid_az: _Grid, grid_el: _Grid, path_az: np.ndarra
     samples to treat as near the zenith, where every mechanical azimuth is searched (module
     doc, item 7); by default those within reach, searched over one turn."""
     centre_az, centre_el = _branch_centre(spec, path_az, path_el, bearing, target_el)
-    c = np.cos(np.radians(np.clip(target_el, -90.0, 90.0)))
-    s = math.sin(math.radians(min(reach_deg, 90.0)))
     whole_span = zenith is not None
     if zenith is None:
-        zenith = c <= s
-    w = np.where(zenith, 180.0,
-                 np.degrees(np.arcsin(np.minimum(s / np.maximum(c, 1e-12), 1.0)))) + grid_az.h
+        zenith = _near_zenith(target_el, reach_deg)
+    w = np.where(zenith, 180.0, az_extent_deg(reach_deg, target_el)) + grid_az.h
     # Near the zenith both sides of it are within reach: one turn around the path's own az
     # (which moves smoothly where the path goes over the top), elevations on either side.
     centre_az = np.where(zenith, path_az, centre_az)
