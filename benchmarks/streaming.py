@@ -59,10 +59,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from passsuite import pass_suite, sample_suite
 
 from tracker.aim import gpredict_aim
+from tracker.fewest_starts import fewest_starts
 from tracker.geometry import MountPath, pointing_error_deg
 from tracker.mount import AxisMotor, MotorModel, drive_axis, preset
 from tracker.planner import gpredict_plan, plan_pass
-from tracker.schedule import plan_schedule
 from tracker.startbound import start_lower_bound, start_lower_bound_any_branch
 from tracker.stream import StreamSettings, TrackCore, pass_window
 
@@ -89,12 +89,13 @@ class CycleMeter:
 
 
 def fly_stream(track, spec, station, deadband_deg: float, cycle_s: float = 0.5,
-               meter: CycleMeter | None = None, planned: bool = False):
+               meter: CycleMeter | None = None, planned: bool = True):
     """The live loop's decisions against a simulated rotator; returns (cmd_t, az, el), plan.
 
     With ``meter`` the core's per-cycle calls (and the status the live loop shows each cycle)
     are timed in CPU time; the commands are the same either way. ``planned``: with the
-    whole-pass schedule (StreamSettings.planned_schedule), else as ``tracker track`` runs."""
+    whole-pass schedule (StreamSettings.planned_schedule) as ``tracker track`` runs, else the
+    aim policy alone."""
     plan = plan_pass(track, spec, station, current=(spec.park_az_deg, spec.park_el_deg))
     core = TrackCore(plan, track, spec, station,
                      StreamSettings(deadband_deg=deadband_deg, cycle_s=cycle_s,
@@ -150,21 +151,6 @@ def fly_gpredict(track, spec, station, threshold_deg: float = 5.0, cycle_s: floa
     return cmds, plan
 
 
-def _rest_start(t_s: np.ndarray, path_deg: np.ndarray, weight: np.ndarray, bound_deg: float,
-                start_deg: float) -> tuple[float, int] | None:
-    """Where one axis rests at AOS and the starts that took (the pre-position): on
-    ``start_deg`` (park) if that is within the bound at AOS; else, after one start, on the
-    integer point held longest from AOS. None: no point is."""
-    if weight[0] * abs(start_deg - path_deg[0]) <= bound_deg:
-        return float(start_deg), 0
-    qs = np.arange(np.floor(path_deg[0]) - 12.0, np.ceil(path_deg[0]) + 13.0)
-    off = weight[None, :] * np.abs(qs[:, None] - path_deg[None, :]) > bound_deg
-    leave = np.where(off.any(axis=1), np.argmax(off, axis=1), len(t_s))
-    if not (leave > 0).any():
-        return None
-    return float(qs[int(np.argmax(leave))]), 1
-
-
 def _pass_axes(track, spec, station):
     """The planner's path over AOS..LOS: (path, times, az, el, the azimuth's weight cos el)."""
     plan = plan_pass(track, spec, station, current=(spec.park_az_deg, spec.park_el_deg))
@@ -207,20 +193,18 @@ def any_branch_bound(track, spec, station, bound_deg: float) -> tuple[int, str] 
 
 
 def joint_starts(track, spec, station, bound_deg: float) -> int | None:
-    """Motor starts of :func:`tracker.schedule.plan_schedule` (great-circle error within
-    ``bound_deg``) from park: each axis pre-positioned by :func:`_rest_start`, then the
-    whole pass planned for both axes. None when no candidate keeps the bound."""
+    """Motor starts of :func:`tracker.fewest_starts.fewest_starts` (great-circle error within
+    ``bound_deg`` over AOS..LOS) from park: each axis may first move to any whole degree for
+    one start before AOS, as the bound allows. None when no schedule of its class keeps the
+    bound."""
     axes = _pass_axes(track, spec, station)
     if axes is None:
         return 0
-    path, ts, az, el, w = axes
-    rest_az = _rest_start(ts, az, w, bound_deg, spec.park_az_deg)
-    rest_el = _rest_start(ts, el, np.ones_like(el), bound_deg, spec.park_el_deg)
-    if rest_az is None or rest_el is None:
-        return None
-    motor = MotorModel(spec, rest_az[0], rest_el[0], float(ts[0]))
-    found = plan_schedule(path, motor.az, motor.el, float(ts[0]), float(ts[-1]), bound_deg)
-    return None if found is None else rest_az[1] + rest_el[1] + found.starts
+    path, ts, _az, _el, _w = axes
+    motor = MotorModel(spec, spec.park_az_deg, spec.park_el_deg, float(ts[0]))
+    found = fewest_starts(path, motor.az, motor.el, float(ts[0]), float(ts[-1]), bound_deg,
+                          free_start=True)
+    return None if found is None else found.starts
 
 
 def measure(track, spec, station, cmds, t_start: float) -> dict:
@@ -437,7 +421,7 @@ def _fly_pass(sp, spec, deadbands: list[float], schedule: bool) -> dict:
         out["cpu"][d] = time.process_time() - c0
         if schedule:
             c0 = time.process_time()
-            acmds, _plan, _t = fly_stream(tr, spec, st, d, planned=True)
+            acmds, _plan, _t = fly_stream(tr, spec, st, d, planned=False)
             out["sched_rows"][d] = measure(tr, spec, st, acmds, t_start)
             out["sched_cpu"][d] = time.process_time() - c0
         if row["lost_s"] > 0:
@@ -598,7 +582,7 @@ def print_results(res: dict, n_passes: int) -> None:
         print(f"  D={d:g}: " + "; ".join(f"{name} {n} / {bad}"
                                         for name, (n, bad) in r["below_bound"].items()))
     if any("schedule" in r for r in res["deadbands"].values()):
-        print("with the whole-pass schedule (StreamSettings(planned_schedule=True)), same run:")
+        print("the aim policy alone (StreamSettings(planned_schedule=False)), same run:")
         for d, r in res["deadbands"].items():
             a = r["schedule"]
             print(f"{d:>6g}{a['lost_s']:>8.1f}{a['lost_followable_s']:>10.1f}"
@@ -675,8 +659,8 @@ def main(argv=None) -> int:
                     help="fly only this many passes spread evenly over the suite (0 = all)")
     ap.add_argument("--no-peers", action="store_true",
                     help="skip the peer policies (Gpredict-style, SatNOGS-style)")
-    ap.add_argument("--schedule", action="store_true",
-                    help="also fly the live loop with the whole-pass schedule: the ratio")
+    ap.add_argument("--aim-only", action="store_true",
+                    help="also fly the live loop without the whole-pass schedule: the ratio")
     ap.add_argument("--no-joint", action="store_true",
                     help="skip the clairvoyant joint schedule (the costliest reference)")
     ap.add_argument("--hard", action="store_true",
@@ -706,7 +690,7 @@ def main(argv=None) -> int:
           f"{time.perf_counter() - t0:.1f} s")
     c0, w0 = cpu_s_with_children(), time.perf_counter()
     res = compare(suite, spec, args.deadband, peers=not args.no_peers,
-                  joint=not args.no_joint, schedule=args.schedule, workers=args.workers)
+                  joint=not args.no_joint, schedule=args.aim_only, workers=args.workers)
     print_results(res, len(suite))
     print(f"took {time.perf_counter() - w0:.0f} s wall, {cpu_s_with_children() - c0:.0f} s CPU "
           f"(summed over {max(args.workers, 1)} worker{'s' if args.workers > 1 else ''})")

@@ -10,9 +10,11 @@ from _stream_fakes import T0, arc_pass
 from test_stream import Rig, track_errors
 
 import tracker.stream as stream_mod
+from tracker.fewest_starts import fewest_starts
 from tracker.geometry import MountPath
 from tracker.mount import MotorModel, drive_axis, preset
-from tracker.schedule import axis_schedule, plan_schedule
+from tracker.schedule import plan_schedule
+from tracker.startbound import start_lower_bound
 from tracker.stream import Phase, StreamSettings
 
 SPEC = preset("G-5500", 50)
@@ -24,17 +26,22 @@ def _rest_on_path(path: MountPath, t_s: float) -> MotorModel:
     return MotorModel(SPEC, round(float(az)), round(float(el)), t_s)
 
 
-def test_axis_schedule_keeps_its_budget_with_one_start_per_command():
-    t = np.arange(0.0, 300.0, 0.25)
-    path = 10.0 + 0.4 * t                       # 0.4 deg/s, 120 deg in all
-    cmds = axis_schedule(t, path, np.ones_like(t), 5.0, 0.5, 2.0, 10.0)
-    assert cmds is not None and all(k % 2 == 0 for k, _q in cmds)   # on cycle instants
-    axis = MotorModel(SPEC, 10.0, 0.0, 0.0).az
-    pos, starts = drive_axis(axis, t[[k for k, _ in cmds]], [q for _, q in cmds], t)
-    assert np.max(np.abs(pos - path)) <= 2.0 + 1e-9
-    assert starts == len(cmds)
-    # A sawtooth of +-2 deg over a 0.4 deg/s path: about one start per 4 deg of travel.
-    assert 120.0 / 4.0 - 2 <= len(cmds) <= 120.0 / 4.0 + 3
+def test_a_slow_target_needs_one_start_per_two_degrees_of_travel():
+    # The target runs 0.4 deg/s along el 10 for 60 s, 100 -> 124 deg. Resting on a whole
+    # degree q keeps a band of 1 deg (1.015 deg of azimuth at el 10) while the target is within
+    # q -+ 1.015, so consecutive rests are at most 2 deg apart: 12 starts at the least, and
+    # the programme must find a schedule that needs no more.
+    ts = np.arange(T0, T0 + 60.0 + 1e-9, 0.25)
+    path = MountPath.from_arrays(ts, 100.0 + 0.4 * (ts - T0), np.full_like(ts, 10.0), SPEC)
+    motor = MotorModel(SPEC, 100.0, 10.0, T0)
+    found = fewest_starts(path, motor.az, motor.el, T0, T0 + 60.0, 1.0)
+    assert found is not None and found.starts == 12
+    assert all(round((t - T0) / 0.5, 9) % 1 == 0 for t, _a, _e in found.commands)  # on cycles
+    assert all(e is None for _t, _a, e in found.commands)      # the elevation never moves
+    # The relaxed bound (rests anywhere, not only on whole degrees) is below it.
+    bound = start_lower_bound(SPEC, ts, *path.mount_at(ts), *path.mount_at(ts), 1.0,
+                              park=(100.0, 10.0))
+    assert bound is not None and bound <= found.starts
 
 
 def test_plan_schedule_keeps_the_great_circle_error_within_the_band():
@@ -52,13 +59,33 @@ def test_plan_schedule_keeps_the_great_circle_error_within_the_band():
     assert n_az + n_el == sch.starts
     assert float(np.max(path.error_deg(ts, az, el))) <= 2.8 + 1e-6
     assert sch.expected(float(ts[100])) == pytest.approx((az[100], el[100]))
-    # Each axis alone within the whole band needs no more starts (the per-axis bound).
+    # Within a few starts of the clairvoyant lower bound (no schedule needs fewer).
+    bearing, target_el = track.direction_at(ts)
     p_az, p_el = path.mount_at(ts)
-    alone = [axis_schedule(ts, p_az, np.abs(np.cos(np.radians(p_el))), SPEC.az_rate_deg_s,
-                           0.5, 2.8, float(round(p_az[0]))),
-             axis_schedule(ts, p_el, np.ones_like(ts), SPEC.el_rate, 0.5, 2.8,
-                           float(round(p_el[0])))]
-    assert sum(len(c) for c in alone) <= sch.starts
+    bound = start_lower_bound(SPEC, ts, bearing, target_el, p_az, p_el, 2.8,
+                              park=(float(motor.az.position(t0)), float(motor.el.position(t0))))
+    assert bound is not None and bound <= sch.starts <= 1.15 * bound
+
+
+def test_a_free_start_may_begin_anywhere_for_one_start_per_axis():
+    track = arc_pass(duration_s=300, max_el_deg=30.0, pad_s=30)
+    path = MountPath.from_track(track, SPEC)
+    park = MotorModel(SPEC, 0.0, 0.0, T0)
+    assert fewest_starts(path, park.az, park.el, T0, T0 + 300.0, 2.5) is None  # 100 deg off
+    found = fewest_starts(path, park.az, park.el, T0, T0 + 300.0, 2.5, free_start=True)
+    assert found is not None and found.start_az_deg > 90.0
+    moved = (found.start_az_deg != 0.0) + (found.start_el_deg != 0.0)   # el 0 keeps AOS
+    there = MotorModel(SPEC, found.start_az_deg, found.start_el_deg, T0)
+    again = fewest_starts(path, there.az, there.el, T0, T0 + 300.0, 2.5)
+    assert again is not None and again.starts == found.starts - moved
+    # Before ``from_s`` the band is not asked for: an antenna just off it may plan to come in.
+    t1 = T0 + 100.0
+    az, el = (float(x) for x in path.mount_at(t1))
+    off = MotorModel(SPEC, round(az) + 2.0, round(el) + 2.0, t1)
+    assert path.error_deg(t1, off.az.position(t1), off.el.position(t1)) > 2.5
+    assert fewest_starts(path, off.az, off.el, t1, t1 + 60.0, 2.5) is None
+    late = fewest_starts(path, off.az, off.el, t1, t1 + 60.0, 2.5, from_s=t1 + 2.5)
+    assert late is not None
 
 
 def test_plan_schedule_needs_both_axes_at_rest():
@@ -141,18 +168,27 @@ def test_readback_off_the_schedule_hands_the_rest_of_the_pass_to_the_aim_policy(
     assert max(late) <= 3.0 + 1.0                        # and brought it back in
 
 
-def test_by_default_the_aim_policy_decides_every_move(spies):
-    rig = Rig(track=arc_pass(duration_s=400, max_el_deg=30.0, pad_s=30))
-    assert not rig.settings.planned_schedule
-    assert rig.run().completed
-    assert spies["schedules"] == [] and spies["aims"]
-    assert track_errors(rig).max() <= 3.0 + 1.0
+def test_by_default_the_schedule_decides_and_saves_starts_over_the_aim_policy(spies):
+    # A 70 deg pass: the whole-pass schedule keeps the deadband with fewer motor starts than
+    # the aim policy deciding one move at a time.
+    track = arc_pass(duration_s=400, max_el_deg=70.0, pad_s=30)
+    planned = Rig(track=track)
+    assert planned.settings.planned_schedule and planned.run().completed
+    (sch,) = spies["schedules"]
+    assert sch is not None
+    alone = Rig(track=track, settings=StreamSettings(deadband_deg=3.0, planned_schedule=False))
+    assert alone.run().completed
+    assert spies["schedules"] == [sch] and spies["aims"]
+    starts = [_starts(rig) for rig in (planned, alone)]
+    assert starts[0] < starts[1]
+    for rig in (planned, alone):
+        assert track_errors(rig).max() <= 3.0 + 1.0      # deadband + integer read-back
 
 
-def test_a_high_pass_is_left_to_the_aim_policy(spies):
-    # Above 45 deg the axes' split of the deadband (e_az * cos el, e_el) no longer holds
-    # within a deadband; the aim policy measured fewer starts there.
-    rig = Rig(track=arc_pass(duration_s=400, max_el_deg=70.0, pad_s=30), settings=PLANNED)
-    assert rig.run().completed
-    assert spies["schedules"] == [] and spies["aims"]
-    assert track_errors(rig).max() <= 3.0 + 1.0
+def _starts(rig) -> int:
+    """Motor starts of every command the rig's rotator was sent, through the motor model."""
+    sent = _sent(rig)
+    motor = MotorModel(SPEC, 90.0, 0.0, T0 - 60.0)
+    t = [c[0] for c in sent]
+    return (drive_axis(motor.az, t, [c[1] for c in sent], t)[1]
+            + drive_axis(motor.el, t, [c[2] for c in sent], t)[1])

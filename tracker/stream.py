@@ -56,9 +56,13 @@ from tracker.station import Station
 
 # What TrackCore._planned answers when the aim policy, not the schedule, decides.
 _AIM = object()
-# The whole-pass schedule is planned for passes whose mount elevation stays within 45 deg of
-# the horizon (either side of the zenith on a flip path).
-SCHEDULE_MAX_SIN_EL = math.sin(math.radians(45.0))
+# The whole-pass schedule keeps the error within the deadband less this at every half-cycle
+# sample: between samples the error can grow by what the target and the antenna travel in a
+# quarter cycle (the aim policy's ``margin_deg`` also covers its coarser predictions).
+SCHEDULE_MARGIN_DEG = 0.05
+# A schedule that cannot keep the band through a fast stretch of the path ends this long
+# before it, so the aim policy leads the antenna into the stretch.
+SCHEDULE_HANDOFF_S = 10.0
 
 
 class Phase(str, Enum):
@@ -105,9 +109,8 @@ class StreamSettings:
     garbled_before_lost: int = 10
     aim_step_s: float = 0.5
     # Plan the pass's moves before AOS knowing the whole pass (tracker.schedule) and follow
-    # them while the read-back agrees. Off by default: on the benchmark's passes it saved
-    # no motor starts over the aim policy (within +-3 %, benchmarks/streaming.py --schedule).
-    planned_schedule: bool = False
+    # them while the read-back agrees; the aim policy decides the rest.
+    planned_schedule: bool = True
     park_timeout_s: float = 180.0
 
 
@@ -507,6 +510,9 @@ class TrackCore:
                 self.phase = phase
         if self.motor is None or self.untrusted:
             return None       # no trusted position: never a blind move
+        if not self._schedule_tried and (phase is _WAIT or (
+                phase is _PREPOSITION and self._move_i == 0)):
+            self._plan_ahead(t_s)
         if phase is _WAIT or phase is _DONE:
             return None
         if phase is _PREPOSITION:
@@ -543,6 +549,15 @@ class TrackCore:
         # Once a motor runs it outruns the target (faster paths are followed below), so only
         # the wait until it starts has to be foreseen: one cycle and the start delay.
         lookahead = self._lookahead_s
+        # After the whole pre-position (which already leads into the pass) the antenna
+        # may hold where it is, as within the pass.
+        settled = self._phase_commanded is _TRACK or (
+            self._phase_commanded is _PREPOSITION and self._move_i >= len(self.pre_moves))
+        if settled and (self._schedule is not None or not self._schedule_tried):
+            # The whole-pass schedule while it lasts, fast stretches it keeps included.
+            planned = self._planned(t_s, lookahead)
+            if planned is not _AIM:
+                return planned
         if self._fast(t_s, lookahead):
             i = (self._plan_index_near(t_s) if self._staircase
                  else min(bisect_left(self._plan_t, t_s), len(self._plan_t) - 1))
@@ -561,15 +576,6 @@ class TrackCore:
                 # out again; a command that did not move it is the stall watch's to re-send.
                 return None
         else:
-            # After the whole pre-position (which already leads into the pass) the antenna
-            # may hold where it is, as within the pass.
-            settled = self._phase_commanded is _TRACK or (
-                self._phase_commanded is _PREPOSITION
-                and self._move_i >= len(self.pre_moves))
-            if settled and (self._schedule is not None or not self._schedule_tried):
-                planned = self._planned(t_s, lookahead)
-                if planned is not _AIM:
-                    return planned
             if settled and self._quiet(t_s, level, lookahead):
                 return None
             aim = choose_aim(self.path, self.motor.az, self.motor.el, t_s, band,
@@ -639,6 +645,8 @@ class TrackCore:
             if self._schedule is None:
                 return _AIM
         sch = self._schedule
+        if t_s < sch.sample_t_s[0] - 1e-6:
+            return None     # planned ahead: the pre-position is on its way to the start
         res = self.spec.resolution_deg
         az, el = self.motor.position(t_s)
         want_az, want_el = sch.expected(t_s)
@@ -658,34 +666,63 @@ class TrackCore:
             return _AIM
         return cmd
 
-    def _plan_schedule(self, t_s: float, lookahead_s: float) -> PassSchedule | None:
-        """:func:`~tracker.schedule.plan_schedule` from now to LOS or to where the path
-        turns fast (there the loop follows the plan's own commands)."""
+    def _plan_ahead(self, t_s: float) -> None:
+        """Before the pre-position: the whole-pass schedule from the last cycle before
+        tracking starts, free to begin anywhere (the pre-position's last move goes to its
+        start, :meth:`_lead_in`). Planned this early, its CPU time is spent while nothing
+        waits on it."""
+        self._schedule_tried = True
+        cycle = self.settings.cycle_s
+        k = math.floor((self.track_from_s - t_s) / cycle + 1e-9)
+        if k < 1:
+            self._schedule_tried = False      # too late: planned on the first settled cycle
+            return
+        self._schedule = self._plan_schedule(t_s + k * cycle, self._lookahead_s,
+                                             free_start=True)
+        self._schedule_i = 0
+
+    def _plan_schedule(self, t_s: float, lookahead_s: float, free_start: bool = False
+                       ) -> PassSchedule | None:
+        """:func:`~tracker.schedule.plan_schedule` from now to LOS; where no schedule keeps
+        the band through a stretch where the path turns fast (near the zenith), up to
+        :data:`SCHEDULE_HANDOFF_S` before it: the loop follows the plan's own commands there,
+        and the aim policy leads into them as it does without a schedule."""
         if self.motor is None or self.motor.el is None:
             return None
         cycle = self.settings.cycle_s
+        band = max(self.settings.deadband_deg - SCHEDULE_MARGIN_DEG, self._band_deg)
         end_s = self.los_s
         t = t_s
         while t <= end_s:
             if self._fast(t, lookahead_s):
-                end_s = t - cycle
+                end_s = t - SCHEDULE_HANDOFF_S
                 break
             t += cycle
-        # The axes share the deadband as e_az * cos(el) and e_el: a split that holds while
-        # cos(el) changes little within the deadband. Higher up it does not, and there the
-        # aim policy measured fewer starts (benchmarks/streaming.py, by max elevation).
-        _az, el = self.path.mount_at(np.arange(t_s, end_s + cycle, cycle))
-        if el is None or np.max(np.abs(np.sin(np.radians(el)))) > SCHEDULE_MAX_SIN_EL:
-            return None
-        return plan_schedule(self.path, self.motor.az, self.motor.el, t_s, end_s,
-                             self._band_deg, cycle)
+        if end_s < self.los_s:
+            whole = plan_schedule(self.path, self.motor.az, self.motor.el, t_s, self.los_s,
+                                  band, cycle, from_s=self.track_from_s, free_start=free_start)
+            if whole is not None:
+                return whole
+        return plan_schedule(self.path, self.motor.az, self.motor.el, t_s, end_s, band, cycle,
+                             from_s=self.track_from_s, free_start=free_start)
 
     def _lead_in(self, t_s: float, last: Command, horizon_s: float = 120.0) -> Command:
         """The last pre-position move, aimed ahead on the path: resting there the antenna
         lets the target drift through the whole deadband from the start of tracking, where
         resting on the AOS point it would need one small move just before AOS, a motor start
         per axis for nothing. Kept as planned when no point ahead holds the deadband from the
-        start of tracking or the direct move to it would dip below the mask."""
+        start of tracking or the direct move to it would dip below the mask. With a schedule
+        planned ahead (:meth:`_plan_ahead`), the move goes to its start instead."""
+        if self._schedule is not None:
+            sch = self._schedule
+            start = self._safe(float(sch.az_pos_deg[0]), float(sch.el_pos_deg[0]),
+                               "preposition")
+            if not start.clamped and move_clears_mask(
+                    self.spec, self.station, self.motor.position(t_s),
+                    (start.az_m_deg, start.el_deg)):
+                return start
+            # Not there: planned again from where the antenna comes to rest.
+            self._schedule, self._schedule_tried = None, False
         t_a = self.track_from_s
         ts = np.arange(t_a, min(t_a + horizon_s, self.path.end_s) + 1e-9,
                        self.settings.aim_step_s)
