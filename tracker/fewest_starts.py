@@ -11,14 +11,16 @@ model (:class:`tracker.mount.AxisMotor`) carries out as planned:
 
 An axis is, at each sample, at rest on a whole degree (or where it started), or on its way
 from a start position since a known command (its position follows exactly; the target is
-decided when it stops, and that target is the one command of the move). The programme keeps,
-for each pair of axis states that keeps the band, the fewest starts that reach it; the pair
-space is searched one axis at a time (a move of one axis does not change the other's
-choices), and only positions within the band's reach of the target on the path's branch are
-kept (in azimuth at most :data:`AZ_REACH_CAP_DEG` either side, so the search stays small near
-the zenith). The answer is therefore the least number of starts within that class, found
-exactly; it is not a bound over every schedule (:mod:`tracker.startbound` is): a move whose
-target changes on the way, a reversal, or a command to a moving axis are outside the class.
+decided when it stops, and that target is the one command of the move). Each axis's states
+and moves between samples form a graph of their own, built for the whole pass at once
+(:class:`_AxisGraph`), with only positions within the band's reach of the target on the
+path's branch (in azimuth at most :data:`AZ_REACH_CAP_DEG` either side, so it stays small near
+the zenith). The programme keeps, for each pair of axis states that keeps the band, the fewest
+starts that reach it; a sample's step is taken one axis at a time (a move of one axis does
+not change the other's choices). The answer is therefore the least number of starts within
+that class, found exactly; it is not a bound over every schedule (:mod:`tracker.startbound`
+is): a move whose target changes on the way, a reversal, or a command to a moving axis are
+outside the class.
 
 The result is driven through the motor model and checked against the real target before it is
 returned, so a schedule that is returned keeps the band as the model predicts.
@@ -40,130 +42,200 @@ AZ_REACH_CAP_DEG = 15.0
 MAX_SAMPLES = 14_400
 # Costs are small integers: float32 holds them exactly.
 _INF = np.float32(np.inf)
-_REST, _UP, _DOWN = 0, 1, -1
 
 
 @dataclass(frozen=True)
 class _Axis:
-    """One axis's motion: rate, start delay, limits, and the sample grid."""
+    """One axis's motion: rate, start delay and limits."""
 
     rate_deg_s: float
     start_delay_s: float
     lo_deg: float
     hi_deg: float
 
-    def position(self, p0: np.ndarray, kind: np.ndarray, t_cmd_s: np.ndarray,
-                 t_s: float) -> np.ndarray:
-        """Where a moving state is at ``t_s``: ``p0`` plus the travel since its onset (the
-        target is not applied: a state that is still moving has not reached it)."""
-        return p0 + kind * self.rate_deg_s * np.maximum(t_s - t_cmd_s - self.start_delay_s,
-                                                        0.0)
+    def travel(self, t_from_cmd_s: np.ndarray) -> np.ndarray:
+        """How far a move has gone ``t_from_cmd_s`` after its command (not yet arrived)."""
+        return self.rate_deg_s * np.maximum(t_from_cmd_s - self.start_delay_s, 0.0)
 
 
-@dataclass
-class _States:
-    """One axis's states at one sample: kind (rest / up / down), start position, command
-    sample (-1 at rest) and exact position."""
-
-    kind: np.ndarray
-    p0: np.ndarray
-    c: np.ndarray
-    x: np.ndarray
-
-    def take(self, idx: np.ndarray) -> _States:
-        return _States(self.kind[idx], self.p0[idx], self.c[idx], self.x[idx])
+def _lookup(keys: np.ndarray, want: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Positions of ``want`` in the sorted ``keys`` and whether each is there."""
+    at = np.minimum(np.searchsorted(keys, want), max(len(keys) - 1, 0))
+    found = keys[at] == want if len(keys) else np.zeros(len(want), dtype=bool)
+    return at, found
 
 
-def _key(kind: np.ndarray, p0: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """One int64 per state (kind, start position to 1e-3 deg, command sample)."""
-    p = np.round((p0 + 2048.0) * 1000.0).astype(np.int64)
-    return ((c.astype(np.int64) + 1) * (1 << 23) + p) * 3 + (kind.astype(np.int64) + 1)
+def _rest_key(sample: np.ndarray, x_deg: np.ndarray) -> np.ndarray:
+    return sample.astype(np.int64) * (1 << 32) + np.round((x_deg + 2048.0) * 1000.0).astype(
+        np.int64)
 
 
-def _successors(st: _States, ax: _Axis, t_s: np.ndarray, i: int, can_start: bool
-                ) -> tuple[_States, np.ndarray, np.ndarray]:
-    """Every state at sample i + 1 reachable from ``st`` at sample i: (states, source index,
-    starts) per edge."""
-    n = len(st.kind)
-    idx = np.arange(n)
-    rest = st.kind == _REST
-    moving = ~rest
-    t_next = float(t_s[i + 1])
-    parts = []
-    # At rest: stays.
-    r = idx[rest]
-    parts.append((np.zeros(len(r), np.int8), st.p0[r], np.full(len(r), -1), st.x[r], r,
-                  np.zeros(len(r), np.int8)))
-    if can_start:
-        for kind in (_UP, _DOWN):
-            c = np.full(len(r), i)
-            x = ax.position(st.x[r], np.full(len(r), kind), np.full(len(r), float(t_s[i])),
-                            t_next)
-            parts.append((np.full(len(r), kind, np.int8), st.x[r], c, x, r,
-                          np.ones(len(r), np.int8)))
-    m = idx[moving]
-    if len(m):
-        k = st.kind[m]
-        x_next = ax.position(st.p0[m], k.astype(float), t_s[st.c[m]], t_next)
-        parts.append((k, st.p0[m], st.c[m], x_next, m, np.zeros(len(m), np.int8)))
-        # Stops on a whole degree passed between the samples: strictly beyond the position
-        # now, at most the position the axis would reach.
-        up = k == _UP
-        first = np.where(up, np.floor(st.x[m]) + 1.0, np.ceil(x_next))
-        last = np.where(up, np.floor(x_next), np.ceil(st.x[m]) - 1.0)
-        count = np.maximum(last - first + 1.0, 0.0).astype(int)
-        if count.any():
-            src = np.repeat(m, count)
-            base = np.repeat(first, count)
-            offs = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
-            q = base + offs
-            parts.append((np.zeros(len(src), np.int8), q, np.full(len(src), -1), q, src,
-                          np.zeros(len(src), np.int8)))
-    kind, p0, c, x, src, cost = (np.concatenate(col) for col in zip(*parts, strict=True))
-    ok = (x >= ax.lo_deg - 1e-9) & (x <= ax.hi_deg + 1e-9)
-    return (_States(kind[ok], p0[ok], c[ok], x[ok]), src[ok], cost[ok])
+class _AxisGraph:
+    """One axis over the whole span: per sample its states (at rest on a position, or moving
+    since a command: ``chain`` >= 0), each state's position, and the edges into each sample's
+    states from the sample before (a rest kept, a move started (one start), a move going on,
+    a move stopping on a whole degree it passed). States are numbered per sample, rests first;
+    a state with no edge into it gets one from a virtual source numbered past the sample's
+    states (the programme gives it no finite cost)."""
+
+    def __init__(self, ax: _Axis, ts: np.ndarray, box: tuple[np.ndarray, np.ndarray],
+                 starts_deg: np.ndarray, here_deg: float):
+        n = len(ts)
+        lo = np.maximum(box[0], ax.lo_deg - 1e-9)
+        hi = np.minimum(box[1], ax.hi_deg + 1e-9)
+        # Rests: the start positions at sample 0; afterwards every whole degree in the box,
+        # and where the axis is now (it may rest off the grid) while that is in the box.
+        q0, q1 = np.ceil(lo[1:]).astype(int), np.floor(hi[1:]).astype(int)
+        count = np.maximum(q1 - q0 + 1, 0)
+        r_samp = np.concatenate(([0] * len(starts_deg), np.repeat(np.arange(1, n), count)))
+        r_x = np.concatenate((starts_deg, (np.repeat(q0, count) + np.arange(count.sum())
+                                           - np.repeat(np.cumsum(count) - count, count)
+                                           ).astype(float)))
+        on = (here_deg >= lo[1:]) & (here_deg <= hi[1:]) & (np.abs(here_deg - np.round(
+            here_deg)) > 1e-9)
+        r_samp = np.concatenate((r_samp, np.flatnonzero(on) + 1))
+        r_x = np.concatenate((r_x, np.full(int(on.sum()), here_deg)))
+        order = np.lexsort((r_x, r_samp))
+        r_samp, r_x = r_samp[order], r_x[order]
+        r_key = _rest_key(r_samp, r_x)
+        # Moves: from each rest on a cycle instant, either way, followed while in the box.
+        birth = (r_samp % 2 == 0) & (r_samp < n - 1)
+        b_samp = np.repeat(r_samp[birth], 2)
+        b_p0 = np.repeat(r_x[birth], 2)
+        b_dir = np.tile([1.0, -1.0], int(birth.sum()))
+        c_samp, c_id, c_x, c_next = [], [], [], []
+        alive = np.arange(len(b_samp))
+        k = 1
+        while len(alive):
+            s = b_samp[alive] + k
+            ok = s < n
+            alive, s = alive[ok], s[ok]
+            x = b_p0[alive] + b_dir[alive] * ax.travel(ts[s] - ts[b_samp[alive]])
+            inside = (x >= lo[s]) & (x <= hi[s])
+            alive, s, x = alive[inside], s[inside], x[inside]
+            nxt = np.minimum(s + 1, n - 1)
+            c_samp.append(s)
+            c_id.append(alive)
+            c_x.append(x)
+            c_next.append(b_p0[alive] + b_dir[alive] * ax.travel(ts[nxt] - ts[b_samp[alive]]))
+            k += 1
+        m_samp = np.concatenate(c_samp) if c_samp else np.zeros(0, int)
+        m_id = np.concatenate(c_id) if c_id else np.zeros(0, int)
+        m_x = np.concatenate(c_x) if c_x else np.zeros(0)
+        m_next = np.concatenate(c_next) if c_next else np.zeros(0)
+        order = np.lexsort((m_id, m_samp))
+        m_samp, m_id, m_x, m_next = m_samp[order], m_id[order], m_x[order], m_next[order]
+        m_key = m_samp.astype(np.int64) * (1 << 32) + m_id
+        # Per sample: rests then moves.
+        n_rest = np.bincount(r_samp, minlength=n)
+        n_move = np.bincount(m_samp, minlength=n)
+        self.off = np.concatenate(([0], np.cumsum(n_rest + n_move)))
+        r_local = np.arange(len(r_samp)) - np.repeat(np.cumsum(n_rest) - n_rest, n_rest)
+        m_local = (np.arange(len(m_samp)) - np.repeat(np.cumsum(n_move) - n_move, n_move)
+                   + n_rest[m_samp])
+        self.x = np.empty(self.off[-1])
+        self.chain = np.full(self.off[-1], -1)
+        self.x[self.off[r_samp] + r_local] = r_x
+        self.x[self.off[m_samp] + m_local] = m_x
+        self.chain[self.off[m_samp] + m_local] = m_id
+        self.b_samp, self.b_dir = b_samp, b_dir
+        # Edges (into sample s + 1, indices local): dst, src, starts.
+        dst, src, cost, samp = [], [], [], []
+
+        def add(d_samp, d_local, s_local, starts):
+            samp.append(d_samp)
+            dst.append(d_local)
+            src.append(s_local)
+            cost.append(np.full(len(d_samp), starts, dtype=np.float32))
+
+        later = r_samp > 0
+        at, found = _lookup(r_key, _rest_key(r_samp[later] - 1, r_x[later]))
+        add(r_samp[later][found], r_local[later][found], r_local[at[found]], 0)
+        born = b_samp[m_id] == m_samp - 1
+        at, found = _lookup(r_key, _rest_key(m_samp[born] - 1, b_p0[m_id[born]]))
+        add(m_samp[born][found], m_local[born][found], r_local[at[found]], 1)
+        on = ~born
+        at, found = _lookup(m_key, m_key[on] - (1 << 32))
+        add(m_samp[on][found], m_local[on][found], m_local[at[found]], 0)
+        # Stops: whole degrees strictly past the position now, not past the next one.
+        go = m_samp < n - 1
+        up = b_dir[m_id[go]] > 0
+        xg, ng = m_x[go], m_next[go]
+        first = np.where(up, np.floor(xg) + 1.0, np.ceil(ng))
+        last = np.where(up, np.floor(ng), np.ceil(xg) - 1.0)
+        cnt = np.maximum(last - first + 1.0, 0.0).astype(int)
+        q = np.repeat(first, cnt) + (np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt,
+                                                                        cnt))
+        s_from = np.repeat(m_samp[go], cnt)
+        at, found = _lookup(r_key, _rest_key(s_from + 1, q))
+        add(s_from[found] + 1, r_local[at[found]], np.repeat(m_local[go], cnt)[found], 0)
+        samp_a, dst_a = np.concatenate(samp), np.concatenate(dst)
+        src_a, cost_a = np.concatenate(src), np.concatenate(cost)
+        # States nobody reaches: one edge from the virtual source.
+        size = n_rest + n_move
+        g_dst = self.off[samp_a] + dst_a
+        reached = np.zeros(self.off[-1], dtype=bool)
+        reached[g_dst] = True
+        lone = np.flatnonzero(~reached[self.off[1]:]) + self.off[1]
+        lone_samp = np.searchsorted(self.off, lone, side="right") - 1
+        samp_a = np.concatenate((samp_a, lone_samp))
+        dst_a = np.concatenate((dst_a, lone - self.off[lone_samp]))
+        src_a = np.concatenate((src_a, size[lone_samp - 1]))
+        cost_a = np.concatenate((cost_a, np.zeros(len(lone), np.float32)))
+        order = np.lexsort((dst_a, samp_a))
+        self.e_samp, self.e_dst = samp_a[order], dst_a[order]
+        self.e_src, self.e_cost = src_a[order], cost_a[order]
+        self.e_off = np.searchsorted(self.e_samp, np.arange(n + 1))
+        # Each state's first edge, per sample (reduceat's groups).
+        new = np.concatenate(([True], (self.e_dst[1:] != self.e_dst[:-1])
+                              | (self.e_samp[1:] != self.e_samp[:-1])))
+        self.e_first = np.flatnonzero(new) - self.e_off[self.e_samp[new]]
+        self.f_off = np.searchsorted(self.e_samp[new], np.arange(n + 1))
+        self.size = size
+        self._trig: tuple[np.ndarray, np.ndarray] | None = None
+
+    def positions(self, s: int) -> np.ndarray:
+        return self.x[self.off[s]:self.off[s + 1]]
+
+    def trig(self, s: int, offset_deg: float) -> tuple[np.ndarray, np.ndarray]:
+        """(sin, cos) of every state's position plus ``offset_deg`` at sample ``s`` (computed
+        for the whole span on the first call)."""
+        if self._trig is None:
+            r = np.radians(self.x + offset_deg)
+            self._trig = (np.sin(r), np.cos(r))
+        a, b = self.off[s], self.off[s + 1]
+        return self._trig[0][a:b], self._trig[1][a:b]
+
+    def edges(self, s: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Into sample s: (source, starts, index of each state's first edge)."""
+        a, b = self.e_off[s], self.e_off[s + 1]
+        return self.e_src[a:b], self.e_cost[a:b], self.e_first[self.f_off[s]:self.f_off[s + 1]]
+
+    def into(self, s: int, k: int) -> list[tuple[int, float]]:
+        """(source, starts) of every edge into state ``k`` of sample ``s``."""
+        a, b = self.e_off[s], self.e_off[s + 1]
+        lo = a + int(np.searchsorted(self.e_dst[a:b], k))
+        hi = a + int(np.searchsorted(self.e_dst[a:b], k, side="right"))
+        return list(zip(self.e_src[lo:hi].tolist(), self.e_cost[lo:hi].tolist(), strict=True))
+
+    def moving(self, s: int, k: int) -> bool:
+        return bool(self.chain[self.off[s] + k] >= 0)
+
+    def beyond(self, s: int, k: int) -> float:
+        """The target of a move still running in state ``k``: the next whole degree ahead."""
+        x = float(self.x[self.off[s] + k])
+        up = self.b_dir[self.chain[self.off[s] + k]] > 0
+        return math.floor(x) + 1.0 if up else math.ceil(x) - 1.0
 
 
-def _merge(st: _States, src: np.ndarray, cost: np.ndarray, box: tuple[float, float]
-           ) -> tuple[_States, np.ndarray, np.ndarray, np.ndarray]:
-    """The distinct states within ``box``, and the edges into them sorted by state:
-    (states, edge source, edge starts, index of each state's first edge)."""
-    keep = (st.x >= box[0]) & (st.x <= box[1])
-    st, src, cost = st.take(keep), src[keep], cost[keep]
-    if len(src) == 0:
-        return st, src, cost, src
-    keys = _key(st.kind, st.p0, st.c)
-    order = np.argsort(keys, kind="stable")
-    keys, src, cost = keys[order], src[order], cost[order]
-    first = np.flatnonzero(np.concatenate(([True], keys[1:] != keys[:-1])))
-    return st.take(order[first]), src, cost, first
-
-
-def _step(v: np.ndarray, src: np.ndarray, cost: np.ndarray, first: np.ndarray, axis: int
-          ) -> np.ndarray:
-    """Least cost into each new state of one axis (``axis`` of ``v``), the other axis's
-    states unchanged."""
-    if axis == 0:
-        g = v[src, :] + cost[:, None].astype(np.float32)
-    else:
-        g = v[:, src] + cost[None, :].astype(np.float32)
-    return np.minimum.reduceat(g, first, axis=axis)
-
-
-def _feasible(az: np.ndarray, el: np.ndarray, stop_bearing_deg: float, target: np.ndarray,
-              min_dot: float) -> np.ndarray:
-    """(n_az, n_el): each pair's boresight within the band of ``target`` (a unit vector)."""
-    b = np.radians(np.mod(az + stop_bearing_deg, 360.0))
-    along = np.sin(b) * target[0] + np.cos(b) * target[1]
-    e = np.radians(el)
-    return np.outer(along, np.cos(e)) + (np.sin(e) * target[2])[None, :] >= min_dot
-
-
-@dataclass
-class _Layer:
-    az: _States
-    el: _States
-    v: np.ndarray
+def _feasible(ga: _AxisGraph, ge: _AxisGraph, s: int, stop_bearing_deg: float,
+              target: np.ndarray, min_dot: float) -> np.ndarray:
+    """(n_az, n_el) at sample ``s``: each pair's boresight within the band of ``target`` (a
+    unit vector)."""
+    sin_b, cos_b = ga.trig(s, stop_bearing_deg)
+    sin_e, cos_e = ge.trig(s, 0.0)
+    along = sin_b * target[0] + cos_b * target[1]
+    return np.multiply.outer(along, cos_e) >= min_dot - sin_e * target[2]
 
 
 @dataclass(frozen=True)
@@ -188,59 +260,53 @@ def fewest_starts(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor, t0_s:
     ``t0_s``) on. With ``free_start`` each axis may instead begin at rest on any whole degree
     searched at ``t0_s``, for one start (a pre-position move made before). None when no
     schedule of the class keeps the band (or the span is longer than :data:`MAX_SAMPLES`)."""
-    dt = 0.5 * cycle_s
-    ts = np.arange(t0_s, min(end_s, path.end_s) + 1e-9, dt)
+    ts = np.arange(t0_s, min(end_s, path.end_s) + 1e-9, 0.5 * cycle_s)
     n = len(ts)
     if n < 2 or n > MAX_SAMPLES or az_axis.moving(t0_s) or el_axis.moving(t0_s):
         return None
-    axes = (_Axis(az_axis.rate_deg_s, az_axis.start_delay_s, az_axis.min_deg, az_axis.max_deg),
-            _Axis(el_axis.rate_deg_s, el_axis.start_delay_s, el_axis.min_deg, el_axis.max_deg))
     target = path.target_enu(ts)
     boxes = _boxes(path, ts, target, band_deg)
+    graphs, costs = [], []
+    for k, axis in enumerate((az_axis, el_axis)):
+        ax = _Axis(axis.rate_deg_s, axis.start_delay_s, axis.min_deg, axis.max_deg)
+        here = float(axis.position(t0_s))
+        starts = np.array([here])
+        if free_start:
+            lo, hi = max(boxes[k][0][0], ax.lo_deg), min(boxes[k][1][0], ax.hi_deg)
+            whole = np.arange(math.ceil(lo), math.floor(hi) + 1.0)
+            starts = np.concatenate((starts, whole[np.abs(whole - here) > 1e-9]))
+        graphs.append(_AxisGraph(ax, ts, boxes[k], starts, here))
+        # Start positions sort with ``here`` among them: each away from it cost a start.
+        costs.append(np.where(np.abs(graphs[k].positions(0) - here) > 1e-9, 1.0, 0.0
+                              ).astype(np.float32))
+    ga, ge = graphs
     min_dot = math.cos(math.radians(band_deg))
     checked = ts >= (t0_s if from_s is None else from_s) - 1e-9
-    cur, costs = [], []
-    for k, axis in enumerate((az_axis, el_axis)):
-        here = float(axis.position(t0_s))
-        lo, hi = boxes[k][0]
-        others = np.arange(max(math.ceil(lo), math.ceil(axes[k].lo_deg)),
-                           min(math.floor(hi), math.floor(axes[k].hi_deg)) + 1.0)
-        xs = np.concatenate(([here], others[np.abs(others - here) > 1e-9])) if free_start \
-            else np.array([here])
-        cur.append(_States(np.zeros(len(xs), np.int8), xs, np.full(len(xs), -1), xs))
-        costs.append(np.where(np.arange(len(xs)) == 0, 0.0, 1.0).astype(np.float32))
+    stop = path.stop_bearing_deg
     v = costs[0][:, None] + costs[1][None, :]
     if checked[0]:
-        v = np.where(_feasible(cur[0].x, cur[1].x, path.stop_bearing_deg, target[0], min_dot),
-                     v, _INF)
-        if not np.isfinite(v).any():
+        v[~_feasible(ga, ge, 0, stop, target[0], min_dot)] = _INF
+    values = [v]
+    for s in range(1, n):
+        # One more row and column of no finite cost: the virtual source of both axes.
+        padded = np.full((v.shape[0] + 1, v.shape[1] + 1), _INF, np.float32)
+        padded[:-1, :-1] = v
+        src, cost, first = ga.edges(s)
+        mid = np.minimum.reduceat(padded[src] + cost[:, None], first, axis=0)
+        src, cost, first = ge.edges(s)
+        v = np.minimum.reduceat(mid[:, src] + cost, first, axis=1)
+        if checked[s]:
+            v[~_feasible(ga, ge, s, stop, target[s], min_dot)] = _INF
+        values.append(v)
+        if s % 32 == 0 and not np.isfinite(v).any():
             return None
-    layers = [_Layer(cur[0], cur[1], v)]
-    for i in range(n - 1):
-        can_start = i % 2 == 0
-        nxt = []
-        for a, ax in enumerate(axes):
-            st, src, cost = _successors(cur[a], ax, ts, i, can_start)
-            merged = _merge(st, src, cost, boxes[a][i + 1])
-            if len(merged[0].kind) == 0:
-                return None
-            v = _step(v, merged[1], merged[2], merged[3], a)
-            nxt.append(merged[0])
-        if checked[i + 1]:
-            ok = _feasible(nxt[0].x, nxt[1].x, path.stop_bearing_deg, target[i + 1], min_dot)
-            v = np.where(ok, v, _INF)
-        live = np.isfinite(v)
-        rows, cols = np.flatnonzero(live.any(axis=1)), np.flatnonzero(live.any(axis=0))
-        if len(rows) == 0:
-            return None
-        cur = [nxt[0].take(rows), nxt[1].take(cols)]
-        v = v[np.ix_(rows, cols)]
-        layers.append(_Layer(cur[0], cur[1], v))
-    return _backtrack(layers, axes, ts)
+    if not np.isfinite(v).any():
+        return None
+    return _backtrack(values, ga, ge, ts)
 
 
 def _boxes(path: MountPath, ts: np.ndarray, target: np.ndarray, band_deg: float
-           ) -> tuple[list[tuple[float, float]], list[tuple[float, float]]]:
+           ) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
     """Per sample the azimuth and elevation ranges searched: the target's position on the
     path's branch (its mechanical az nearest the path's, over the top where the path is),
     widened by the band's reach (az capped at :data:`AZ_REACH_CAP_DEG`)."""
@@ -254,72 +320,42 @@ def _boxes(path: MountPath, ts: np.ndarray, target: np.ndarray, band_deg: float
     centre_el = np.where(over, 180.0 - el_t, el_t)
     w_az = np.minimum(az_extent_deg(band_deg, el_t), AZ_REACH_CAP_DEG) + 1e-6
     w_el = band_deg + 1e-6
-    az = list(zip((centre_az - w_az).tolist(), (centre_az + w_az).tolist(), strict=True))
-    el = list(zip((centre_el - w_el).tolist(), (centre_el + w_el).tolist(), strict=True))
-    return az, el
+    return (centre_az - w_az, centre_az + w_az), (centre_el - w_el, centre_el + w_el)
 
 
-def _beyond(st: _States, k: int) -> float | None:
-    """The target of a move still running in state ``k``: the next whole degree ahead."""
-    kind, x = int(st.kind[k]), float(st.x[k])
-    if kind == _REST:
-        return None
-    return math.floor(x) + 1.0 if kind == _UP else math.ceil(x) - 1.0
-
-
-def _predecessors(st: _States, k: int, prev: _States, ax: _Axis, ts: np.ndarray, i: int
-                  ) -> list[tuple[int, int]]:
-    """(index in ``prev`` at sample i, starts) of every edge into state ``k`` at i + 1."""
-    kind, p0, c = int(st.kind[k]), float(st.p0[k]), int(st.c[k])
-    rest = prev.kind == _REST
-    if kind != _REST:
-        if c == i:
-            hit = np.flatnonzero(rest & (np.abs(prev.x - p0) < 1e-9))
-            return [(int(j), 1) for j in hit]
-        hit = np.flatnonzero((prev.kind == kind) & (prev.c == c) & (np.abs(prev.p0 - p0) < 1e-9))
-        return [(int(j), 0) for j in hit]
-    q = float(st.x[k])
-    out = [(int(j), 0) for j in np.flatnonzero(rest & (np.abs(prev.x - q) < 1e-9))]
-    mv = np.flatnonzero(~rest)
-    if len(mv):
-        kk = prev.kind[mv].astype(float)
-        x_next = ax.position(prev.p0[mv], kk, ts[prev.c[mv]], float(ts[i + 1]))
-        passes = (kk * (q - prev.x[mv]) > 1e-9) & (kk * (q - x_next) <= 1e-9)
-        out += [(int(j), 0) for j in mv[passes]]
-    return out
-
-
-def _backtrack(layers: list[_Layer], axes: tuple[_Axis, _Axis], ts: np.ndarray
+def _backtrack(values: list[np.ndarray], ga: _AxisGraph, ge: _AxisGraph, ts: np.ndarray
                ) -> FewestStarts:
-    """The commands of one least-cost path through ``layers``."""
-    last = layers[-1]
-    a, e = np.unravel_index(int(np.argmin(last.v)), last.v.shape)
-    total = int(last.v[a, e])
+    """The commands of one least-cost path through the programme's ``values``."""
+    last = values[-1]
+    a, e = (int(i) for i in np.unravel_index(int(np.argmin(last)), last.shape))
+    total = int(last[a, e])
+    n = len(values)
     moves: dict[int, list[float | None]] = {}
     # The stop ahead of each axis, going back; a move still running at the end goes on to
     # the next whole degree beyond its last position (the schedule says nothing after it).
-    ends = [_beyond(last.az, a), _beyond(last.el, e)]
-    for i in range(len(layers) - 2, -1, -1):
-        here, prev = layers[i + 1], layers[i]
-        want = float(here.v[a, e])
+    ends: list[float | None] = [ga.beyond(n - 1, a) if ga.moving(n - 1, a) else None,
+                                ge.beyond(n - 1, e) if ge.moving(n - 1, e) else None]
+    for s in range(n - 1, 0, -1):
+        want, before = float(values[s][a, e]), values[s - 1]
         found = None
-        for pa, ca in _predecessors(here.az, a, prev.az, axes[0], ts, i):
-            for pe, ce in _predecessors(here.el, e, prev.el, axes[1], ts, i):
-                if float(prev.v[pa, pe]) + ca + ce == want:
+        for pa, ca in ga.into(s, a):
+            if pa >= before.shape[0]:
+                continue
+            for pe, ce in ge.into(s, e):
+                if pe < before.shape[1] and float(before[pa, pe]) + ca + ce == want:
                     found = (pa, pe)
                     break
             if found:
                 break
         assert found is not None, "a least-cost state has a predecessor of that cost"
-        for k_axis, (now, before, k, pk) in enumerate(((here.az, prev.az, a, found[0]),
-                                                       (here.el, prev.el, e, found[1]))):
-            moving_now, moving_before = now.kind[k] != _REST, before.kind[pk] != _REST
-            if not moving_now and moving_before:
-                ends[k_axis] = float(now.x[k])           # the move that stops here
-            elif moving_now and not moving_before:
-                moves.setdefault(i, [None, None])[k_axis] = ends[k_axis]
+        for k_axis, (g, k, pk) in enumerate(((ga, a, found[0]), (ge, e, found[1]))):
+            moving_now, moving_before = g.moving(s, k), g.moving(s - 1, pk)
+            if not moving_now and (moving_before or abs(
+                    g.positions(s)[k] - g.positions(s - 1)[pk]) > 1e-9):
+                ends[k_axis] = float(g.positions(s)[k])          # the move that stops here
+            if moving_now and not moving_before:
+                moves.setdefault(s - 1, [None, None])[k_axis] = ends[k_axis]
                 ends[k_axis] = None
         a, e = found
     out = tuple((float(ts[i]), m[0], m[1]) for i, m in sorted(moves.items()))
-    first = layers[0]
-    return FewestStarts(out, total, float(first.az.x[a]), float(first.el.x[e]))
+    return FewestStarts(out, total, float(ga.positions(0)[a]), float(ge.positions(0)[e]))
