@@ -8,7 +8,9 @@ policy of benchmarks/streaming.py (G-5500 at 50 Hz, deadband 3 deg, 0.5 s cycle)
 
 * the decision cost per cycle: CPU time of what the live loop asks of
   :class:`tracker.stream.TrackCore` each cycle (observe, decide, commanded, status) divided by
-  the cycles flown;
+  the cycles flown, the whole-pass schedule's planning (once a pass, within one decision
+  before the pre-position) apart;
+* that planning's CPU per pass;
 * the simulation CPU per pass (planning, the simulated rotator and the decisions).
 
 ``--save`` writes the command transcript (time, mechanical az, el of every command of every
@@ -82,6 +84,8 @@ def main(argv=None) -> int:
           f"sats/group), {spec.name}, deadband {args.deadband:g} deg: {meter.cycles} cycles")
     print(f"decision cost per cycle (observe+decide+commanded+status, CPU): "
           f"{meter.us_per_cycle:.1f} us")
+    print(f"whole-pass schedule, planned once a pass (not counted above): "
+          f"{meter.plan_ns / 1e6 / max(meter.plans, 1):.0f} ms CPU per plan, {meter.plans} plans")
     print(f"simulation CPU per pass: {1000 * cpu_s / len(sample):.0f} ms")
     if args.save:
         args.save.write_text(json.dumps(transcript))

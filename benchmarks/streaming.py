@@ -50,6 +50,7 @@ import resource
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
 import numpy as np
@@ -58,6 +59,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from passsuite import pass_suite, sample_suite
 
+import tracker.stream as stream_mod
 from tracker.aim import gpredict_aim
 from tracker.fewest_starts import fewest_starts
 from tracker.geometry import MountPath, pointing_error_deg
@@ -77,15 +79,39 @@ def _readback(truth: MotorModel, t: float) -> tuple[float, float]:
 
 class CycleMeter:
     """CPU time of the live loop's per-cycle work (what :func:`tracker.stream.run_pass` asks
-    of :class:`TrackCore` each cycle: observe, decide, commanded, status), over cycles."""
+    of :class:`TrackCore` each cycle: observe, decide, commanded, status), over cycles. The
+    whole-pass schedule is planned within one decision, once a pass: its CPU time is counted
+    apart (:meth:`planning_apart`), not as per-cycle work."""
 
     def __init__(self) -> None:
         self.cpu_ns = 0
         self.cycles = 0
+        self.plan_ns = 0
+        self.plans = 0
 
     @property
     def us_per_cycle(self) -> float:
         return self.cpu_ns / 1000.0 / max(self.cycles, 1)
+
+    @contextmanager
+    def planning_apart(self):
+        real = stream_mod.plan_schedule
+
+        def timed(*args, **kwargs):
+            c0 = time.thread_time_ns()
+            try:
+                return real(*args, **kwargs)
+            finally:
+                spent = time.thread_time_ns() - c0
+                self.plan_ns += spent
+                self.cpu_ns -= spent
+                self.plans += 1
+
+        stream_mod.plan_schedule = timed
+        try:
+            yield
+        finally:
+            stream_mod.plan_schedule = real
 
 
 def fly_stream(track, spec, station, deadband_deg: float, cycle_s: float = 0.5,
@@ -102,6 +128,13 @@ def fly_stream(track, spec, station, deadband_deg: float, cycle_s: float = 0.5,
                                     planned_schedule=planned))
     t = min(core.preposition_t_s, float(track.t_s[0])) - cycle_s
     truth = MotorModel(spec, spec.park_az_deg, spec.park_el_deg, t)
+    with meter.planning_apart() if meter is not None else nullcontext():
+        cmds, t = _fly(core, truth, t, cycle_s, meter)
+    return cmds, plan, t
+
+
+def _fly(core: TrackCore, truth: MotorModel, t: float, cycle_s: float,
+         meter: CycleMeter | None) -> tuple[list, float]:
     cmds = []
     cpu_ns = time.thread_time_ns
     while t <= core.los_s:
@@ -119,7 +152,7 @@ def fly_stream(track, spec, station, deadband_deg: float, cycle_s: float = 0.5,
             truth.command(cmd.az_m_deg, cmd.el_deg, t)
             cmds.append((t, cmd.az_m_deg, cmd.el_deg))
         t += cycle_s
-    return cmds, plan, t
+    return cmds, t
 
 
 def fly_gpredict(track, spec, station, threshold_deg: float = 5.0, cycle_s: float = 1.0,
