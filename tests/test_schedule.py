@@ -192,3 +192,28 @@ def _starts(rig) -> int:
     t = [c[0] for c in sent]
     return (drive_axis(motor.az, t, [c[1] for c in sent], t)[1]
             + drive_axis(motor.el, t, [c[2] for c in sent], t)[1])
+
+
+def test_planned_before_the_pre_position_which_goes_to_the_schedules_start(spies):
+    rig = Rig(track=arc_pass(duration_s=400, max_el_deg=30.0, pad_s=30))
+    assert rig.run().completed
+    (sch,) = spies["schedules"]
+    assert sch is not None and sch.sample_t_s[0] <= rig.core.track_from_s
+    # Free to start anywhere: the pre-position's (only) move went where the schedule starts.
+    first = _sent(rig)[0]
+    assert first[0] < sch.sample_t_s[0]
+    assert (first[1], first[2]) == (sch.az_pos_deg[0], sch.el_pos_deg[0])
+
+
+def test_a_reconnect_before_the_pass_plans_the_schedule_again():
+    track = arc_pass(duration_s=400, max_el_deg=30.0, pad_s=30)
+    rig = Rig(track=track)
+    core = rig.core
+    t = core.preposition_t_s - 5.0
+    core.observe(t, 90.0, 0.0)
+    assert core.decide(t) is None and core._schedule is not None      # waiting, planned
+    core.resync()                                                     # the port came back
+    assert core._schedule is None
+    core.observe(t + 0.5, 90.0, 0.0)
+    core.decide(t + 0.5)
+    assert core._schedule is not None

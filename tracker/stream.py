@@ -849,6 +849,8 @@ class TrackCore:
     def _interrupt(self) -> None:
         """The commanded motion was cut (reconnect, all-stop): the current phase's move is
         sent again. Called repeatedly while the port is gone: only the first call records."""
+        if self._schedule is not None and self.phase in (_WAIT, _PREPOSITION):
+            self._schedule_tried = False      # not begun: planned again from where it stands
         self._schedule = None     # the motion it planned from was cut: the aim policy goes on
         if self._phase_commanded is not None:
             seq = self._phase_commanded in (_PREPOSITION, _PARK)
