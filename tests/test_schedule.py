@@ -4,6 +4,8 @@ policy when the read-back leaves it."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from _stream_fakes import T0, arc_pass
@@ -217,3 +219,19 @@ def test_a_reconnect_before_the_pass_plans_the_schedule_again():
     core.observe(t + 0.5, 90.0, 0.0)
     core.decide(t + 0.5)
     assert core._schedule is not None
+
+
+@pytest.mark.parametrize("resolution_deg, grid_deg", [(2.0, 2.0), (0.1, 1.0), (4 / 6, 4 / 3)])
+def test_targets_are_what_the_controller_can_take(resolution_deg, grid_deg):
+    # A controller that takes 2 deg steps (or 0.1, or 2/3) gets targets on its own grid,
+    # about a degree apart or coarser, and the schedule keeps the band as planned.
+    spec = replace(SPEC, resolution_deg=resolution_deg)
+    track = arc_pass(duration_s=300, max_el_deg=30.0, pad_s=30)
+    path = MountPath.from_track(track, spec)
+    az, el = (float(x) for x in path.mount_at(T0))
+    motor = MotorModel(spec, grid_deg * round(az / grid_deg), grid_deg * round(el / grid_deg),
+                       T0)
+    sch = plan_schedule(path, motor.az, motor.el, T0, T0 + 300.0, 3.0)
+    assert sch is not None and sch.peak_error_deg <= 3.0 and sch.starts > 0
+    for q in (*sch.az_m_deg, *sch.el_deg):
+        assert abs(q / grid_deg - round(q / grid_deg)) < 1e-6

@@ -4,12 +4,13 @@
 greedily. Here both axes are planned together, exactly, over a class of schedules the motor
 model (:class:`tracker.mount.AxisMotor`) carries out as planned:
 
-* every command goes out on a cycle instant, to a whole-degree target, to an axis at rest;
-  after the start delay the axis turns at its rate and stops on the target (one start);
+* every command goes out on a cycle instant, to an axis at rest, with a target on the axis's
+  grid (multiples of its resolution, about a degree apart: whole degrees on a GS-232); after
+  the start delay the axis turns at its rate and stops on the target (one start);
 * the great-circle error to the real target (:meth:`tracker.geometry.MountPath.error_deg`)
   is within the band at every half-cycle sample, the grid the streaming benchmark measures on.
 
-An axis is, at each sample, at rest on a whole degree (or where it started), or on its way
+An axis is, at each sample, at rest on a grid point (or where it started), or on its way
 from a start position since a known command (its position follows exactly; the target is
 decided when it stops, and that target is the one command of the move). Each axis's states
 and moves between samples form a graph of their own, built for the whole pass at once
@@ -52,6 +53,15 @@ class _Axis:
     start_delay_s: float
     lo_deg: float
     hi_deg: float
+    grid_deg: float
+
+    @classmethod
+    def of(cls, axis: AxisMotor) -> _Axis:
+        """An axis rests on multiples of its resolution, searched about a degree apart (a
+        finer grid would multiply the states for a few per cent fewer starts)."""
+        res = axis.resolution_deg
+        return cls(axis.rate_deg_s, axis.start_delay_s, axis.min_deg, axis.max_deg,
+                   res * max(1, round(1.0 / res)))
 
     def travel(self, t_from_cmd_s: np.ndarray) -> np.ndarray:
         """How far a move has gone ``t_from_cmd_s`` after its command (not yet arrived)."""
@@ -74,7 +84,7 @@ class _AxisGraph:
     """One axis over the whole span: per sample its states (at rest on a position, or moving
     since a command: ``chain`` >= 0), each state's position, and the edges into each sample's
     states from the sample before (a rest kept, a move started (one start), a move going on,
-    a move stopping on a whole degree it passed). States are numbered per sample, rests first;
+    a move stopping on a grid point it passed). States are numbered per sample, rests first;
     a state with no edge into it gets one from a virtual source numbered past the sample's
     states (the programme gives it no finite cost)."""
 
@@ -83,16 +93,16 @@ class _AxisGraph:
         n = len(ts)
         lo = np.maximum(box[0], ax.lo_deg - 1e-9)
         hi = np.minimum(box[1], ax.hi_deg + 1e-9)
-        # Rests: the start positions at sample 0; afterwards every whole degree in the box,
+        # Rests: the start positions at sample 0; afterwards every grid point in the box,
         # and where the axis is now (it may rest off the grid) while that is in the box.
-        q0, q1 = np.ceil(lo[1:]).astype(int), np.floor(hi[1:]).astype(int)
+        g = ax.grid_deg
+        q0, q1 = np.ceil(lo[1:] / g - 1e-9).astype(int), np.floor(hi[1:] / g + 1e-9).astype(int)
         count = np.maximum(q1 - q0 + 1, 0)
         r_samp = np.concatenate(([0] * len(starts_deg), np.repeat(np.arange(1, n), count)))
-        r_x = np.concatenate((starts_deg, (np.repeat(q0, count) + np.arange(count.sum())
-                                           - np.repeat(np.cumsum(count) - count, count)
-                                           ).astype(float)))
-        on = (here_deg >= lo[1:]) & (here_deg <= hi[1:]) & (np.abs(here_deg - np.round(
-            here_deg)) > 1e-9)
+        r_x = np.concatenate((starts_deg, g * (np.repeat(q0, count) + np.arange(count.sum())
+                                               - np.repeat(np.cumsum(count) - count, count))))
+        on = (here_deg >= lo[1:]) & (here_deg <= hi[1:]) & (np.abs(here_deg / g - np.round(
+            here_deg / g)) > 1e-9)
         r_samp = np.concatenate((r_samp, np.flatnonzero(on) + 1))
         r_x = np.concatenate((r_x, np.full(int(on.sum()), here_deg)))
         order = np.lexsort((r_x, r_samp))
@@ -138,7 +148,7 @@ class _AxisGraph:
         self.x[self.off[r_samp] + r_local] = r_x
         self.x[self.off[m_samp] + m_local] = m_x
         self.chain[self.off[m_samp] + m_local] = m_id
-        self.b_samp, self.b_dir = b_samp, b_dir
+        self.b_samp, self.b_dir, self.grid_deg = b_samp, b_dir, g
         # Edges (into sample s + 1, indices local): dst, src, starts.
         dst, src, cost, samp = [], [], [], []
 
@@ -157,15 +167,15 @@ class _AxisGraph:
         on = ~born
         at, found = _lookup(m_key, m_key[on] - (1 << 32))
         add(m_samp[on][found], m_local[on][found], m_local[at[found]], 0)
-        # Stops: whole degrees strictly past the position now, not past the next one.
+        # Stops: grid points strictly past the position now, not past the next one.
         go = m_samp < n - 1
         up = b_dir[m_id[go]] > 0
-        xg, ng = m_x[go], m_next[go]
-        first = np.where(up, np.floor(xg) + 1.0, np.ceil(ng))
-        last = np.where(up, np.floor(ng), np.ceil(xg) - 1.0)
+        xg, ng = m_x[go] / g, m_next[go] / g
+        first = np.where(up, np.floor(xg + 1e-9) + 1.0, np.ceil(ng - 1e-9))
+        last = np.where(up, np.floor(ng + 1e-9), np.ceil(xg - 1e-9) - 1.0)
         cnt = np.maximum(last - first + 1.0, 0.0).astype(int)
-        q = np.repeat(first, cnt) + (np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt,
-                                                                        cnt))
+        q = g * (np.repeat(first, cnt) + (np.arange(cnt.sum())
+                                          - np.repeat(np.cumsum(cnt) - cnt, cnt)))
         s_from = np.repeat(m_samp[go], cnt)
         at, found = _lookup(r_key, _rest_key(s_from + 1, q))
         add(s_from[found] + 1, r_local[at[found]], np.repeat(m_local[go], cnt)[found], 0)
@@ -222,10 +232,10 @@ class _AxisGraph:
         return bool(self.chain[self.off[s] + k] >= 0)
 
     def beyond(self, s: int, k: int) -> float:
-        """The target of a move still running in state ``k``: the next whole degree ahead."""
-        x = float(self.x[self.off[s] + k])
+        """The target of a move still running in state ``k``: the next grid point ahead."""
+        x, g = float(self.x[self.off[s] + k]) / self.grid_deg, self.grid_deg
         up = self.b_dir[self.chain[self.off[s] + k]] > 0
-        return math.floor(x) + 1.0 if up else math.ceil(x) - 1.0
+        return g * (math.floor(x + 1e-9) + 1.0) if up else g * (math.ceil(x - 1e-9) - 1.0)
 
 
 def _feasible(ga: _AxisGraph, ge: _AxisGraph, s: int, stop_bearing_deg: float,
@@ -257,7 +267,7 @@ def fewest_starts(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor, t0_s:
                   ) -> FewestStarts | None:
     """The schedule with the fewest starts in the class of the module doc, from ``t0_s`` (a
     cycle instant, both axes at rest) to ``end_s``, keeping the band from ``from_s`` (default
-    ``t0_s``) on. With ``free_start`` each axis may instead begin at rest on any whole degree
+    ``t0_s``) on. With ``free_start`` each axis may instead begin at rest on any grid point
     searched at ``t0_s``, for one start (a pre-position move made before). None when no
     schedule of the class keeps the band (or the span is longer than :data:`MAX_SAMPLES`)."""
     ts = np.arange(t0_s, min(end_s, path.end_s) + 1e-9, 0.5 * cycle_s)
@@ -268,12 +278,13 @@ def fewest_starts(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor, t0_s:
     boxes = _boxes(path, ts, target, band_deg)
     graphs, costs = [], []
     for k, axis in enumerate((az_axis, el_axis)):
-        ax = _Axis(axis.rate_deg_s, axis.start_delay_s, axis.min_deg, axis.max_deg)
+        ax = _Axis.of(axis)
         here = float(axis.position(t0_s))
         starts = np.array([here])
         if free_start:
             lo, hi = max(boxes[k][0][0], ax.lo_deg), min(boxes[k][1][0], ax.hi_deg)
-            whole = np.arange(math.ceil(lo), math.floor(hi) + 1.0)
+            g = ax.grid_deg
+            whole = g * np.arange(math.ceil(lo / g - 1e-9), math.floor(hi / g + 1e-9) + 1.0)
             starts = np.concatenate((starts, whole[np.abs(whole - here) > 1e-9]))
         graphs.append(_AxisGraph(ax, ts, boxes[k], starts, here))
         # Start positions sort with ``here`` among them: each away from it cost a start.
@@ -332,7 +343,7 @@ def _backtrack(values: list[np.ndarray], ga: _AxisGraph, ge: _AxisGraph, ts: np.
     n = len(values)
     moves: dict[int, list[float | None]] = {}
     # The stop ahead of each axis, going back; a move still running at the end goes on to
-    # the next whole degree beyond its last position (the schedule says nothing after it).
+    # the next grid point beyond its last position (the schedule says nothing after it).
     ends: list[float | None] = [ga.beyond(n - 1, a) if ga.moving(n - 1, a) else None,
                                 ge.beyond(n - 1, e) if ge.moving(n - 1, e) else None]
     for s in range(n - 1, 0, -1):
