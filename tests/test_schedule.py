@@ -29,19 +29,20 @@ def _rest_on_path(path: MountPath, t_s: float) -> MotorModel:
 
 
 def test_a_slow_target_needs_one_start_per_two_degrees_of_travel():
-    # The target runs 0.4 deg/s along el 10 for 60 s, 100 -> 124 deg. Resting on a whole
-    # degree q keeps a band of 1 deg (1.015 deg of azimuth at el 10) while the target is within
-    # q -+ 1.015, so consecutive rests are at most 2 deg apart: 12 starts at the least, and
-    # the programme must find a schedule that needs no more.
+    # The target runs 0.4 deg/s along el 10 for 60 s, 100 -> 124 deg. The programme keeps
+    # 1.1 deg less half the target's travel between samples (0.05 deg): 1.066 deg of azimuth
+    # at el 10, so resting on a whole degree q holds the target within q -+ 1.066 and
+    # consecutive rests are at most 2 deg apart: 12 starts at the least, and the programme
+    # must find a schedule that needs no more.
     ts = np.arange(T0, T0 + 60.0 + 1e-9, 0.25)
     path = MountPath.from_arrays(ts, 100.0 + 0.4 * (ts - T0), np.full_like(ts, 10.0), SPEC)
     motor = MotorModel(SPEC, 100.0, 10.0, T0)
-    found = fewest_starts(path, motor.az, motor.el, T0, T0 + 60.0, 1.0)
+    found = fewest_starts(path, motor.az, motor.el, T0, T0 + 60.0, 1.1)
     assert found is not None and found.starts == 12
     assert all(round((t - T0) / 0.5, 9) % 1 == 0 for t, _a, _e in found.commands)  # on cycles
     assert all(e is None for _t, _a, e in found.commands)      # the elevation never moves
     # The relaxed bound (rests anywhere, not only on whole degrees) is below it.
-    bound = start_lower_bound(SPEC, ts, *path.mount_at(ts), *path.mount_at(ts), 1.0,
+    bound = start_lower_bound(SPEC, ts, *path.mount_at(ts), *path.mount_at(ts), 1.1,
                               park=(100.0, 10.0))
     assert bound is not None and bound <= found.starts
 
@@ -61,12 +62,13 @@ def test_plan_schedule_keeps_the_great_circle_error_within_the_band():
     assert n_az + n_el == sch.starts
     assert float(np.max(path.error_deg(ts, az, el))) <= 2.8 + 1e-6
     assert sch.expected(float(ts[100])) == pytest.approx((az[100], el[100]))
-    # Within a few starts of the clairvoyant lower bound (no schedule needs fewer).
+    # Near the clairvoyant lower bound (no schedule needs fewer; the bound keeps the band at
+    # its samples only, the schedule between them too).
     bearing, target_el = track.direction_at(ts)
     p_az, p_el = path.mount_at(ts)
     bound = start_lower_bound(SPEC, ts, bearing, target_el, p_az, p_el, 2.8,
                               park=(float(motor.az.position(t0)), float(motor.el.position(t0))))
-    assert bound is not None and bound <= sch.starts <= 1.15 * bound
+    assert bound is not None and bound <= sch.starts <= 1.2 * bound
 
 
 def test_a_free_start_may_begin_anywhere_for_one_start_per_axis():

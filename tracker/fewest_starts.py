@@ -8,7 +8,8 @@ model (:class:`tracker.mount.AxisMotor`) carries out as planned:
   grid (multiples of its resolution, about a degree apart: whole degrees on a GS-232); after
   the start delay the axis turns at its rate and stops on the target (one start);
 * the great-circle error to the real target (:meth:`tracker.geometry.MountPath.error_deg`)
-  is within the band at every half-cycle sample, the grid the streaming benchmark measures on.
+  is within the band at every half-cycle sample, less half the target's travel to the next
+  or previous sample, so an antenna at rest stays within the band between samples too.
 
 An axis is, at each sample, at rest on a grid point (or where it started), or on its way
 from a start position since a known command (its position follows exactly; the target is
@@ -291,12 +292,17 @@ def fewest_starts(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor, t0_s:
         costs.append(np.where(np.abs(graphs[k].positions(0) - here) > 1e-9, 1.0, 0.0
                               ).astype(np.float32))
     ga, ge = graphs
-    min_dot = math.cos(math.radians(band_deg))
+    # Between samples the target moves on: an antenna at rest within band - (half its travel
+    # to the neighbouring samples) at a sample stays within the band until the next one.
+    step = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", target[1:], target[:-1]),
+                                        -1.0, 1.0)))
+    travel = np.maximum(np.concatenate((step, [0.0])), np.concatenate(([0.0], step)))
+    min_dot = np.cos(np.radians(np.maximum(band_deg - 0.5 * travel, 0.0)))
     checked = ts >= (t0_s if from_s is None else from_s) - 1e-9
     stop = path.stop_bearing_deg
     v = costs[0][:, None] + costs[1][None, :]
     if checked[0]:
-        v[~_feasible(ga, ge, 0, stop, target[0], min_dot)] = _INF
+        v[~_feasible(ga, ge, 0, stop, target[0], float(min_dot[0]))] = _INF
     values = [v]
     for s in range(1, n):
         # One more row and column of no finite cost: the virtual source of both axes.
@@ -307,7 +313,7 @@ def fewest_starts(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor, t0_s:
         src, cost, first = ge.edges(s)
         v = np.minimum.reduceat(mid[:, src] + cost, first, axis=1)
         if checked[s]:
-            v[~_feasible(ga, ge, s, stop, target[s], min_dot)] = _INF
+            v[~_feasible(ga, ge, s, stop, target[s], float(min_dot[s]))] = _INF
         values.append(v)
         if s % 32 == 0 and not np.isfinite(v).any():
             return None
@@ -318,9 +324,11 @@ def fewest_starts(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor, t0_s:
 
 def _boxes(path: MountPath, ts: np.ndarray, target: np.ndarray, band_deg: float
            ) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
-    """Per sample the azimuth and elevation ranges searched: the target's position on the
-    path's branch (its mechanical az nearest the path's, over the top where the path is),
-    widened by the band's reach (az capped at :data:`AZ_REACH_CAP_DEG`)."""
+    """Per sample the azimuth and elevation ranges searched: around the path and the target's
+    position on the path's branch (its mechanical az nearest the path's, over the top where
+    the path is), widened by the band's reach (az at most :data:`AZ_REACH_CAP_DEG`). The two
+    coincide on an exact path; a keyhole path holds its azimuth while the target's swings
+    round near the zenith, and there only the path's range is searched."""
     path_az, path_el = path.mount_at(ts)
     assert path_el is not None
     el_t = np.degrees(np.arcsin(np.clip(target[:, 2], -1.0, 1.0)))
@@ -331,7 +339,11 @@ def _boxes(path: MountPath, ts: np.ndarray, target: np.ndarray, band_deg: float
     centre_el = np.where(over, 180.0 - el_t, el_t)
     w_az = np.minimum(az_extent_deg(band_deg, el_t), AZ_REACH_CAP_DEG) + 1e-6
     w_el = band_deg + 1e-6
-    return (centre_az - w_az, centre_az + w_az), (centre_el - w_el, centre_el + w_el)
+    near = np.abs(centre_az - path_az) <= AZ_REACH_CAP_DEG
+    az_lo = np.where(near, np.minimum(centre_az, path_az), path_az) - w_az
+    az_hi = np.where(near, np.maximum(centre_az, path_az), path_az) + w_az
+    return ((az_lo, az_hi),
+            (np.minimum(centre_el, path_el) - w_el, np.maximum(centre_el, path_el) + w_el))
 
 
 def _backtrack(values: list[np.ndarray], ga: _AxisGraph, ge: _AxisGraph, ts: np.ndarray

@@ -56,10 +56,10 @@ from tracker.station import Station
 
 # What TrackCore._planned answers when the aim policy, not the schedule, decides.
 _AIM = object()
-# The whole-pass schedule keeps the error within the deadband less this at every half-cycle
-# sample: between samples the error can grow by what the target and the antenna travel in a
-# quarter cycle (the aim policy's ``margin_deg`` also covers its coarser predictions).
-SCHEDULE_MARGIN_DEG = 0.05
+# The whole-pass schedule keeps the error within the deadband less this (and less the
+# target's travel between its samples): rounding room for the read-back's agreement with it
+# (the aim policy's ``margin_deg`` also covers its coarser predictions).
+SCHEDULE_MARGIN_DEG = 0.02
 # A schedule that cannot keep the band through a fast stretch of the path ends this long
 # before it, so the aim policy leads the antenna into the stretch.
 SCHEDULE_HANDOFF_S = 10.0
@@ -298,6 +298,9 @@ class TrackCore:
         self._schedule: PassSchedule | None = None
         self._schedule_i = 0
         self._schedule_tried = not (self.settings.planned_schedule and spec.has_elevation)
+        # Where a schedule ended before a fast stretch it could not keep: after the stretch
+        # the rest of the pass is planned again.
+        self._replan_from_s: float | None = None
 
     # Read-back ---------------------------------------------------------------------------
 
@@ -553,7 +556,8 @@ class TrackCore:
         # may hold where it is, as within the pass.
         settled = self._phase_commanded is _TRACK or (
             self._phase_commanded is _PREPOSITION and self._move_i >= len(self.pre_moves))
-        if settled and (self._schedule is not None or not self._schedule_tried):
+        if settled and (self._schedule is not None or not self._schedule_tried
+                        or self._replan_from_s is not None):
             # The whole-pass schedule while it lasts, fast stretches it keeps included.
             planned = self._planned(t_s, lookahead)
             if planned is not _AIM:
@@ -637,9 +641,11 @@ class TrackCore:
         pass, on the first settled cycle with both motors at rest (just before AOS); once
         dropped the aim policy decides the rest of the pass."""
         if self._schedule is None:
-            if self._schedule_tried or self.motor.moving(t_s):
+            again = self._replan_from_s is not None and t_s >= self._replan_from_s and \
+                not self._fast(t_s, lookahead_s)
+            if (self._schedule_tried and not again) or self.motor.moving(t_s):
                 return _AIM
-            self._schedule_tried = True
+            self._schedule_tried, self._replan_from_s = True, None
             self._schedule = self._plan_schedule(t_s, lookahead_s)
             self._schedule_i = 0
             if self._schedule is None:
@@ -698,13 +704,15 @@ class TrackCore:
                 end_s = t - SCHEDULE_HANDOFF_S
                 break
             t += cycle
+        from_s = max(self.track_from_s, t_s)
         if end_s < self.los_s:
             whole = plan_schedule(self.path, self.motor.az, self.motor.el, t_s, self.los_s,
-                                  band, cycle, from_s=self.track_from_s, free_start=free_start)
+                                  band, cycle, from_s=from_s, free_start=free_start)
             if whole is not None:
                 return whole
+            self._replan_from_s = t
         return plan_schedule(self.path, self.motor.az, self.motor.el, t_s, end_s, band, cycle,
-                             from_s=self.track_from_s, free_start=free_start)
+                             from_s=from_s, free_start=free_start)
 
     def _lead_in(self, t_s: float, last: Command, horizon_s: float = 120.0) -> Command:
         """The last pre-position move, aimed ahead on the path: resting there the antenna
