@@ -16,6 +16,7 @@ from tracker.fewest_starts import fewest_starts
 from tracker.geometry import MountPath
 from tracker.mount import MotorModel, drive_axis, preset
 from tracker.schedule import plan_schedule
+from tracker.skytrack import SkyTrack
 from tracker.startbound import start_lower_bound
 from tracker.stream import Phase, StreamSettings
 
@@ -237,3 +238,21 @@ def test_targets_are_what_the_controller_can_take(resolution_deg, grid_deg):
     assert sch is not None and sch.peak_error_deg <= 3.0 and sch.starts > 0
     for q in (*sch.az_m_deg, *sch.el_deg):
         assert abs(q / grid_deg - round(q / grid_deg)) < 1e-6
+
+
+def test_after_a_fast_stretch_it_cannot_keep_the_rest_of_the_pass_is_planned_again(spies):
+    # At el 20 the target's azimuth jumps 60 deg in 6 s (10 deg/s, twice the motor's rate)
+    # halfway through the pass: no schedule keeps the band there, the plan's own commands take
+    # over, and after the jump the rest of the pass gets a schedule of its own.
+    t = np.arange(T0 - 30.0, T0 + 330.0 + 0.5, 1.0)
+    f = (t - T0) / 300.0
+    jump = np.clip((t - (T0 + 150.0)) / 6.0, 0.0, 1.0)
+    az = 100.0 + 40.0 * f + 60.0 * jump
+    el = 20.0 * np.sin(np.pi * np.clip(f, -0.05, 1.05)) + np.where(f < 0, -1.0, 0.0)
+    rig = Rig(track=SkyTrack.from_azel(t, az, el, name="JUMP"))
+    assert rig.run().completed
+    plans = [s for s in spies["schedules"] if s is not None]
+    assert len(plans) == 2, [None if s is None else s.end_s - T0 for s in spies["schedules"]]
+    first, second = plans
+    assert first.end_s < T0 + 150.0 < T0 + 156.0 < second.sample_t_s[0]
+    assert second.end_s == pytest.approx(rig.core.los_s, abs=0.5)
