@@ -645,19 +645,29 @@ def _refine_station_chunk(job: _Job, b: dict):
 def _pair_keys(job: _Job, ev: dict, mx: dict):
     """Integer keys (satellite and station pair, microsecond) of the events and maxima: the
     pairing is then independent of how satellites are numbered in this chunk, so every
-    chunking gives the same passes. Pairs are ranked densely so the keys fit in int64."""
+    chunking gives the same passes. Pairs are ranked densely when needed for the keys to fit
+    in int64 (2 * 10**6 pairs fit as they are, with room to append a bit)."""
     pair = [x["st"].astype(np.int64) * len(job.satrecs) + x["sat"] for x in (ev, mx)]
-    rank = np.unique(np.concatenate(pair), return_inverse=True)[1].reshape(-1)
     us = [np.round(x["tau"] * 1e6).astype(np.int64) for x in (ev, mx)]
-    n = len(pair[0])
-    return rank[:n] * 10**12 + us[0], rank[n:] * 10**12 + us[1], rank[:n], rank[n:]
+    if len(job.satrecs) * len(job.stations) > PAIRS_AS_THEY_ARE:
+        rank = np.unique(np.concatenate(pair), return_inverse=True)[1].reshape(-1)
+        pair = [rank[:len(pair[0])], rank[len(pair[0]):]]
+    return pair[0] * 10**12 + us[0], pair[1] * 10**12 + us[1], pair[0], pair[1]
+
+
+# Satellite-station pairs numbered as they are in _pair_keys' keys: pair * 10**12 + time
+# (microseconds, < 10**12 for blocks of at most 10 days), times two, stays within int64.
+PAIRS_AS_THEY_ARE = 2 * 10**6
 
 
 def _assemble(job: _Job, ev: dict, mx: dict) -> np.ndarray:
     """Pair AOS with the next LOS per satellite and station, attach the highest maximum, set
     Sun flags."""
     comb, m_comb, pair, m_pair = _pair_keys(job, ev, mx)
-    order = np.lexsort((ev["kind"], comb))
+    if len(job.satrecs) * len(job.stations) <= PAIRS_AS_THEY_ARE:  # one key, as lexsort
+        order = np.argsort(comb * 2 + ev["kind"], kind="stable")
+    else:
+        order = np.lexsort((ev["kind"], comb))
     kind, pair_o = ev["kind"][order], pair[order]
     is_pass = (kind[:-1] == 0) & (kind[1:] == 1) & (pair_o[:-1] == pair_o[1:])
     a_idx, l_idx = order[:-1][is_pass], order[1:][is_pass]
@@ -683,10 +693,14 @@ def _assemble(job: _Job, ev: dict, mx: dict) -> np.ndarray:
         inside &= (m_comb <= comb[l_idx][pi]) & (m_pair == pair[a_idx][pi])
         inside &= mx["el"] > rows["max_el_deg"][pi]
         sel = np.flatnonzero(inside)
-        sel = sel[np.lexsort((mx["el"][sel], pi[sel]))]
-        last = np.ones(len(sel), bool)
-        last[:-1] = pi[sel][1:] != pi[sel][:-1]
-        sel = sel[last]
+        # The highest maximum of each pass (the last of equal ones); most passes have one.
+        many = np.bincount(pi[sel], minlength=n)[pi[sel]] > 1
+        if many.any():
+            multi = sel[many]
+            multi = multi[np.lexsort((mx["el"][multi], pi[multi]))]
+            last = np.ones(len(multi), bool)
+            last[:-1] = pi[multi][1:] != pi[multi][:-1]
+            sel = np.concatenate([sel[~many], multi[last]])
         rows["tca_s"][pi[sel]] = mx["tau"][sel]
         rows["max_el_deg"][pi[sel]] = mx["el"][sel]
         rows["tca_az_deg"][pi[sel]] = mx["az"][sel]
@@ -695,10 +709,10 @@ def _assemble(job: _Job, ev: dict, mx: dict) -> np.ndarray:
     # instants the station is also in nautical twilight or darker. One call for all three.
     tau = np.concatenate([rows["aos_s"], rows["tca_s"], rows["los_s"]])
     r_ev = ev["r"]
-    lit, sun_el_sin = geo.sun_flags(np.concatenate([r_ev.take(a_idx, 0), tca_r,
-                                                    r_ev.take(l_idx, 0)]),
-                                    tau, job.jd0, job.fr0, job.theta(tau), job.frames,
-                                    np.tile(rows["station"], 3))
+    lit, sun_el_sin = kernels.sun_flags(np.concatenate([r_ev.take(a_idx, 0), tca_r,
+                                                        r_ev.take(l_idx, 0)]),
+                                        tau, job.jd0, job.fr0, job.theta(tau), job.frames,
+                                        np.tile(rows["station"], 3))
     vis = lit & (sun_el_sin < math.sin(math.radians(TWILIGHT_DEG)))
     rows["sunlit"] = lit.reshape(3, n).any(0)
     rows["visible"] = vis.reshape(3, n).any(0)
@@ -772,7 +786,9 @@ def table_order(passes: np.ndarray) -> np.ndarray:
     One sort on AOS; only the rows sharing an AOS (passes clipped at the window start,
     mostly) are ordered by the other keys."""
     aos = passes["aos_s"]
-    order = np.argsort(aos, kind="stable")
+    # Not a stable sort: the rows sharing an AOS are ordered below by every key, and the
+    # default sort is several times faster (SIMD).
+    order = np.argsort(aos)
     ordered = aos[order]
     tie = np.flatnonzero(ordered[1:] == ordered[:-1])
     if tie.size:
@@ -1019,12 +1035,11 @@ def _passes_in_parts(satrecs, names, stations, start, end, min_el_deg, *, step_s
 
 
 def _sorted_in_place(passes: np.ndarray) -> np.ndarray:
-    """``passes`` put in table order (:func:`table_order`) field by field, so a large
-    result never has a second copy of itself."""
+    """``passes`` put in table order (:func:`table_order`) in place
+    (:func:`kernels.permute_rows`), so a large result never has a second copy of itself."""
     order = table_order(passes)
     if np.any(order[1:] < order[:-1]):
-        for name in passes.dtype.names:
-            passes[name] = passes[name][order]
+        kernels.permute_rows(passes, order)
     return passes
 
 

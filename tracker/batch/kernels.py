@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from tracker.batch import geometry as geo
+from tracker.sun import EARTH_RADIUS_KM
 
 EARTH_ROTATION_RAD_S = geo.EARTH_ROTATION_RAD_S
 
@@ -905,3 +906,74 @@ def _peak_bound_loop(theta0, theta_rate, unit, cos_lat, radius_km, idx, st, tau,
         psi = max(psi - EARTH_ROTATION_RAD_S * h / 2 * cos_lat[m] - margin_rad, 0.0)
         r_hi = min(max(n0, n1) + 50.0, max(r_apo[i], max(n0, n1)))
         out[j] = math.atan2(math.cos(psi) - radius_km[m] / r_hi, math.sin(psi)) * deg
+
+
+# --- Sun flags of the events ------------------------------------------------------------------
+
+def sun_flags(r_teme_km, tau_s, jd0: float, fr0: float, theta_rad, frames: geo.StationFrames,
+              station, grid_s: float = 3600.0):
+    """:func:`geometry.sun_flags` (sunlit, sine of the Sun's elevation at the station) for
+    one station index per position; compiled, one pass over the events on the same
+    interpolated Sun."""
+    tau_s = np.asarray(tau_s, dtype=float)
+    if backend() != "numba" or tau_s.size == 0:
+        return geo.sun_flags(r_teme_km, tau_s, jd0, fr0, theta_rad, frames, station, grid_s)
+    t0, t_grid, table = geo.sun_table(tau_s, jd0, fr0, grid_s)
+    lit, sun_el = np.empty(len(tau_s), np.bool_), np.empty(len(tau_s))
+    _jit("_sun_flags_loop")(r_teme_km, tau_s, t0, t_grid, table, grid_s, theta_rad, frames.up,
+                            np.asarray(station, np.int64), EARTH_RADIUS_KM, lit, sun_el)
+    return lit, sun_el
+
+
+def _sun_flags_loop(r, tau, t0, t_grid, table, grid_s, theta, up, station, earth_km, lit,
+                    sun_el):  # pragma: no cover - compiled by numba (geometry.sun_flags' twin)
+    last = len(table) - 1
+    e2 = earth_km * earth_km
+    for j in range(len(tau)):
+        i = min(max(np.int64(math.floor(tau[j] / grid_s)) - t0, 0), last)
+        dt = tau[j] - t_grid[i]
+        sx = table[i, 0] + table[i, 4] * dt
+        sy = table[i, 1] + table[i, 5] * dt
+        sz = table[i, 2] + table[i, 6] * dt
+        dist = table[i, 3] + table[i, 7] * dt
+        rx, ry, rz = r[j, 0], r[j, 1], r[j, 2]
+        dx, dy, dz = sx * dist - rx, sy * dist - ry, sz * dist - rz
+        rd = rx * dx + ry * dy + rz * dz
+        r2 = rx * rx + ry * ry + rz * rz
+        lit[j] = (rd >= 0 or r2 - rd * rd / (dx * dx + dy * dy + dz * dz) > e2) and r2 > e2
+        c, s = math.cos(theta[j]), math.sin(theta[j])
+        m = station[j]
+        sun_el[j] = (c * sx + s * sy) * up[m, 0] + (c * sy - s * sx) * up[m, 1] + sz * up[m, 2]
+
+
+# --- the result's order ----------------------------------------------------------------------
+
+def permute_rows(rows: np.ndarray, order) -> None:
+    """Rows of a structured array put in the ``order`` given (``rows[:] = rows[order]``) in
+    place: the compiled loop follows the permutation's cycles, moving each row once (a bit
+    per row of extra memory); numpy's moves each field in turn (one field's copy extra)."""
+    if backend() == "numba" and rows.flags.c_contiguous and len(rows):
+        raw = rows.view(np.uint8).reshape(len(rows), rows.dtype.itemsize)
+        _jit("_permute_rows_loop")(raw, np.asarray(order, np.int64))
+        return
+    for name in rows.dtype.names:
+        rows[name] = rows[name][order]
+
+
+def _permute_rows_loop(raw, order):  # pragma: no cover - compiled by numba (its twin)
+    n, w = raw.shape
+    done = np.zeros(n, np.bool_)
+    tmp = np.empty(w, np.uint8)
+    for i in range(n):
+        if done[i] or order[i] == i:
+            continue
+        tmp[:] = raw[i]
+        j = i
+        while True:
+            done[j] = True
+            k = order[j]
+            if k == i:
+                raw[j] = tmp
+                break
+            raw[j] = raw[k]
+            j = k
