@@ -558,38 +558,40 @@ def _station_groups(sizes: list[int], memory_mb: float) -> list[list[int]]:
 
 def _station_samples(job: _Job, st, sel, s_loc, j, ok, sat_ids, r_apo, fine_s: float, P, V,
                      r_ecef, v_ecef) -> dict:
-    """Look angles and bracketing flags of the shared fine samples ``sel`` as seen from
-    stations ``st`` (one per sample; each station's samples consecutive, in time order)."""
+    """The brackets of the shared fine samples ``sel`` as seen from stations ``st`` (one per
+    sample; each station's samples consecutive, in time order): the samples they need
+    (:func:`kernels.station_brackets`) with their look angles, and the AOS, LOS, maximum
+    and cut brackets as positions among them."""
     def azimuth(i):
         return geo.look_angles(tuple(c[sel[i]] for c in r_ecef),
                                tuple(c[sel[i]] for c in v_ecef), job.frames, st[i])[1]
 
-    el, rate = kernels.el_rate(job.frames, r_ecef, v_ecef, sel, st)
     # Azimuths only where used: under a horizon mask and at window-edge cuts.
+    masked = np.flatnonzero(np.isin(st, job.masked)) if job.masked else np.zeros(0, np.int64)
+    az_masked = azimuth(masked)
     az = np.full(len(sel), np.nan)
-    masked = np.flatnonzero(np.isin(st, job.masked))
-    az[masked] = azimuth(masked)
-    f, rate, ss, jj, contig, up, cut_start, cut_end = kernels.sample_flags(
-        el, rate, job.threshold(st, az), sel, ok, s_loc, j, st)
+    az[masked] = az_masked
+    keep, el, rate, f, aos_i, los_i, max_i, cs, ce = kernels.station_brackets(
+        job.frames, r_ecef, v_ecef, sel, st, job.threshold(st, az), ok, s_loc, j)
+    st, sel = st[keep], sel[keep]
+    az = az[keep]
     # Up samples with no contiguous neighbour: the window edge (or decay) cuts the pass.
-    cut = np.flatnonzero((cut_start | cut_end) & np.isnan(az))
-    az[cut] = azimuth(cut)
-    return dict(st=st, sat=sat_ids[ss], tau=jj * fine_s, f=f, rate=rate, el=el, az=az,
-                contig=contig, up=up, cut_start=cut_start, cut_end=cut_end, fine_s=fine_s,
-                r=P.take(sel, 0), v=V.take(sel, 0), r_apo=r_apo[ss])
+    cut = np.union1d(cs, ce)
+    cut = cut[np.isnan(az[cut])]
+    az[cut] = geo.look_angles(tuple(c[sel[cut]] for c in r_ecef),
+                              tuple(c[sel[cut]] for c in v_ecef), job.frames, st[cut])[1]
+    ss = s_loc[sel]
+    return dict(st=st, sat=sat_ids[ss], tau=j[sel] * fine_s, f=f, rate=rate, el=el, az=az,
+                aos_i=aos_i, los_i=los_i, max_i=max_i, cut_start=cs, cut_end=ce,
+                fine_s=fine_s, r=P.take(sel, 0), v=V.take(sel, 0), r_apo=r_apo[ss])
 
 
 def _refine_station_chunk(job: _Job, b: dict):
     """Turn stations' samples (:func:`_station_samples`) into pass rows (refined AOS, TCA,
     LOS), all stations' brackets at once."""
-    st, sat, tau, f, rate, el, az, contig, r = (b[k] for k in (
-        "st", "sat", "tau", "f", "rate", "el", "az", "contig", "r"))
+    st, sat, tau, f, rate, el, az, r, aos_i, los_i, max_i = (b[k] for k in (
+        "st", "sat", "tau", "f", "rate", "el", "az", "r", "aos_i", "los_i", "max_i"))
     h = b["fine_s"]
-    i0 = np.flatnonzero(contig)
-    i1 = i0 + 1
-    aos_i = i0[~b["up"][i0] & b["up"][i1]]
-    los_i = i0[b["up"][i0] & ~b["up"][i1]]
-    max_i = i0[(rate[i0] > 0) & (rate[i1] <= 0)]
     # Maxima: refine those that could reach the threshold (near misses inside one step too).
     job.theta(0.0)
     bound = kernels.peak_bound_deg(job._theta0, job._theta_rate, job.frames, max_i, st, tau, r,
@@ -628,7 +630,7 @@ def _refine_station_chunk(job: _Job, b: dict):
                                      tca=False)
 
     # Window-edge (or decay) cuts become clipped AOS/LOS at the sample itself.
-    cs, ce = np.flatnonzero(b["cut_start"]), np.flatnonzero(b["cut_end"])
+    cs, ce = b["cut_start"], b["cut_end"]
     ev = dict(
         sat=np.concatenate([c_sat, sat[cs], sat[ce]]),
         st=np.concatenate([c_st, st[cs], st[ce]]),

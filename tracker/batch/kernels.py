@@ -98,7 +98,7 @@ def use(name: str | None) -> str | None:
 
 # Functions the loops call: compiled (in place of the Python ones, which only the loops use)
 # before the first loop is.
-_HELPERS = ("_sin_el_newton", "_bracket_step", "_rates", "_sub_arc_trig")
+_HELPERS = ("_sin_el_newton", "_bracket_step", "_rates", "_sub_arc_trig", "_look_and_f")
 
 
 def _jit(name: str):
@@ -830,6 +830,115 @@ def _sample_flags_loop(el, rate_in, thr, sel, ok, s_loc, j, st, f, rate, ss, jj,
         after = i < m - 1 and contig[i]
         cut_start[i] = up[i] and not before
         cut_end[i] = up[i] and not after
+
+
+def station_brackets(frames: geo.StationFrames, r_ecef, v_ecef, sel, st, thr, ok, s_loc,
+                     j) -> tuple:
+    """The samples stations' brackets need, of the shared fine samples ``sel`` seen from
+    stations ``st`` (as :func:`el_rate` and :func:`sample_flags` take them; ``thr`` the
+    horizon per sample, deg): (``keep``, positions in ``sel`` of the samples kept, in
+    order; their elevation, rate and elevation above the horizon f; then, as positions in
+    ``keep``: AOS and LOS brackets (a sign change of f between a sample and the next
+    contiguous one), maxima (rate + -> -) and the window-edge cuts at a pass's first and
+    last sample (up without a contiguous sample before / after)). A bracket's second
+    sample is the next one in ``keep``; every sample kept is valid. The compiled loop is
+    :func:`el_rate` and :func:`sample_flags` in one pass, and the brackets in a second."""
+    if backend() == "numba":
+        m = len(sel)
+        keep = np.empty(m, np.int64)
+        brackets = np.empty((5, m), np.int64)
+        counts = np.zeros(6, np.int64)
+        el, rate, f = np.empty(m), np.empty(m), np.empty(m)
+        _jit("_station_brackets_loop")(*r_ecef, *v_ecef, sel, st, frames.ecef_km, frames.up,
+                                       thr, ok, s_loc, j, keep, el, rate, f, brackets, counts)
+        n = counts[5]
+        return (keep[:n], el[:n], rate[:n], f[:n],
+                *(brackets[k, :counts[k]] for k in range(5)))
+    el, rate = el_rate(frames, r_ecef, v_ecef, sel, st)
+    f, rate, _ss, _jj, contig, up, cut_start, cut_end = sample_flags(el, rate, thr, sel, ok,
+                                                                    s_loc, j, st)
+    i0 = np.flatnonzero(contig)
+    i1 = i0 + 1
+    found = [i0[~up[i0] & up[i1]], i0[up[i0] & ~up[i1]], i0[(rate[i0] > 0) & (rate[i1] <= 0)],
+             np.flatnonzero(cut_start), np.flatnonzero(cut_end)]
+    needed = np.zeros(len(sel) + 1, bool)
+    for k, idx in enumerate(found):
+        needed[idx] = True
+        if k < 3:
+            needed[idx + 1] = True
+    keep = np.flatnonzero(needed[:-1])
+    pos = np.cumsum(needed) - 1
+    return (keep, el[keep], rate[keep], f[keep], *(pos[idx] for idx in found))
+
+
+def _look_and_f(x, y, z, vx, vy, vz, sel, st, ecef, up, thr, ok, el, rate, f
+                ):  # pragma: no cover - compiled by numba (pass 1 of _station_brackets_loop)
+    """Look angles (as _el_rate_loop) and f (as _sample_flags_loop) of every sample; an
+    invalid one gets f = -1e3 and rate 0."""
+    deg = 180.0 / math.pi
+    for i in range(len(sel)):
+        k, s = sel[i], st[i]
+        if not ok[k]:
+            f[i], rate[i] = -1e3, 0.0
+            continue
+        dx, dy, dz = x[k] - ecef[s, 0], y[k] - ecef[s, 1], z[k] - ecef[s, 2]
+        u0, u1, u2 = up[s, 0], up[s, 1], up[s, 2]
+        ru = dx * u0 + dy * u1 + dz * u2
+        dist2 = dx * dx + dy * dy + dz * dz
+        inv = 1.0 / math.sqrt(dist2)
+        sin_el = min(max(ru * inv, -1.0), 1.0)
+        el[i] = math.asin(sin_el) * deg
+        vu = vx[k] * u0 + vy[k] * u1 + vz[k] * u2
+        rv = dx * vx[k] + dy * vy[k] + dz * vz[k]
+        d_sin = (vu - ru * rv / dist2) * inv
+        rate[i] = d_sin / math.sqrt(max(1.0 - sin_el * sin_el, 1e-12)) * deg
+        f[i] = el[i] - thr[i]
+
+
+def _station_brackets_loop(x, y, z, vx, vy, vz, sel, st, ecef, up, thr, ok, s_loc, j, keep,
+                           el, rate, f, brackets, counts
+                           ):  # pragma: no cover - compiled by numba (its twin)
+    m = len(sel)
+    _look_and_f(x, y, z, vx, vy, vz, sel, st, ecef, up, thr, ok, el, rate, f)
+    # Pass 2: brackets between contiguous samples, cuts, and the samples they need.
+    n_keep = 0
+    at = -1  # the position in keep of sample i (-1: not kept yet)
+    contig_before = False
+    for i in range(m):
+        contig = False
+        if i + 1 < m:
+            k, k1 = sel[i], sel[i + 1]
+            contig = (s_loc[k1] == s_loc[k] and j[k1] == j[k] + 1 and ok[k1] and ok[k]
+                      and st[i + 1] == st[i])
+        is_up = f[i] >= 0
+        hits = (False, False, False)
+        if contig:
+            up1 = f[i + 1] >= 0
+            hits = (not is_up and up1, is_up and not up1, rate[i] > 0 and rate[i + 1] <= 0)
+        cuts = (is_up and not contig_before, is_up and not contig)
+        if at < 0 and (hits[0] or hits[1] or hits[2] or cuts[0] or cuts[1]):
+            at = n_keep
+            keep[n_keep] = i
+            n_keep += 1
+        for kind in range(3):
+            if hits[kind]:
+                brackets[kind, counts[kind]] = at
+                counts[kind] += 1
+        for kind in range(2):
+            if cuts[kind]:
+                brackets[3 + kind, counts[3 + kind]] = at
+                counts[3 + kind] += 1
+        at = -1
+        if hits[0] or hits[1] or hits[2]:  # the bracket's second sample
+            at = n_keep
+            keep[n_keep] = i + 1
+            n_keep += 1
+        contig_before = contig
+    # The samples kept, gathered in place (keep is increasing: c <= keep[c]).
+    for c in range(n_keep):
+        i = keep[c]
+        el[c], rate[c], f[c] = el[i], rate[i], f[i]
+    counts[5] = n_keep
 
 
 # --- the near-miss test of maxima ------------------------------------------------------------
