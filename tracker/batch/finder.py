@@ -207,11 +207,8 @@ class _Job:
 def _sgp4_pairs(job: _Job, sat: np.ndarray, tau: np.ndarray, kind: str = "sgp4_refine"):
     """SGP4 for (satellite, time) pairs: one ``sgp4_array`` call per distinct satellite."""
     m = len(sat)
-    err = np.zeros(m, np.int32)
-    r = np.empty((m, 3))
-    v = np.empty((m, 3))
     if m == 0:
-        return err, r, v
+        return np.zeros(0, np.int32), np.empty((0, 3)), np.empty((0, 3))
     step = sat[1:] - sat[:-1]
     presorted = bool(np.all((step > 0) | ((step == 0) & (tau[1:] >= tau[:-1]))))
     order = np.arange(m) if presorted else _satellite_order(job, sat, tau)
@@ -230,8 +227,10 @@ def _sgp4_pairs(job: _Job, sat: np.ndarray, tau: np.ndarray, kind: str = "sgp4_r
         satrecs[i]._sgp4(jd[a:b], fr[a:b], e_s[a:b], r_s[a:b], v_s[a:b])
     if presorted:
         err, r, v = e_s.astype(np.int32), r_s, v_s
-    else:
-        err[order], r[order], v[order] = e_s, r_s, v_s
+    else:  # back to the given order: gathers by the inverse permutation (faster than scatters)
+        inv = np.empty(m, np.int64)
+        inv[order] = np.arange(m)
+        err, r, v = e_s.take(inv).astype(np.int32), r_s.take(inv, 0), v_s.take(inv, 0)
     job.stats[kind] = job.stats.get(kind, 0) + m
     job.note_errors(sat, tau, err)
     return err, r, v
@@ -245,7 +244,9 @@ def _satellite_order(job: _Job, sat: np.ndarray, tau: np.ndarray) -> np.ndarray:
     no state between times, so near-Earth satellites keep the given order: an integer sort
     costs a tenth of sorting every pair by time too, and SGP4 gives the same values in any
     order."""
-    order = np.argsort(sat, kind="stable")
+    # A stable sort of 16-bit keys is a radix sort: 8 times faster than of int64 ones.
+    order = np.argsort(sat.astype(np.uint16) if len(job.satrecs) <= 2**16 else sat,
+                       kind="stable")
     deep = np.flatnonzero(job.deep_space[sat[order]])
     if deep.size:
         sub = order[deep]
