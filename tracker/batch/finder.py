@@ -309,16 +309,25 @@ def _refine(job: _Job, st, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
         r, v, a = cubic.corrected(k, tau)
         return kernels.topo(job.sky, st[k], tau, r, v, a), r
 
+    # Brackets of stations with a horizon mask are solved with the numpy kernels and
+    # _newton_step, the others with the kernels' own arithmetic: a station's passes do not
+    # depend on which stations share its group (the two agree to rounding only).
+    masked = np.isin(st, job.masked) if job.masked else np.zeros(n, bool)
+
     def on_cubic(k, tau, tol_s):
         """Roots on the (corrected) cubic of brackets ``k`` from ``tau``."""
-        if not job.masked:
-            return kernels.solve_cubic(job.sky, cubic, k, st[k], lo[k], hi[k], lo_neg[k], tau,
-                                       tol_s, tca)
-        return kernels.solve(lambda j, t: _newton_step(job, st[k[j]], model(k[j], t)[0], tca),
-                             lo[k], hi[k], lo_neg[k], tau, tol_s)
+        m = masked[k]
+        out = np.empty(len(k))
+        k0, k1 = k[~m], k[m]
+        out[~m] = kernels.solve_cubic(job.sky, cubic, k0, st[k0], lo[k0], hi[k0], lo_neg[k0],
+                                      tau[~m], tol_s, tca)
+        if k1.size:
+            out[m] = kernels.solve(
+                lambda j, t: _newton_step(job, st[k1[j]], model(k1[j], t)[0], tca),
+                lo[k1], hi[k1], lo_neg[k1], tau[m], tol_s)
+        return out
 
     x = on_cubic(np.arange(n), guess, SOLVE_TOL_S)
-    newton = None if not job.masked else lambda st_k, t: _newton_step(job, st_k, t, tca)
     lo, hi = lo.copy(), hi.copy()
     tau = x.copy()
     el, az, r_out = np.zeros(n), np.zeros(n), np.zeros((n, 3))
@@ -334,9 +343,8 @@ def _refine(job: _Job, st, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
             r_s[k], v_s[k], _ = cubic(active[k], xa[k])
         # Within CORRECT_SPAN_S of xa, SGP4's state is its Taylor series with two-body
         # acceleration (J2 and lunisolar terms change it by < 1e-3: millimetres).
-        x1, far = kernels.correct(job.sky, active, xa, r_s, v_s, _gravity(r_s), st, lo, hi,
-                                  lo_neg, job.tol_s, CORRECT_SPAN_S, tca, (tau, el, az, r_out),
-                                  newton)
+        x1, far = _correct(job, masked[active], active, xa, r_s, v_s, st, lo, hi, lo_neg,
+                           tca, (tau, el, az, r_out))
         far = np.flatnonzero(far & ok)
         if far.size:
             # Far off (grazing passes): solve again on the cubic corrected by SGP4's state
@@ -352,6 +360,23 @@ def _refine(job: _Job, st, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
         tau[active], r_out[active] = x[active], r1
         el[active], az[active] = t1.el_deg(), t1.az_deg(job.sky, st[active])
     return tau, el, az, r_out
+
+
+def _correct(job: _Job, masked, active, xa, r_s, v_s, st, lo, hi, lo_neg, tca: bool, out):
+    """:func:`kernels.correct` of brackets ``active`` from SGP4's states at ``xa``: with
+    :func:`_newton_step` where the station has a horizon mask (``masked``), with the
+    kernels' own arithmetic elsewhere."""
+    a_s = _gravity(r_s)
+    if not masked.any():
+        return kernels.correct(job.sky, active, xa, r_s, v_s, a_s, st, lo, hi, lo_neg,
+                               job.tol_s, CORRECT_SPAN_S, tca, out)
+    x1, far = np.empty(len(active)), np.empty(len(active), bool)
+    for part, newton in ((~masked, None),
+                         (masked, lambda st_k, t: _newton_step(job, st_k, t, tca))):
+        x1[part], far[part] = kernels.correct(
+            job.sky, active[part], xa[part], r_s[part], v_s[part], a_s[part], st, lo, hi,
+            lo_neg, job.tol_s, CORRECT_SPAN_S, tca, out, newton)
+    return x1, far
 
 
 def _arc_geometry(r, v, valid):
