@@ -389,3 +389,15 @@ def test_sun_flags_and_the_row_order_are_the_same(numba_kernels):
         mine = rows.copy()
         with_impl(impl, lambda m=mine: kernels.permute_rows(m, order))
         assert mine.tobytes() == rows[order].tobytes(), impl
+
+
+def test_the_cubic_between_samples_is_the_same(numba_kernels):
+    rng = np.random.default_rng(37)
+    r, v, _ = leo_states(rng, 2000)
+    tau = np.arange(2000) * 480.0
+    idx = np.sort(rng.choice(1999, 700, replace=False))
+    ref = with_impl("numpy", lambda: kernels.Cubic.between(tau, 480.0, r, v, idx))
+    fast = with_impl("numba", lambda: kernels.Cubic.between(tau, 480.0, r, v, idx))
+    for name in ("t0", "r0", "c1", "c2", "c3", "x_ref", "dr", "dv"):
+        assert np.array_equal(getattr(ref, name), getattr(fast, name)), name
+    assert np.allclose(ref(np.arange(700), tau[idx] + 480.0)[0], r[idx + 1])

@@ -625,9 +625,7 @@ def _refine_station_chunk(job: _Job, b: dict):
     max_i = max_i[bound >= job.frames.min_el_deg[st[max_i]] - ELLIPSOID_MARGIN_DEG]
     guess = tau[max_i] + h * kernels.hermite_root(el[max_i], rate[max_i], el[max_i + 1],
                                                   rate[max_i + 1], h, slope=True)
-    rv = (b["r"], b["v"])  # (n, 3) rows gathered with take: a third of indexing's cost
-    cubic = kernels.Cubic.through(tau[max_i], h, *(x.take(max_i, 0) for x in rv),
-                                  *(x.take(max_i + 1, 0) for x in rv))
+    cubic = kernels.Cubic.between(tau, h, b["r"], b["v"], max_i)
     m_st = st[max_i]
     m_tau, m_el, m_az, m_r = _refine(job, m_st, sat[max_i], tau[max_i], tau[max_i + 1],
                                      np.zeros(len(max_i), bool), guess, cubic, tca=True)
@@ -650,8 +648,7 @@ def _refine_station_chunk(job: _Job, b: dict):
     width = c_hi - c_lo
     guess = c_lo + width * kernels.hermite_root(c_glo, d_lo, c_ghi, d_hi, width)
     c_iv = np.concatenate([aos_i, los_i, hi_idx, hi_idx])
-    cubic = kernels.Cubic.through(tau[c_iv], h, *(x.take(c_iv, 0) for x in rv),
-                                  *(x.take(c_iv + 1, 0) for x in rv))
+    cubic = kernels.Cubic.between(tau, h, b["r"], b["v"], c_iv)
     c_tau, c_el, c_az, c_r = _refine(job, c_st, c_sat, c_lo, c_hi, c_glo < 0, guess, cubic,
                                      tca=False)
 

@@ -409,6 +409,19 @@ class Cubic:
         return cls(t0, h, r0, h * v0, 3 * d - h * (2 * v0 + v1), h * (v0 + v1) - 2 * d,
                    np.zeros(n), np.zeros((n, 3)), np.zeros((n, 3)))
 
+    @classmethod
+    def between(cls, tau, h: float, r, v, idx) -> Cubic:
+        """:meth:`through` the samples ``idx`` and ``idx + 1`` of TEME states ``r``, ``v``
+        (n, 3) at times ``tau`` (compiled: one pass, no gathered copies; same arithmetic)."""
+        if backend() != "numba":
+            return cls.through(tau[idx], h, r.take(idx, 0), v.take(idx, 0),
+                               r.take(idx + 1, 0), v.take(idx + 1, 0))
+        n = len(idx)
+        r0, c1, c2, c3 = (np.empty((n, 3)) for _ in range(4))
+        _jit("_cubic_between_loop")(h, r, v, idx, r0, c1, c2, c3)
+        return cls(tau[idx], h, r0, c1, c2, c3, np.zeros(n), np.zeros((n, 3)),
+                   np.zeros((n, 3)))
+
     def __call__(self, k, tau):
         """(r, v, a) of the uncorrected cubic of brackets ``k`` at times ``tau``."""
         h = self.h
@@ -424,6 +437,20 @@ class Cubic:
         r, v, a = self(k, tau)
         r = r + self.dr[k] + self.dv[k] * (tau - self.x_ref[k])[:, None]
         return r, v + self.dv[k], a
+
+
+def _cubic_between_loop(h, r, v, idx, r0, c1, c2, c3
+                        ):  # pragma: no cover - compiled by numba (Cubic.through's twin)
+    for j in range(len(idx)):
+        i = idx[j]
+        for c in range(3):
+            a, b = r[i, c], r[i + 1, c]
+            v0, v1 = v[i, c], v[i + 1, c]
+            d = b - a
+            r0[j, c] = a
+            c1[j, c] = h * v0
+            c2[j, c] = 3 * d - h * (2 * v0 + v1)
+            c3[j, c] = h * (v0 + v1) - 2 * d
 
 
 @dataclass(frozen=True)
