@@ -24,9 +24,10 @@ How one job runs (every step is numpy over all satellites of a chunk at once):
    series (a second SGP4 call only for the rare root that moved by more than a second):
    about one SGP4 call per event, to ``tol_s``.
 
-The fused per-element loops of steps 1-4 (fine screen, look angles and bracketing flags of
-the samples, first guesses, the solves on the cubic and the correction from SGP4's state) live
-in :mod:`tracker.batch.kernels`, in numpy and as compiled loops when numba is installed.
+The fused per-element loops of steps 1-4 (fine screen, look angles, flags and brackets of
+the samples, first guesses, the cubics, the solves on them and the correction from SGP4's
+state), and of the assembly (Sun flags, the result's order) live in
+:mod:`tracker.batch.kernels`, in numpy and as compiled loops when numba is installed.
 
 Steps 3 and 4 run for all stations of a chunk at once (a station index per sample and
 bracket), in groups of stations sized by the memory budget; a pass does not depend on the
