@@ -326,3 +326,78 @@ def test_look_angles_and_the_peak_bound_are_the_same(numba_kernels):
     a, b = with_impl("numpy", bound), with_impl("numba", bound)
     assert np.max(np.abs(a - b)) <= 1e-9
     assert 0.1 < np.mean(a > 0) < 0.9
+
+
+def test_station_brackets_are_the_same(numba_kernels):
+    """The fused look angles, flags and brackets of stations' samples (compiled) against
+    el_rate, sample_flags and the brackets taken from them (numpy): the same samples kept,
+    the same brackets and cuts, look angles to rounding."""
+    rng = np.random.default_rng(29)
+    shared = 4000
+    _sky, frames = sky_of((DELFT, QUITO, MASKED))
+    r, v, _ = leo_states(rng, shared)
+    comps = tuple(r[:, i].copy() for i in range(3)), tuple(v[:, i].copy() for i in range(3))
+    s_loc = np.repeat(np.arange(40), shared // 40)
+    j = np.tile(np.arange(shared // 40), 40) + rng.integers(0, 2, shared).cumsum() % 3
+    ok = rng.random(shared) < 0.97
+    sel = np.concatenate([np.sort(rng.choice(shared, 1500, replace=False)) for _ in range(3)])
+    st = np.repeat(np.arange(3), 1500)
+    thr = np.array([0.0, -20.0, 5.0])[st] + rng.uniform(0.0, 1.0, len(sel)) * (st == 2)
+
+    def run():
+        return kernels.station_brackets(frames, *comps, sel, st, thr, ok, s_loc, j)
+
+    ref, fast = with_impl("numpy", run), with_impl("numba", run)
+    keep, _el, rate, f = ref[:4]
+    for k, (a, b) in enumerate(zip(ref, fast, strict=True)):
+        if k in (1, 2, 3):
+            assert np.max(np.abs(a - b)) <= 1e-9
+        else:
+            assert a.dtype == b.dtype and np.array_equal(a, b), k
+    aos, los, mx, cs, ce = ref[4:]
+    assert min(map(len, (aos, los, mx, cs, ce))) > 10 and len(keep) < len(sel)
+    assert np.all(f[aos] < 0) and np.all(f[aos + 1] >= 0) and np.all(f[los + 1] < 0)
+    assert np.all(rate[mx] > 0) and np.all(rate[mx + 1] <= 0) and np.all(f[cs] >= 0)
+    assert np.all(ok[sel[keep]]) and np.all(np.diff(keep) > 0)
+
+
+def test_sun_flags_and_the_row_order_are_the_same(numba_kernels):
+    from tracker.batch import PASS_DTYPE
+    from tracker.batch import geometry as geo
+
+    rng = np.random.default_rng(31)
+    _sky, frames = sky_of((DELFT, QUITO))
+    r, _, _ = leo_states(rng, 3000)
+    r[:10] *= (3000.0 / np.linalg.norm(r[:10], axis=1))[:, None]  # inside the Earth: not lit
+    tau = rng.uniform(0.0, 7 * 86400.0, len(r))
+    theta = 1.3 + 7.292115e-5 * tau
+    st = rng.integers(0, 2, len(r))
+
+    def flags():
+        return kernels.sun_flags(r, tau, 2461118.5, 0.2, theta, frames, st)
+
+    (lit_a, el_a), (lit_b, el_b) = with_impl("numpy", flags), with_impl("numba", flags)
+    assert np.array_equal(lit_a, lit_b) and np.max(np.abs(el_a - el_b)) <= 1e-12
+    assert np.array_equal(lit_a, geo.sun_flags(r, tau, 2461118.5, 0.2, theta, frames, st)[0])
+    assert 0.3 < lit_a.mean() < 0.95 and not lit_a[:10].any()
+
+    rows = np.zeros(5000, PASS_DTYPE)
+    for name in PASS_DTYPE.names:
+        rows[name] = rng.integers(0, 2 if PASS_DTYPE[name].kind == "b" else 10**6, len(rows))
+    order = np.concatenate([np.arange(100), 100 + rng.permutation(len(rows) - 100)])
+    for impl in ("numpy", "numba"):
+        mine = rows.copy()
+        with_impl(impl, lambda m=mine: kernels.permute_rows(m, order))
+        assert mine.tobytes() == rows[order].tobytes(), impl
+
+
+def test_the_cubic_between_samples_is_the_same(numba_kernels):
+    rng = np.random.default_rng(37)
+    r, v, _ = leo_states(rng, 2000)
+    tau = np.arange(2000) * 480.0
+    idx = np.sort(rng.choice(1999, 700, replace=False))
+    ref = with_impl("numpy", lambda: kernels.Cubic.between(tau, 480.0, r, v, idx))
+    fast = with_impl("numba", lambda: kernels.Cubic.between(tau, 480.0, r, v, idx))
+    for name in ("t0", "r0", "c1", "c2", "c3", "x_ref", "dr", "dv"):
+        assert np.array_equal(getattr(ref, name), getattr(fast, name)), name
+    assert np.allclose(ref(np.arange(700), tau[idx] + 480.0)[0], r[idx + 1])

@@ -24,9 +24,10 @@ How one job runs (every step is numpy over all satellites of a chunk at once):
    series (a second SGP4 call only for the rare root that moved by more than a second):
    about one SGP4 call per event, to ``tol_s``.
 
-The fused per-element loops of steps 1-4 (fine screen, look angles and bracketing flags of
-the samples, first guesses, the solves on the cubic and the correction from SGP4's state) live
-in :mod:`tracker.batch.kernels`, in numpy and as compiled loops when numba is installed.
+The fused per-element loops of steps 1-4 (fine screen, look angles, flags and brackets of
+the samples, first guesses, the cubics, the solves on them and the correction from SGP4's
+state), and of the assembly (Sun flags, the result's order) live in
+:mod:`tracker.batch.kernels`, in numpy and as compiled loops when numba is installed.
 
 Steps 3 and 4 run for all stations of a chunk at once (a station index per sample and
 bracket), in groups of stations sized by the memory budget; a pass does not depend on the
@@ -207,11 +208,8 @@ class _Job:
 def _sgp4_pairs(job: _Job, sat: np.ndarray, tau: np.ndarray, kind: str = "sgp4_refine"):
     """SGP4 for (satellite, time) pairs: one ``sgp4_array`` call per distinct satellite."""
     m = len(sat)
-    err = np.zeros(m, np.int32)
-    r = np.empty((m, 3))
-    v = np.empty((m, 3))
     if m == 0:
-        return err, r, v
+        return np.zeros(0, np.int32), np.empty((0, 3)), np.empty((0, 3))
     step = sat[1:] - sat[:-1]
     presorted = bool(np.all((step > 0) | ((step == 0) & (tau[1:] >= tau[:-1]))))
     order = np.arange(m) if presorted else _satellite_order(job, sat, tau)
@@ -230,8 +228,10 @@ def _sgp4_pairs(job: _Job, sat: np.ndarray, tau: np.ndarray, kind: str = "sgp4_r
         satrecs[i]._sgp4(jd[a:b], fr[a:b], e_s[a:b], r_s[a:b], v_s[a:b])
     if presorted:
         err, r, v = e_s.astype(np.int32), r_s, v_s
-    else:
-        err[order], r[order], v[order] = e_s, r_s, v_s
+    else:  # back to the given order: gathers by the inverse permutation (faster than scatters)
+        inv = np.empty(m, np.int64)
+        inv[order] = np.arange(m)
+        err, r, v = e_s.take(inv).astype(np.int32), r_s.take(inv, 0), v_s.take(inv, 0)
     job.stats[kind] = job.stats.get(kind, 0) + m
     job.note_errors(sat, tau, err)
     return err, r, v
@@ -245,7 +245,9 @@ def _satellite_order(job: _Job, sat: np.ndarray, tau: np.ndarray) -> np.ndarray:
     no state between times, so near-Earth satellites keep the given order: an integer sort
     costs a tenth of sorting every pair by time too, and SGP4 gives the same values in any
     order."""
-    order = np.argsort(sat, kind="stable")
+    # A stable sort of 16-bit keys is a radix sort: 8 times faster than of int64 ones.
+    order = np.argsort(sat.astype(np.uint16) if len(job.satrecs) <= 2**16 else sat,
+                       kind="stable")
     deep = np.flatnonzero(job.deep_space[sat[order]])
     if deep.size:
         sub = order[deep]
@@ -308,16 +310,25 @@ def _refine(job: _Job, st, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
         r, v, a = cubic.corrected(k, tau)
         return kernels.topo(job.sky, st[k], tau, r, v, a), r
 
+    # Brackets of stations with a horizon mask are solved with the numpy kernels and
+    # _newton_step, the others with the kernels' own arithmetic: a station's passes do not
+    # depend on which stations share its group (the two agree to rounding only).
+    masked = np.isin(st, job.masked) if job.masked else np.zeros(n, bool)
+
     def on_cubic(k, tau, tol_s):
         """Roots on the (corrected) cubic of brackets ``k`` from ``tau``."""
-        if not job.masked:
-            return kernels.solve_cubic(job.sky, cubic, k, st[k], lo[k], hi[k], lo_neg[k], tau,
-                                       tol_s, tca)
-        return kernels.solve(lambda j, t: _newton_step(job, st[k[j]], model(k[j], t)[0], tca),
-                             lo[k], hi[k], lo_neg[k], tau, tol_s)
+        m = masked[k]
+        out = np.empty(len(k))
+        k0, k1 = k[~m], k[m]
+        out[~m] = kernels.solve_cubic(job.sky, cubic, k0, st[k0], lo[k0], hi[k0], lo_neg[k0],
+                                      tau[~m], tol_s, tca)
+        if k1.size:
+            out[m] = kernels.solve(
+                lambda j, t: _newton_step(job, st[k1[j]], model(k1[j], t)[0], tca),
+                lo[k1], hi[k1], lo_neg[k1], tau[m], tol_s)
+        return out
 
     x = on_cubic(np.arange(n), guess, SOLVE_TOL_S)
-    newton = None if not job.masked else lambda st_k, t: _newton_step(job, st_k, t, tca)
     lo, hi = lo.copy(), hi.copy()
     tau = x.copy()
     el, az, r_out = np.zeros(n), np.zeros(n), np.zeros((n, 3))
@@ -333,9 +344,8 @@ def _refine(job: _Job, st, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
             r_s[k], v_s[k], _ = cubic(active[k], xa[k])
         # Within CORRECT_SPAN_S of xa, SGP4's state is its Taylor series with two-body
         # acceleration (J2 and lunisolar terms change it by < 1e-3: millimetres).
-        x1, far = kernels.correct(job.sky, active, xa, r_s, v_s, _gravity(r_s), st, lo, hi,
-                                  lo_neg, job.tol_s, CORRECT_SPAN_S, tca, (tau, el, az, r_out),
-                                  newton)
+        x1, far = _correct(job, masked[active], active, xa, r_s, v_s, st, lo, hi, lo_neg,
+                           tca, (tau, el, az, r_out))
         far = np.flatnonzero(far & ok)
         if far.size:
             # Far off (grazing passes): solve again on the cubic corrected by SGP4's state
@@ -351,6 +361,23 @@ def _refine(job: _Job, st, sat, lo, hi, lo_neg, guess, cubic, tca: bool):
         tau[active], r_out[active] = x[active], r1
         el[active], az[active] = t1.el_deg(), t1.az_deg(job.sky, st[active])
     return tau, el, az, r_out
+
+
+def _correct(job: _Job, masked, active, xa, r_s, v_s, st, lo, hi, lo_neg, tca: bool, out):
+    """:func:`kernels.correct` of brackets ``active`` from SGP4's states at ``xa``: with
+    :func:`_newton_step` where the station has a horizon mask (``masked``), with the
+    kernels' own arithmetic elsewhere."""
+    a_s = _gravity(r_s)
+    if not masked.any():
+        return kernels.correct(job.sky, active, xa, r_s, v_s, a_s, st, lo, hi, lo_neg,
+                               job.tol_s, CORRECT_SPAN_S, tca, out)
+    x1, far = np.empty(len(active)), np.empty(len(active), bool)
+    for part, newton in ((~masked, None),
+                         (masked, lambda st_k, t: _newton_step(job, st_k, t, tca))):
+        x1[part], far[part] = kernels.correct(
+            job.sky, active[part], xa[part], r_s[part], v_s[part], a_s[part], st, lo, hi,
+            lo_neg, job.tol_s, CORRECT_SPAN_S, tca, out, newton)
+    return x1, far
 
 
 def _arc_geometry(r, v, valid):
@@ -558,38 +585,40 @@ def _station_groups(sizes: list[int], memory_mb: float) -> list[list[int]]:
 
 def _station_samples(job: _Job, st, sel, s_loc, j, ok, sat_ids, r_apo, fine_s: float, P, V,
                      r_ecef, v_ecef) -> dict:
-    """Look angles and bracketing flags of the shared fine samples ``sel`` as seen from
-    stations ``st`` (one per sample; each station's samples consecutive, in time order)."""
+    """The brackets of the shared fine samples ``sel`` as seen from stations ``st`` (one per
+    sample; each station's samples consecutive, in time order): the samples they need
+    (:func:`kernels.station_brackets`) with their look angles, and the AOS, LOS, maximum
+    and cut brackets as positions among them."""
     def azimuth(i):
         return geo.look_angles(tuple(c[sel[i]] for c in r_ecef),
                                tuple(c[sel[i]] for c in v_ecef), job.frames, st[i])[1]
 
-    el, rate = kernels.el_rate(job.frames, r_ecef, v_ecef, sel, st)
     # Azimuths only where used: under a horizon mask and at window-edge cuts.
+    masked = np.flatnonzero(np.isin(st, job.masked)) if job.masked else np.zeros(0, np.int64)
+    az_masked = azimuth(masked)
     az = np.full(len(sel), np.nan)
-    masked = np.flatnonzero(np.isin(st, job.masked))
-    az[masked] = azimuth(masked)
-    f, rate, ss, jj, contig, up, cut_start, cut_end = kernels.sample_flags(
-        el, rate, job.threshold(st, az), sel, ok, s_loc, j, st)
+    az[masked] = az_masked
+    keep, el, rate, f, aos_i, los_i, max_i, cs, ce = kernels.station_brackets(
+        job.frames, r_ecef, v_ecef, sel, st, job.threshold(st, az), ok, s_loc, j)
+    st, sel = st[keep], sel[keep]
+    az = az[keep]
     # Up samples with no contiguous neighbour: the window edge (or decay) cuts the pass.
-    cut = np.flatnonzero((cut_start | cut_end) & np.isnan(az))
-    az[cut] = azimuth(cut)
-    return dict(st=st, sat=sat_ids[ss], tau=jj * fine_s, f=f, rate=rate, el=el, az=az,
-                contig=contig, up=up, cut_start=cut_start, cut_end=cut_end, fine_s=fine_s,
-                r=P.take(sel, 0), v=V.take(sel, 0), r_apo=r_apo[ss])
+    cut = np.union1d(cs, ce)
+    cut = cut[np.isnan(az[cut])]
+    az[cut] = geo.look_angles(tuple(c[sel[cut]] for c in r_ecef),
+                              tuple(c[sel[cut]] for c in v_ecef), job.frames, st[cut])[1]
+    ss = s_loc[sel]
+    return dict(st=st, sat=sat_ids[ss], tau=j[sel] * fine_s, f=f, rate=rate, el=el, az=az,
+                aos_i=aos_i, los_i=los_i, max_i=max_i, cut_start=cs, cut_end=ce,
+                fine_s=fine_s, r=P.take(sel, 0), v=V.take(sel, 0), r_apo=r_apo[ss])
 
 
 def _refine_station_chunk(job: _Job, b: dict):
     """Turn stations' samples (:func:`_station_samples`) into pass rows (refined AOS, TCA,
     LOS), all stations' brackets at once."""
-    st, sat, tau, f, rate, el, az, contig, r = (b[k] for k in (
-        "st", "sat", "tau", "f", "rate", "el", "az", "contig", "r"))
+    st, sat, tau, f, rate, el, az, r, aos_i, los_i, max_i = (b[k] for k in (
+        "st", "sat", "tau", "f", "rate", "el", "az", "r", "aos_i", "los_i", "max_i"))
     h = b["fine_s"]
-    i0 = np.flatnonzero(contig)
-    i1 = i0 + 1
-    aos_i = i0[~b["up"][i0] & b["up"][i1]]
-    los_i = i0[b["up"][i0] & ~b["up"][i1]]
-    max_i = i0[(rate[i0] > 0) & (rate[i1] <= 0)]
     # Maxima: refine those that could reach the threshold (near misses inside one step too).
     job.theta(0.0)
     bound = kernels.peak_bound_deg(job._theta0, job._theta_rate, job.frames, max_i, st, tau, r,
@@ -597,9 +626,7 @@ def _refine_station_chunk(job: _Job, b: dict):
     max_i = max_i[bound >= job.frames.min_el_deg[st[max_i]] - ELLIPSOID_MARGIN_DEG]
     guess = tau[max_i] + h * kernels.hermite_root(el[max_i], rate[max_i], el[max_i + 1],
                                                   rate[max_i + 1], h, slope=True)
-    rv = (b["r"], b["v"])  # (n, 3) rows gathered with take: a third of indexing's cost
-    cubic = kernels.Cubic.through(tau[max_i], h, *(x.take(max_i, 0) for x in rv),
-                                  *(x.take(max_i + 1, 0) for x in rv))
+    cubic = kernels.Cubic.between(tau, h, b["r"], b["v"], max_i)
     m_st = st[max_i]
     m_tau, m_el, m_az, m_r = _refine(job, m_st, sat[max_i], tau[max_i], tau[max_i + 1],
                                      np.zeros(len(max_i), bool), guess, cubic, tca=True)
@@ -622,13 +649,12 @@ def _refine_station_chunk(job: _Job, b: dict):
     width = c_hi - c_lo
     guess = c_lo + width * kernels.hermite_root(c_glo, d_lo, c_ghi, d_hi, width)
     c_iv = np.concatenate([aos_i, los_i, hi_idx, hi_idx])
-    cubic = kernels.Cubic.through(tau[c_iv], h, *(x.take(c_iv, 0) for x in rv),
-                                  *(x.take(c_iv + 1, 0) for x in rv))
+    cubic = kernels.Cubic.between(tau, h, b["r"], b["v"], c_iv)
     c_tau, c_el, c_az, c_r = _refine(job, c_st, c_sat, c_lo, c_hi, c_glo < 0, guess, cubic,
                                      tca=False)
 
     # Window-edge (or decay) cuts become clipped AOS/LOS at the sample itself.
-    cs, ce = np.flatnonzero(b["cut_start"]), np.flatnonzero(b["cut_end"])
+    cs, ce = b["cut_start"], b["cut_end"]
     ev = dict(
         sat=np.concatenate([c_sat, sat[cs], sat[ce]]),
         st=np.concatenate([c_st, st[cs], st[ce]]),
@@ -645,19 +671,29 @@ def _refine_station_chunk(job: _Job, b: dict):
 def _pair_keys(job: _Job, ev: dict, mx: dict):
     """Integer keys (satellite and station pair, microsecond) of the events and maxima: the
     pairing is then independent of how satellites are numbered in this chunk, so every
-    chunking gives the same passes. Pairs are ranked densely so the keys fit in int64."""
+    chunking gives the same passes. Pairs are ranked densely when needed for the keys to fit
+    in int64 (2 * 10**6 pairs fit as they are, with room to append a bit)."""
     pair = [x["st"].astype(np.int64) * len(job.satrecs) + x["sat"] for x in (ev, mx)]
-    rank = np.unique(np.concatenate(pair), return_inverse=True)[1].reshape(-1)
     us = [np.round(x["tau"] * 1e6).astype(np.int64) for x in (ev, mx)]
-    n = len(pair[0])
-    return rank[:n] * 10**12 + us[0], rank[n:] * 10**12 + us[1], rank[:n], rank[n:]
+    if len(job.satrecs) * len(job.stations) > PAIRS_AS_THEY_ARE:
+        rank = np.unique(np.concatenate(pair), return_inverse=True)[1].reshape(-1)
+        pair = [rank[:len(pair[0])], rank[len(pair[0]):]]
+    return pair[0] * 10**12 + us[0], pair[1] * 10**12 + us[1], pair[0], pair[1]
+
+
+# Satellite-station pairs numbered as they are in _pair_keys' keys: pair * 10**12 + time
+# (microseconds, < 10**12 for blocks of at most 10 days), times two, stays within int64.
+PAIRS_AS_THEY_ARE = 2 * 10**6
 
 
 def _assemble(job: _Job, ev: dict, mx: dict) -> np.ndarray:
     """Pair AOS with the next LOS per satellite and station, attach the highest maximum, set
     Sun flags."""
     comb, m_comb, pair, m_pair = _pair_keys(job, ev, mx)
-    order = np.lexsort((ev["kind"], comb))
+    if len(job.satrecs) * len(job.stations) <= PAIRS_AS_THEY_ARE:  # one key, as lexsort
+        order = np.argsort(comb * 2 + ev["kind"], kind="stable")
+    else:
+        order = np.lexsort((ev["kind"], comb))
     kind, pair_o = ev["kind"][order], pair[order]
     is_pass = (kind[:-1] == 0) & (kind[1:] == 1) & (pair_o[:-1] == pair_o[1:])
     a_idx, l_idx = order[:-1][is_pass], order[1:][is_pass]
@@ -683,10 +719,14 @@ def _assemble(job: _Job, ev: dict, mx: dict) -> np.ndarray:
         inside &= (m_comb <= comb[l_idx][pi]) & (m_pair == pair[a_idx][pi])
         inside &= mx["el"] > rows["max_el_deg"][pi]
         sel = np.flatnonzero(inside)
-        sel = sel[np.lexsort((mx["el"][sel], pi[sel]))]
-        last = np.ones(len(sel), bool)
-        last[:-1] = pi[sel][1:] != pi[sel][:-1]
-        sel = sel[last]
+        # The highest maximum of each pass (the last of equal ones); most passes have one.
+        many = np.bincount(pi[sel], minlength=n)[pi[sel]] > 1
+        if many.any():
+            multi = sel[many]
+            multi = multi[np.lexsort((mx["el"][multi], pi[multi]))]
+            last = np.ones(len(multi), bool)
+            last[:-1] = pi[multi][1:] != pi[multi][:-1]
+            sel = np.concatenate([sel[~many], multi[last]])
         rows["tca_s"][pi[sel]] = mx["tau"][sel]
         rows["max_el_deg"][pi[sel]] = mx["el"][sel]
         rows["tca_az_deg"][pi[sel]] = mx["az"][sel]
@@ -695,10 +735,10 @@ def _assemble(job: _Job, ev: dict, mx: dict) -> np.ndarray:
     # instants the station is also in nautical twilight or darker. One call for all three.
     tau = np.concatenate([rows["aos_s"], rows["tca_s"], rows["los_s"]])
     r_ev = ev["r"]
-    lit, sun_el_sin = geo.sun_flags(np.concatenate([r_ev.take(a_idx, 0), tca_r,
-                                                    r_ev.take(l_idx, 0)]),
-                                    tau, job.jd0, job.fr0, job.theta(tau), job.frames,
-                                    np.tile(rows["station"], 3))
+    lit, sun_el_sin = kernels.sun_flags(np.concatenate([r_ev.take(a_idx, 0), tca_r,
+                                                        r_ev.take(l_idx, 0)]),
+                                        tau, job.jd0, job.fr0, job.theta(tau), job.frames,
+                                        np.tile(rows["station"], 3))
     vis = lit & (sun_el_sin < math.sin(math.radians(TWILIGHT_DEG)))
     rows["sunlit"] = lit.reshape(3, n).any(0)
     rows["visible"] = vis.reshape(3, n).any(0)
@@ -772,7 +812,9 @@ def table_order(passes: np.ndarray) -> np.ndarray:
     One sort on AOS; only the rows sharing an AOS (passes clipped at the window start,
     mostly) are ordered by the other keys."""
     aos = passes["aos_s"]
-    order = np.argsort(aos, kind="stable")
+    # Not a stable sort: the rows sharing an AOS are ordered below by every key, and the
+    # default sort is several times faster (SIMD).
+    order = np.argsort(aos)
     ordered = aos[order]
     tie = np.flatnonzero(ordered[1:] == ordered[:-1])
     if tie.size:
@@ -1019,12 +1061,11 @@ def _passes_in_parts(satrecs, names, stations, start, end, min_el_deg, *, step_s
 
 
 def _sorted_in_place(passes: np.ndarray) -> np.ndarray:
-    """``passes`` put in table order (:func:`table_order`) field by field, so a large
-    result never has a second copy of itself."""
+    """``passes`` put in table order (:func:`table_order`) in place
+    (:func:`kernels.permute_rows`), so a large result never has a second copy of itself."""
     order = table_order(passes)
     if np.any(order[1:] < order[:-1]):
-        for name in passes.dtype.names:
-            passes[name] = passes[name][order]
+        kernels.permute_rows(passes, order)
     return passes
 
 

@@ -140,12 +140,7 @@ def sun_flags(r_teme_km, tau_s, jd0: float, fr0: float, theta_rad, frames: Stati
     tau_s = np.asarray(tau_s, dtype=float)
     if tau_s.size == 0:
         return np.zeros(0, bool), np.zeros(0)
-    t0, t1 = math.floor(tau_s.min() / grid_s), math.ceil(tau_s.max() / grid_s) + 1
-    t_grid = np.arange(t0, t1 + 1) * grid_s
-    jd_grid = jd0 + (fr0 + t_grid / DAY_S)
-    node = np.column_stack([sun_teme_unit(jd_grid), sun_distance_km(jd_grid)])
-    # Linear interpolation: per grid interval its start value and slope, one gather.
-    table = np.concatenate([node[:-1], np.diff(node, axis=0) / grid_s], axis=1)
+    t0, t_grid, table = sun_table(tau_s, jd0, fr0, grid_s)
     i = np.clip(np.floor(tau_s / grid_s).astype(np.int64) - t0, 0, len(table) - 1)
     row = table[i]
     dt = tau_s - t_grid[i]
@@ -153,6 +148,18 @@ def sun_flags(r_teme_km, tau_s, jd0: float, fr0: float, theta_rad, frames: Stati
     lit = in_sunlight((r_teme_km[:, 0], r_teme_km[:, 1], r_teme_km[:, 2]),
                       (sx * dist, sy * dist, sz * dist))
     return lit, sun_sin_elevation((sx, sy, sz), theta_rad, station_columns(frames.up, station))
+
+
+def sun_table(tau_s, jd0: float, fr0: float, grid_s: float):
+    """The Sun on :func:`sun_flags`' grid over the times ``tau_s`` (not empty): (index of
+    the first grid time, grid times (s), per grid interval its start value and slope of the
+    Sun's TEME unit vector and distance (km), (m, 8))."""
+    t0, t1 = math.floor(tau_s.min() / grid_s), math.ceil(tau_s.max() / grid_s) + 1
+    t_grid = np.arange(t0, t1 + 1) * grid_s
+    jd_grid = jd0 + (fr0 + t_grid / DAY_S)
+    node = np.column_stack([sun_teme_unit(jd_grid), sun_distance_km(jd_grid)])
+    # Linear interpolation: per grid interval its start value and slope, one gather.
+    return t0, t_grid, np.concatenate([node[:-1], np.diff(node, axis=0) / grid_s], axis=1)
 
 
 def orbit_bounds(satrecs) -> tuple[np.ndarray, np.ndarray]:

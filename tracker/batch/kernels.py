@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from tracker.batch import geometry as geo
+from tracker.sun import EARTH_RADIUS_KM
 
 EARTH_ROTATION_RAD_S = geo.EARTH_ROTATION_RAD_S
 
@@ -97,7 +98,7 @@ def use(name: str | None) -> str | None:
 
 # Functions the loops call: compiled (in place of the Python ones, which only the loops use)
 # before the first loop is.
-_HELPERS = ("_sin_el_newton", "_bracket_step", "_rates", "_sub_arc_trig")
+_HELPERS = ("_sin_el_newton", "_bracket_step", "_rates", "_sub_arc_trig", "_look_and_f")
 
 
 def _jit(name: str):
@@ -408,6 +409,19 @@ class Cubic:
         return cls(t0, h, r0, h * v0, 3 * d - h * (2 * v0 + v1), h * (v0 + v1) - 2 * d,
                    np.zeros(n), np.zeros((n, 3)), np.zeros((n, 3)))
 
+    @classmethod
+    def between(cls, tau, h: float, r, v, idx) -> Cubic:
+        """:meth:`through` the samples ``idx`` and ``idx + 1`` of TEME states ``r``, ``v``
+        (n, 3) at times ``tau`` (compiled: one pass, no gathered copies; same arithmetic)."""
+        if backend() != "numba":
+            return cls.through(tau[idx], h, r.take(idx, 0), v.take(idx, 0),
+                               r.take(idx + 1, 0), v.take(idx + 1, 0))
+        n = len(idx)
+        r0, c1, c2, c3 = (np.empty((n, 3)) for _ in range(4))
+        _jit("_cubic_between_loop")(h, r, v, idx, r0, c1, c2, c3)
+        return cls(tau[idx], h, r0, c1, c2, c3, np.zeros(n), np.zeros((n, 3)),
+                   np.zeros((n, 3)))
+
     def __call__(self, k, tau):
         """(r, v, a) of the uncorrected cubic of brackets ``k`` at times ``tau``."""
         h = self.h
@@ -423,6 +437,20 @@ class Cubic:
         r, v, a = self(k, tau)
         r = r + self.dr[k] + self.dv[k] * (tau - self.x_ref[k])[:, None]
         return r, v + self.dv[k], a
+
+
+def _cubic_between_loop(h, r, v, idx, r0, c1, c2, c3
+                        ):  # pragma: no cover - compiled by numba (Cubic.through's twin)
+    for j in range(len(idx)):
+        i = idx[j]
+        for c in range(3):
+            a, b = r[i, c], r[i + 1, c]
+            v0, v1 = v[i, c], v[i + 1, c]
+            d = b - a
+            r0[j, c] = a
+            c1[j, c] = h * v0
+            c2[j, c] = 3 * d - h * (2 * v0 + v1)
+            c3[j, c] = h * (v0 + v1) - 2 * d
 
 
 @dataclass(frozen=True)
@@ -831,6 +859,115 @@ def _sample_flags_loop(el, rate_in, thr, sel, ok, s_loc, j, st, f, rate, ss, jj,
         cut_end[i] = up[i] and not after
 
 
+def station_brackets(frames: geo.StationFrames, r_ecef, v_ecef, sel, st, thr, ok, s_loc,
+                     j) -> tuple:
+    """The samples stations' brackets need, of the shared fine samples ``sel`` seen from
+    stations ``st`` (as :func:`el_rate` and :func:`sample_flags` take them; ``thr`` the
+    horizon per sample, deg): (``keep``, positions in ``sel`` of the samples kept, in
+    order; their elevation, rate and elevation above the horizon f; then, as positions in
+    ``keep``: AOS and LOS brackets (a sign change of f between a sample and the next
+    contiguous one), maxima (rate + -> -) and the window-edge cuts at a pass's first and
+    last sample (up without a contiguous sample before / after)). A bracket's second
+    sample is the next one in ``keep``; every sample kept is valid. The compiled loop is
+    :func:`el_rate` and :func:`sample_flags` in one pass, and the brackets in a second."""
+    if backend() == "numba":
+        m = len(sel)
+        keep = np.empty(m, np.int64)
+        brackets = np.empty((5, m), np.int64)
+        counts = np.zeros(6, np.int64)
+        el, rate, f = np.empty(m), np.empty(m), np.empty(m)
+        _jit("_station_brackets_loop")(*r_ecef, *v_ecef, sel, st, frames.ecef_km, frames.up,
+                                       thr, ok, s_loc, j, keep, el, rate, f, brackets, counts)
+        n = counts[5]
+        return (keep[:n], el[:n], rate[:n], f[:n],
+                *(brackets[k, :counts[k]] for k in range(5)))
+    el, rate = el_rate(frames, r_ecef, v_ecef, sel, st)
+    f, rate, _ss, _jj, contig, up, cut_start, cut_end = sample_flags(el, rate, thr, sel, ok,
+                                                                    s_loc, j, st)
+    i0 = np.flatnonzero(contig)
+    i1 = i0 + 1
+    found = [i0[~up[i0] & up[i1]], i0[up[i0] & ~up[i1]], i0[(rate[i0] > 0) & (rate[i1] <= 0)],
+             np.flatnonzero(cut_start), np.flatnonzero(cut_end)]
+    needed = np.zeros(len(sel) + 1, bool)
+    for k, idx in enumerate(found):
+        needed[idx] = True
+        if k < 3:
+            needed[idx + 1] = True
+    keep = np.flatnonzero(needed[:-1])
+    pos = np.cumsum(needed) - 1
+    return (keep, el[keep], rate[keep], f[keep], *(pos[idx] for idx in found))
+
+
+def _look_and_f(x, y, z, vx, vy, vz, sel, st, ecef, up, thr, ok, el, rate, f
+                ):  # pragma: no cover - compiled by numba (pass 1 of _station_brackets_loop)
+    """Look angles (as _el_rate_loop) and f (as _sample_flags_loop) of every sample; an
+    invalid one gets f = -1e3 and rate 0."""
+    deg = 180.0 / math.pi
+    for i in range(len(sel)):
+        k, s = sel[i], st[i]
+        if not ok[k]:
+            f[i], rate[i] = -1e3, 0.0
+            continue
+        dx, dy, dz = x[k] - ecef[s, 0], y[k] - ecef[s, 1], z[k] - ecef[s, 2]
+        u0, u1, u2 = up[s, 0], up[s, 1], up[s, 2]
+        ru = dx * u0 + dy * u1 + dz * u2
+        dist2 = dx * dx + dy * dy + dz * dz
+        inv = 1.0 / math.sqrt(dist2)
+        sin_el = min(max(ru * inv, -1.0), 1.0)
+        el[i] = math.asin(sin_el) * deg
+        vu = vx[k] * u0 + vy[k] * u1 + vz[k] * u2
+        rv = dx * vx[k] + dy * vy[k] + dz * vz[k]
+        d_sin = (vu - ru * rv / dist2) * inv
+        rate[i] = d_sin / math.sqrt(max(1.0 - sin_el * sin_el, 1e-12)) * deg
+        f[i] = el[i] - thr[i]
+
+
+def _station_brackets_loop(x, y, z, vx, vy, vz, sel, st, ecef, up, thr, ok, s_loc, j, keep,
+                           el, rate, f, brackets, counts
+                           ):  # pragma: no cover - compiled by numba (its twin)
+    m = len(sel)
+    _look_and_f(x, y, z, vx, vy, vz, sel, st, ecef, up, thr, ok, el, rate, f)
+    # Pass 2: brackets between contiguous samples, cuts, and the samples they need.
+    n_keep = 0
+    at = -1  # the position in keep of sample i (-1: not kept yet)
+    contig_before = False
+    for i in range(m):
+        contig = False
+        if i + 1 < m:
+            k, k1 = sel[i], sel[i + 1]
+            contig = (s_loc[k1] == s_loc[k] and j[k1] == j[k] + 1 and ok[k1] and ok[k]
+                      and st[i + 1] == st[i])
+        is_up = f[i] >= 0
+        hits = (False, False, False)
+        if contig:
+            up1 = f[i + 1] >= 0
+            hits = (not is_up and up1, is_up and not up1, rate[i] > 0 and rate[i + 1] <= 0)
+        cuts = (is_up and not contig_before, is_up and not contig)
+        if at < 0 and (hits[0] or hits[1] or hits[2] or cuts[0] or cuts[1]):
+            at = n_keep
+            keep[n_keep] = i
+            n_keep += 1
+        for kind in range(3):
+            if hits[kind]:
+                brackets[kind, counts[kind]] = at
+                counts[kind] += 1
+        for kind in range(2):
+            if cuts[kind]:
+                brackets[3 + kind, counts[3 + kind]] = at
+                counts[3 + kind] += 1
+        at = -1
+        if hits[0] or hits[1] or hits[2]:  # the bracket's second sample
+            at = n_keep
+            keep[n_keep] = i + 1
+            n_keep += 1
+        contig_before = contig
+    # The samples kept, gathered in place (keep is increasing: c <= keep[c]).
+    for c in range(n_keep):
+        i = keep[c]
+        el[c], rate[c], f[c] = el[i], rate[i], f[i]
+    counts[5] = n_keep
+
+
 # --- the near-miss test of maxima ------------------------------------------------------------
 
 def peak_bound_deg(theta0: float, theta_rate: float, frames: geo.StationFrames, idx, st, tau, r,
@@ -905,3 +1042,74 @@ def _peak_bound_loop(theta0, theta_rate, unit, cos_lat, radius_km, idx, st, tau,
         psi = max(psi - EARTH_ROTATION_RAD_S * h / 2 * cos_lat[m] - margin_rad, 0.0)
         r_hi = min(max(n0, n1) + 50.0, max(r_apo[i], max(n0, n1)))
         out[j] = math.atan2(math.cos(psi) - radius_km[m] / r_hi, math.sin(psi)) * deg
+
+
+# --- Sun flags of the events ------------------------------------------------------------------
+
+def sun_flags(r_teme_km, tau_s, jd0: float, fr0: float, theta_rad, frames: geo.StationFrames,
+              station, grid_s: float = 3600.0):
+    """:func:`geometry.sun_flags` (sunlit, sine of the Sun's elevation at the station) for
+    one station index per position; compiled, one pass over the events on the same
+    interpolated Sun."""
+    tau_s = np.asarray(tau_s, dtype=float)
+    if backend() != "numba" or tau_s.size == 0:
+        return geo.sun_flags(r_teme_km, tau_s, jd0, fr0, theta_rad, frames, station, grid_s)
+    t0, t_grid, table = geo.sun_table(tau_s, jd0, fr0, grid_s)
+    lit, sun_el = np.empty(len(tau_s), np.bool_), np.empty(len(tau_s))
+    _jit("_sun_flags_loop")(r_teme_km, tau_s, t0, t_grid, table, grid_s, theta_rad, frames.up,
+                            np.asarray(station, np.int64), EARTH_RADIUS_KM, lit, sun_el)
+    return lit, sun_el
+
+
+def _sun_flags_loop(r, tau, t0, t_grid, table, grid_s, theta, up, station, earth_km, lit,
+                    sun_el):  # pragma: no cover - compiled by numba (geometry.sun_flags' twin)
+    last = len(table) - 1
+    e2 = earth_km * earth_km
+    for j in range(len(tau)):
+        i = min(max(np.int64(math.floor(tau[j] / grid_s)) - t0, 0), last)
+        dt = tau[j] - t_grid[i]
+        sx = table[i, 0] + table[i, 4] * dt
+        sy = table[i, 1] + table[i, 5] * dt
+        sz = table[i, 2] + table[i, 6] * dt
+        dist = table[i, 3] + table[i, 7] * dt
+        rx, ry, rz = r[j, 0], r[j, 1], r[j, 2]
+        dx, dy, dz = sx * dist - rx, sy * dist - ry, sz * dist - rz
+        rd = rx * dx + ry * dy + rz * dz
+        r2 = rx * rx + ry * ry + rz * rz
+        lit[j] = (rd >= 0 or r2 - rd * rd / (dx * dx + dy * dy + dz * dz) > e2) and r2 > e2
+        c, s = math.cos(theta[j]), math.sin(theta[j])
+        m = station[j]
+        sun_el[j] = (c * sx + s * sy) * up[m, 0] + (c * sy - s * sx) * up[m, 1] + sz * up[m, 2]
+
+
+# --- the result's order ----------------------------------------------------------------------
+
+def permute_rows(rows: np.ndarray, order) -> None:
+    """Rows of a structured array put in the ``order`` given (``rows[:] = rows[order]``) in
+    place: the compiled loop follows the permutation's cycles, moving each row once (a bit
+    per row of extra memory); numpy's moves each field in turn (one field's copy extra)."""
+    if backend() == "numba" and rows.flags.c_contiguous and len(rows):
+        raw = rows.view(np.uint8).reshape(len(rows), rows.dtype.itemsize)
+        _jit("_permute_rows_loop")(raw, np.asarray(order, np.int64))
+        return
+    for name in rows.dtype.names:
+        rows[name] = rows[name][order]
+
+
+def _permute_rows_loop(raw, order):  # pragma: no cover - compiled by numba (its twin)
+    n, w = raw.shape
+    done = np.zeros(n, np.bool_)
+    tmp = np.empty(w, np.uint8)
+    for i in range(n):
+        if done[i] or order[i] == i:
+            continue
+        tmp[:] = raw[i]
+        j = i
+        while True:
+            done[j] = True
+            k = order[j]
+            if k == i:
+                raw[j] = tmp
+                break
+            raw[j] = raw[k]
+            j = k
