@@ -17,12 +17,12 @@ its clairvoyant references (benchmarks/streaming.py).
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
 
-from tracker.fewest_starts import fewest_starts
+from tracker.fewest_starts import FewestStarts, fewest_starts
 from tracker.geometry import MountPath
 from tracker.mount import AxisMotor, drive_axis
 from tracker.skytrack import interp1
@@ -64,11 +64,37 @@ def plan_schedule(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor, t0_s:
     at rest) to ``end_s`` that keeps the great-circle error within ``band_deg`` from
     ``from_s`` (default ``t0_s``) on (module doc), or None when none is found. With
     ``free_start`` the axes may rest anywhere at ``t0_s`` (a pre-position's last move goes
-    there): the schedule's ``expected(t0_s)`` is that start."""
-    found = fewest_starts(path, az_axis, el_axis, t0_s, end_s, band_deg, cycle_s, from_s,
-                          free_start)
-    if found is None:
-        return None
+    there): the schedule's ``expected(t0_s)`` is that start.
+
+    The programme keeps the band at half-cycle samples; the schedule is checked between them
+    too (every tenth of a cycle: an axis that arrives between two samples may leave the target
+    a little further off there), and where it is not kept, planned once more within a band
+    narrowed by the excess."""
+    within = band_deg
+    for _attempt in range(2):
+        found = fewest_starts(path, az_axis, el_axis, t0_s, end_s, within, cycle_s, from_s,
+                              free_start)
+        if found is None:
+            return None
+        fine = np.arange(t0_s, min(end_s, path.end_s) + 1e-9, cycle_s / 10.0)
+        got = _followed(found, path, az_axis, el_axis, t0_s, end_s, cycle_s, free_start, fine)
+        if got is None:
+            return None     # the model disagrees with the programme's own motion
+        sch, az_pos, el_pos = got
+        kept = fine >= (t0_s if from_s is None else from_s) - 1e-9
+        peak = float(np.max(path.error_deg(fine[kept], az_pos[kept], el_pos[kept]))) \
+            if kept.any() else 0.0
+        if peak <= band_deg + 1e-6:
+            return replace(sch, peak_error_deg=max(peak, sch.peak_error_deg))
+        within -= peak - band_deg + 0.01
+    return None
+
+
+def _followed(found: FewestStarts, path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor,
+              t0_s: float, end_s: float, cycle_s: float, free_start: bool, fine: np.ndarray
+              ) -> tuple[PassSchedule, np.ndarray, np.ndarray] | None:
+    """``found`` as the loop sends it, driven through the motor model, and its az / el over
+    ``fine``; None when the model's starts differ from the programme's."""
     moved = 0       # pre-position moves counted in ``found.starts``
     if free_start:
         moved = sum(abs(x - float(a.position(t0_s))) > 1e-9
@@ -89,11 +115,10 @@ def plan_schedule(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor, t0_s:
     ts = np.arange(t0_s, min(end_s, path.end_s) + 1e-9, cycle_s / 2.0)
     az_pos, starts_az = drive_axis(copy.copy(az_axis), t_out, az_out, ts)
     el_pos, starts_el = drive_axis(copy.copy(el_axis), t_out, el_out, ts)
-    err = path.error_deg(ts, az_pos, el_pos)
-    kept = err[ts >= (t0_s if from_s is None else from_s) - 1e-9]
-    peak = float(np.max(kept)) if len(kept) else 0.0
     starts = starts_az + starts_el
-    if peak > band_deg + 1e-6 or starts + moved != found.starts:
-        return None     # the model disagrees with the programme's own motion: not followed
-    return PassSchedule(tuple(t_out), tuple(az_out), tuple(el_out), starts, peak,
-                        float(ts[-1]), ts, az_pos, el_pos)
+    if starts + moved != found.starts:
+        return None
+    az_fine = drive_axis(copy.copy(az_axis), t_out, az_out, fine)[0]
+    el_fine = drive_axis(copy.copy(el_axis), t_out, el_out, fine)[0]
+    return (PassSchedule(tuple(t_out), tuple(az_out), tuple(el_out), starts, 0.0,
+                         float(ts[-1]), ts, az_pos, el_pos), az_fine, el_fine)
