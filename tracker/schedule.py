@@ -68,10 +68,10 @@ def plan_schedule(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor, t0_s:
 
     The programme keeps the band at half-cycle samples; the schedule is checked between them
     too (every tenth of a cycle: an axis that arrives between two samples may leave the target
-    a little further off there), and where it is not kept, planned once more within a band
-    narrowed by the excess."""
+    a little further off there), and where it is not kept, planned again (twice at most)
+    within a band narrowed by the excess."""
     within = band_deg
-    for _attempt in range(2):
+    for _attempt in range(3):
         found = fewest_starts(path, az_axis, el_axis, t0_s, end_s, within, cycle_s, from_s,
                               free_start)
         if found is None:
