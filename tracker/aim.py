@@ -298,8 +298,14 @@ def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t
     rows_az, rows_el = np.array(i_az, dtype=np.intp), np.array(i_el, dtype=np.intp)
 
     def err_cols(i0: int, i1: int, rows: np.ndarray) -> np.ndarray:   # (len(rows), i1 - i0)
-        return pointing_error_rows_deg(pos_az(i0, i1), pos_el(i0, i1), rows_az[rows],
-                                       rows_el[rows], path.stop_bearing_deg,
+        pa, ia = pos_az(i0, i1), rows_az[rows]
+        pe, ie = pos_el(i0, i1), rows_el[rows]
+        if len(rows) < k:
+            # A later block, for the few candidates still undecided: the trigonometry only
+            # of the axis rows they use.
+            pa, ia = _rows_used(pa, ia)
+            pe, ie = _rows_used(pe, ie)
+        return pointing_error_rows_deg(pa, pe, ia, ie, path.stop_bearing_deg,
                                        target_dir(i0, i1))
 
     hold_a, peak_a = _hold_and_peak(err_cols, ts, t0_s, arrival, deadband_deg, min_window_s,
@@ -326,6 +332,16 @@ def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t
     return Aim(az_m_deg=c_az[pick], el_deg=c_el[pick] if el_axis is not None else None,
                aim_t_s=c_t[pick], hold_s=hold[pick], peak_error_deg=peak[pick],
                arrival_s=arrival_l[pick], candidates=k, starts=starts[pick])
+
+
+def _rows_used(values: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The rows of ``values`` that ``index`` names, and ``index`` into those (``values`` and
+    ``index`` themselves when it names them all)."""
+    used = sorted(set(index.tolist()))
+    if len(used) == len(values):
+        return values, index
+    at = {r: j for j, r in enumerate(used)}
+    return values[used], np.array([at[r] for r in index.tolist()], dtype=np.intp)
 
 
 def _pick(hold: list[float], peak: list[float], starts: list[int], ok: list[bool],
