@@ -388,7 +388,7 @@ def _distinct_candidates(q_az: np.ndarray, q_el: np.ndarray, c_ts: np.ndarray, k
     click instead of two). The first of each distinct (az, el), in that order, but not the
     targets the axes already have (unless that is all there is)."""
     # A candidate equal to the one before it in its group is never a first: dropping those
-    # leaves a few to compare one by one.
+    # leaves a few to sort out.
     moves_az = np.empty(len(q_az), dtype=bool)
     moves_az[0] = True
     np.not_equal(q_az[1:], q_az[:-1], out=moves_az[1:])
@@ -396,20 +396,23 @@ def _distinct_candidates(q_az: np.ndarray, q_el: np.ndarray, c_ts: np.ndarray, k
     moves_el[0] = True
     np.not_equal(q_el[1:], q_el[:-1], out=moves_el[1:])
     az, el, ts = q_az.tolist(), q_el.tolist(), c_ts.tolist()
-    triples = [(az[i], el[i], ts[i]) for i in np.flatnonzero(moves_az | moves_el).tolist()]
+    rows = np.flatnonzero(moves_az | moves_el).tolist()
+    pairs, times = [(az[i], el[i]) for i in rows], [ts[i] for i in rows]
     if keep_el is not None:
-        triples += [(az[i], keep_el, ts[i]) for i in np.flatnonzero(moves_az).tolist()]
-        triples += [(keep_az, el[i], ts[i]) for i in np.flatnonzero(moves_el).tolist()]
+        rows_az, rows_el = np.flatnonzero(moves_az).tolist(), np.flatnonzero(moves_el).tolist()
+        pairs += [(az[i], keep_el) for i in rows_az]
+        pairs += [(keep_az, el[i]) for i in rows_el]
+        times += [ts[i] for i in rows_az]
+        times += [ts[i] for i in rows_el]
     else:
         keep_el = 0.0
-    first: dict[tuple[float, float], float] = {}
-    for a, e, t in triples:
-        if (a, e) not in first and (abs(a - keep_az) >= 1e-9 or abs(e - keep_el) >= 1e-9):
-            first[a, e] = t
-    if not first:
-        for a, e, t in triples:
-            first.setdefault((a, e), t)
-    return [a for a, _e in first], [e for _a, e in first], list(first.values())
+    # Each distinct pair in the order it first comes, with the time it first comes at (of
+    # repeated keys, a dict keeps the last value written: the first, written in reverse).
+    first_t = dict(zip(reversed(pairs), reversed(times), strict=True))
+    distinct = list(dict.fromkeys(pairs))
+    kept = [p for p in distinct if abs(p[0] - keep_az) >= 1e-9 or abs(p[1] - keep_el) >= 1e-9]
+    kept = kept or distinct
+    return [a for a, _e in kept], [e for _a, e in kept], [first_t[p] for p in kept]
 
 
 # Candidate errors are computed this many samples at a time, then twice as many more, ...
