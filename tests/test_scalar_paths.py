@@ -9,7 +9,12 @@ import numpy as np
 import pytest
 
 from tracker.aim import _predict, _predict_all, needs_command, quiet_until_s
-from tracker.geometry import MountPath, pointing_enu, pointing_error_deg
+from tracker.geometry import (
+    MountPath,
+    pointing_enu,
+    pointing_error_deg,
+    pointing_error_rows_deg,
+)
 from tracker.mount import AxisMotor, MotorModel, preset
 from tracker.skytrack import (
     SkyTrack,
@@ -68,6 +73,21 @@ def test_pointing_error_float_path_agrees_with_the_array_path(spec):
     got_no_el = [pointing_error_deg(spec, float(a), None, (float(x), float(y)))
                  for a, x, y in zip(ant_az, t_az, t_el, strict=True)]
     assert np.max(np.abs(np.array(got_no_el) - ref_no_el)) <= TOL
+
+
+@pytest.mark.parametrize("stop_deg", [0.0, 180.0])
+@pytest.mark.parametrize("low_deg", [0.5, -30.0, 0.0])
+def test_pointing_error_rows_is_the_pairs_error(stop_deg, low_deg):
+    # (az rows from low_deg: all above 0 takes np.fmod for np.mod, else np.mod itself)
+    rng = np.random.default_rng(18)
+    az = rng.uniform(low_deg, 450.0, (7, 40))
+    az[:, :3] = low_deg
+    el = rng.uniform(0.0, 180.0, (5, 40))
+    i_az, i_el = rng.integers(0, 7, 23), rng.integers(0, 5, 23)
+    target = azel_to_enu(rng.uniform(0, 360, 40), rng.uniform(-5, 90, 40))
+    ref = angle_between_deg(pointing_enu(az[i_az], el[i_el], stop_deg), target)
+    got = pointing_error_rows_deg(az, el, i_az, i_el, stop_deg, target)
+    assert np.array_equal(got, ref)
 
 
 def test_bearing_of_float_path_is_np_mod():

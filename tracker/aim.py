@@ -35,8 +35,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from tracker.geometry import MountPath, pointing_error_rows_deg
-from tracker.mount import AxisMotor, drive_axis, move_from_rest
-from tracker.skytrack import angle_between_deg, angle_between_scalar_deg, azel_to_enu_scalar
+from tracker.mount import AxisMotor, drive_axis, moves_from_rest
+from tracker.skytrack import (
+    angle_between_components_deg,
+    angle_between_scalar_deg,
+    azel_to_enu_scalar,
+)
 
 # What one command costs besides its motor starts, in starts: the bytes and the read-back
 # disturbance of a command that starts nothing (a retarget of a running motor).
@@ -85,30 +89,34 @@ Columns = Callable[[int, int], np.ndarray]
 
 
 def _predict_all(axis: AxisMotor, targets_deg: np.ndarray, t0_s: float, ts: np.ndarray
-                 ) -> tuple[Columns, np.ndarray, np.ndarray]:
+                 ) -> tuple[Columns, list[float], list[int]]:
     """:func:`_predict` for each of ``targets_deg``: ``positions(i0, i1)`` (the positions
-    ``(k, i1 - i0)`` over ``ts[i0:i1]``), arrival times and motor starts ``(k,)``, for all
-    targets at once and only over the columns asked for. An axis at rest takes
+    ``(k, i1 - i0)`` over ``ts[i0:i1]``), arrival times and motor starts (one per target),
+    for all targets at once and only over the columns asked for. An axis at rest takes
     :func:`~tracker.mount.drive_axis`'s closed form for one command; a running one
     :meth:`AxisMotor.command`'s retarget (no new start delay while it keeps its direction),
-    in the same arithmetic; a jammed one steps each."""
+    in the same arithmetic; a jammed one steps each. The targets are few (the distinct
+    quantised ones of an axis): arrivals and starts are worked out on floats."""
     if axis.jammed:
         sims = [_predict(axis, float(v), t0_s, ts) for v in targets_deg]
         pos_all = np.array([p for p, _a, _s in sims])
-        return (lambda i0, i1: pos_all[:, i0:i1], np.array([a for _p, a, _s in sims]),
-                np.array([s for _p, _a, s in sims]))
+        return (lambda i0, i1: pos_all[:, i0:i1], [a for _p, a, _s in sims],
+                [s for _p, _a, s in sims])
     p0 = float(axis.position(t0_s))
     cmd = _quantise(axis, targets_deg)
-    rate_deg_s, col = axis.rate_deg_s, cmd[:, None]
+    rate_deg_s, start_delay_s = axis.rate_deg_s, axis.start_delay_s
     if axis.moving(t0_s):
         was = axis.direction(t0_s)
         seg_t0_s, _p, _target, seg_delay_s, _rate, _jammed = axis.segment()
-        dist = cmd - p0
-        new = np.where(np.abs(dist) < 1e-9, 0, np.where(dist > 0, 1, -1))
-        delay = np.where(new == was, max(0.0, seg_t0_s + seg_delay_s - t0_s),
-                         np.where(new != 0, axis.start_delay_s, 0.0))
-        arrival = t0_s + delay + np.abs(dist) / rate_deg_s
-        sign, span, wait = np.copysign(1.0, dist)[:, None], np.abs(dist)[:, None], delay[:, None]
+        keep_delay_s = max(0.0, seg_t0_s + seg_delay_s - t0_s)
+        dists = (cmd - p0).tolist()
+        news = [0 if abs(d) < 1e-9 else (1 if d > 0 else -1) for d in dists]
+        delays = [keep_delay_s if new == was else start_delay_s if new != 0 else 0.0
+                  for new in news]
+        arrival = [t0_s + w + abs(d) / rate_deg_s for d, w in zip(dists, delays, strict=True)]
+        sign = np.array([math.copysign(1.0, d) for d in dists])[:, None]
+        span = np.array([abs(d) for d in dists])[:, None]
+        wait = np.array(delays)[:, None]
 
         def running(i0: int, i1: int) -> np.ndarray:
             # AxisMotor.position's operations in its order: the same numbers as stepping.
@@ -120,20 +128,21 @@ def _predict_all(axis: AxisMotor, targets_deg: np.ndarray, t0_s: float, ts: np.n
                 pos[:, early] = axis.position(t[early])
             return pos
 
-        return running, arrival, ((new != 0) & (new != was)).astype(int)
-    step = np.abs(cmd - p0)
-    moving = step > 1e-9
-    arrival = t0_s + np.where(moving, axis.start_delay_s, 0.0) + step / rate_deg_s
-    delay_s = axis.start_delay_s
+        return running, arrival, [int(new != 0 and new != was) for new in news]
+    steps = [abs(c - p0) for c in cmd.tolist()]
+    # np.where(step > 1e-9, delay, 0.0) and the rest of the closed form, in its order
+    arrival = [t0_s + (start_delay_s if step > 1e-9 else 0.0) + step / rate_deg_s
+               for step in steps]
+    moves = moves_from_rest(p0, cmd[:, None], rate_deg_s, start_delay_s)
 
     def positions(i0: int, i1: int) -> np.ndarray:
         t = ts[i0:i1]
-        pos = move_from_rest(p0, col, t[None, :] - t0_s, rate_deg_s, delay_s)
+        pos = moves(t[None, :] - t0_s)
         if len(t) and t[0] < t0_s:      # (samples are ascending)
             pos[:, t < t0_s] = p0
         return pos
 
-    return positions, arrival, moving.astype(int)
+    return positions, arrival, [int(step > 1e-9) for step in steps]
 
 
 def _at(path: MountPath, t_s: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -268,58 +277,87 @@ def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t
     q_el = _quantise(el_axis, cand_el) if el_axis is not None else np.zeros(n_cand)
     c_az, c_el, c_t = _distinct_candidates(q_az, q_el, ts[:n_cand], az_axis.target_deg,
                                            el_axis.target_deg if el_axis is not None else None)
+    k = len(c_az)
 
     # The axes are independent: simulate each distinct target once per axis.
     u_az, i_az = _unique_inverse(c_az)
     pos_az, arr_az, st_az = _predict_all(az_axis, u_az, t0_s, ts)
-    arr_az, st_az = arr_az[i_az], st_az[i_az]
     if el_axis is not None:
         u_el, i_el = _unique_inverse(c_el)
         pos_el, arr_el, st_el = _predict_all(el_axis, u_el, t0_s, ts)
-        arr_el, st_el = arr_el[i_el], st_el[i_el]
     else:
-        i_el = np.zeros(len(c_az), dtype=int)
+        i_el = [0] * k
         pos_el = lambda i0, i1: np.zeros((1, i1 - i0))  # noqa: E731
-        arr_el = np.full(len(c_az), t0_s)
-        st_el = np.zeros(len(c_az))
-    arrival = np.maximum(arr_az, arr_el)
-    starts = st_az + st_el
+        arr_el, st_el = [t0_s], [0]
+    # Per candidate (a few dozen): the later axis's arrival, both axes' starts.
+    arrival_l = [max(arr_az[a], arr_el[e]) for a, e in zip(i_az, i_el, strict=True)]
+    starts = [st_az[a] + st_el[e] for a, e in zip(i_az, i_el, strict=True)]
+    arrival = np.array(arrival_l)
     if min_window_s is None:
         min_window_s = 4.0 * step_s
+    rows_az, rows_el = np.array(i_az, dtype=np.intp), np.array(i_el, dtype=np.intp)
 
     def err_cols(i0: int, i1: int, rows: np.ndarray) -> np.ndarray:   # (len(rows), i1 - i0)
-        return pointing_error_rows_deg(pos_az(i0, i1), pos_el(i0, i1), i_az[rows],
-                                       i_el[rows], path.stop_bearing_deg, target_dir(i0, i1))
+        pa, ia = pos_az(i0, i1), rows_az[rows]
+        pe, ie = pos_el(i0, i1), rows_el[rows]
+        if len(rows) < k:
+            # A later block, for the few candidates still undecided: the trigonometry only
+            # of the axis rows they use.
+            pa, ia = _rows_used(pa, ia)
+            pe, ie = _rows_used(pe, ie)
+        return pointing_error_rows_deg(pa, pe, ia, ie, path.stop_bearing_deg,
+                                       target_dir(i0, i1))
 
-    hold, peak = _hold_and_peak(err_cols, ts, t0_s, arrival, deadband_deg, min_window_s,
-                                step_s)
+    hold_a, peak_a = _hold_and_peak(err_cols, ts, t0_s, arrival, deadband_deg, min_window_s,
+                                    step_s)
+    hold, peak = hold_a.tolist(), peak_a.tolist()
     # Slack above the best peak only when the deadband cannot be kept anyway (the rotator
     # lags); otherwise a longer hold must not buy a peak outside the deadband.
-    best_peak = float(np.min(peak))
-    usable = np.ones(len(c_az), dtype=bool)
+    best_peak = min(peak)
+    usable = [True] * k
     if best_peak > deadband_deg:
         # Far off the target (a pass joined under way, the antenna left behind): the errors
         # while slewing are every candidate's own, and the lowest peak can belong to one
         # that never reaches the deadband (moving only the quicker axis). Only candidates
         # that arrive inside the deadband can end the catch-up; choose among them.
         first_after = np.minimum(np.searchsorted(ts, arrival - 1e-9), len(ts) - 1)
-        acquires = (arrival <= ts[-1]) & (t0_s + hold > ts[first_after] + 1e-9)
+        acquires = (arrival <= ts[-1]) & (t0_s + hold_a > ts[first_after] + 1e-9)
         if acquires.any():
-            usable = acquires
-            best_peak = float(np.min(peak[acquires]))
+            usable = acquires.tolist()
+            best_peak = min(p for p, u in zip(peak, usable, strict=True) if u)
     level = deadband_deg if best_peak <= deadband_deg else best_peak + peak_slack_deg
-    ok = usable & (peak <= level)
-    # Hold per motor start (and a little per command): the fewest relay clicks and bytes for
-    # the time the error stays bounded.
-    value = hold / (starts + COMMAND_COST_STARTS)
-    best = float(np.max(np.where(ok, value, -np.inf)))
-    near = ok & (value >= hold_fraction * best)
-    pick = int(np.argmin(np.where(near, peak, np.inf)))
-    return Aim(az_m_deg=float(c_az[pick]),
-               el_deg=float(c_el[pick]) if el_axis is not None else None,
-               aim_t_s=float(c_t[pick]), hold_s=float(hold[pick]),
-               peak_error_deg=float(peak[pick]), arrival_s=float(arrival[pick]),
-               candidates=len(c_az), starts=int(starts[pick]))
+    pick = _pick(hold, peak, starts, [u and p <= level for u, p in zip(usable, peak,
+                                                                         strict=True)],
+                 hold_fraction)
+    return Aim(az_m_deg=c_az[pick], el_deg=c_el[pick] if el_axis is not None else None,
+               aim_t_s=c_t[pick], hold_s=hold[pick], peak_error_deg=peak[pick],
+               arrival_s=arrival_l[pick], candidates=k, starts=starts[pick])
+
+
+def _rows_used(values: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The rows of ``values`` that ``index`` names, and ``index`` into those (``values`` and
+    ``index`` themselves when it names them all)."""
+    used = sorted(set(index.tolist()))
+    if len(used) == len(values):
+        return values, index
+    at = {r: j for j, r in enumerate(used)}
+    return values[used], np.array([at[r] for r in index.tolist()], dtype=np.intp)
+
+
+def _pick(hold: list[float], peak: list[float], starts: list[int], ok: list[bool],
+          hold_fraction: float) -> int:
+    """Index of the chosen candidate: of those ``ok``, the ones whose hold per motor start
+    (and a little per command: the fewest relay clicks and bytes for the time the error
+    stays bounded) comes within ``hold_fraction`` of the best, the one with the smallest
+    peak (the first on a tie; the first candidate when none is ``ok``)."""
+    value = [h / (s + COMMAND_COST_STARTS) for h, s in zip(hold, starts, strict=True)]
+    best = max((v for v, o in zip(value, ok, strict=True) if o), default=-math.inf)
+    floor = hold_fraction * best
+    pick, pick_peak = 0, math.inf
+    for i, (v, o, p) in enumerate(zip(value, ok, peak, strict=True)):
+        if o and v >= floor and p < pick_peak:
+            pick, pick_peak = i, p
+    return pick
 
 
 def _within_reach(path: MountPath, ts: np.ndarray, target_dir: Columns, cur_dir: np.ndarray,
@@ -327,52 +365,54 @@ def _within_reach(path: MountPath, ts: np.ndarray, target_dir: Columns, cur_dir:
     """How many of ``ts`` come before the first whose target is more than ``reach_deg`` from
     ``cur_dir`` (at least 1; all when none is)."""
     t0_s = float(ts[0])
+    c0, c1, c2 = cur_dir.tolist()
     for i0, i1 in _blocks(len(ts)):
         # The target moves at most its travel bound: a block it cannot leave the reach in
         # needs no samples (the errors may never get that far).
         if path.target_travel_bound_deg(t0_s, float(ts[i1 - 1])) < reach_deg - _BOUND_SLACK_DEG:
             continue
-        beyond = np.flatnonzero(angle_between_deg(target_dir(i0, i1), cur_dir) > reach_deg)
+        d = target_dir(i0, i1)
+        # angle_between_deg(d, cur_dir), from the components at hand
+        off_deg = angle_between_components_deg(d[:, 0], d[:, 1], d[:, 2], c0, c1, c2)
+        beyond = np.flatnonzero(off_deg > reach_deg)
         if len(beyond):
             return max(1, i0 + int(beyond[0]))
     return len(ts)
 
 
 def _distinct_candidates(q_az: np.ndarray, q_el: np.ndarray, c_ts: np.ndarray, keep_az: float,
-                         keep_el: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                         keep_el: float | None) -> tuple[list[float], list[float], list[float]]:
     """The candidate ``(az, el, aim time)`` rows from the quantised path points ``q_az``,
     ``q_el`` at ``c_ts``: each point, then (with an elevation axis, ``keep_el`` not None)
     each moving only azimuth, then only elevation (the other keeps its target: one relay
     click instead of two). The first of each distinct (az, el), in that order, but not the
     targets the axes already have (unless that is all there is)."""
     # A candidate equal to the one before it in its group is never a first: dropping those
-    # leaves a few to compare one by one.
+    # leaves a few to sort out.
     moves_az = np.empty(len(q_az), dtype=bool)
     moves_az[0] = True
     np.not_equal(q_az[1:], q_az[:-1], out=moves_az[1:])
     moves_el = np.empty(len(q_el), dtype=bool)
     moves_el[0] = True
     np.not_equal(q_el[1:], q_el[:-1], out=moves_el[1:])
-    both = np.flatnonzero(moves_az | moves_el)
-    triples = list(zip(q_az[both].tolist(), q_el[both].tolist(), c_ts[both].tolist(),
-                       strict=True))
+    az, el, ts = q_az.tolist(), q_el.tolist(), c_ts.tolist()
+    rows = np.flatnonzero(moves_az | moves_el).tolist()
+    pairs, times = [(az[i], el[i]) for i in rows], [ts[i] for i in rows]
     if keep_el is not None:
-        only_az, only_el = np.flatnonzero(moves_az), np.flatnonzero(moves_el)
-        triples += [(a, keep_el, t) for a, t in zip(q_az[only_az].tolist(),
-                                                    c_ts[only_az].tolist(), strict=True)]
-        triples += [(keep_az, e, t) for e, t in zip(q_el[only_el].tolist(),
-                                                    c_ts[only_el].tolist(), strict=True)]
+        rows_az, rows_el = np.flatnonzero(moves_az).tolist(), np.flatnonzero(moves_el).tolist()
+        pairs += [(az[i], keep_el) for i in rows_az]
+        pairs += [(keep_az, el[i]) for i in rows_el]
+        times += [ts[i] for i in rows_az]
+        times += [ts[i] for i in rows_el]
     else:
         keep_el = 0.0
-    first: dict[tuple[float, float], float] = {}
-    for a, e, t in triples:
-        if (a, e) not in first and (abs(a - keep_az) >= 1e-9 or abs(e - keep_el) >= 1e-9):
-            first[a, e] = t
-    if not first:
-        for a, e, t in triples:
-            first.setdefault((a, e), t)
-    return (np.array([a for a, _e in first]), np.array([e for _a, e in first]),
-            np.array(list(first.values())))
+    # Each distinct pair in the order it first comes, with the time it first comes at (of
+    # repeated keys, a dict keeps the last value written: the first, written in reverse).
+    first_t = dict(zip(reversed(pairs), reversed(times), strict=True))
+    distinct = list(dict.fromkeys(pairs))
+    kept = [p for p in distinct if abs(p[0] - keep_az) >= 1e-9 or abs(p[1] - keep_el) >= 1e-9]
+    kept = kept or distinct
+    return [a for a, _e in kept], [e for _a, e in kept], [first_t[p] for p in kept]
 
 
 # Candidate errors are computed this many samples at a time, then twice as many more, ...
@@ -391,12 +431,12 @@ def _blocks(n: int) -> list[tuple[int, int]]:
     return out
 
 
-def _unique_inverse(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _unique_inverse(values: list[float]) -> tuple[np.ndarray, list[int]]:
     """``np.unique(values, return_inverse=True)`` for the few candidate targets of an axis
     (a dict, at a fraction of its call cost)."""
-    distinct = sorted(set(values.tolist()))
+    distinct = sorted(set(values))
     index = {v: k for k, v in enumerate(distinct)}
-    return np.array(distinct), np.array([index[v] for v in values.tolist()], dtype=np.intp)
+    return np.array(distinct), [index[v] for v in values]
 
 
 def _hold_and_peak(err_cols: Callable[[int, int, np.ndarray], np.ndarray], ts: np.ndarray,
@@ -411,22 +451,22 @@ def _hold_and_peak(err_cols: Callable[[int, int, np.ndarray], np.ndarray], ts: n
     k = len(arrival)
     # The error before the quickest candidate can arrive is the same for all of them (the
     # antenna is where it is), so it does not count in the comparison.
-    t_settle = min(float(np.min(arrival)), ts[-1])
+    t_settle = min(float(arrival.min()), ts[-1])
     blocks = iter(_blocks(n))
     m = next(blocks)[1]
     err = err_cols(0, m, np.arange(k))
-    # Per candidate, fixed over the blocks: the samples from its arrival on, whether it
-    # arrives within the horizon, and the end of its slew plus a step.
-    arrived = ts[None, :] >= arrival[:, None]
+    # Per candidate, fixed over the blocks: its arrival, whether it arrives within the
+    # horizon, and the end of its slew plus a step.
+    arrival_col = arrival[:, None]
     arrives = arrival <= ts[-1]
     slew_end = arrival + step_s
     while True:
         # The loop commands again once the antenna, settled on its aim point, is more than
         # the deadband off the path; a candidate that cannot arrive inside the horizon holds
         # nothing.
-        leaves = arrived[:, :m] & (err > deadband_deg)
+        leaves = (ts[None, :m] >= arrival_col) & (err > deadband_deg)
         next_idx = np.argmax(leaves, axis=1)
-        left = leaves[np.arange(k), next_idx]
+        left = leaves.any(axis=1)
         next_idx[~left] = n - 1
         hold = np.where(arrives, ts[next_idx] - t0_s, 0.0)
         window_end = np.maximum(t0_s + np.maximum(hold, min_window_s), t_settle)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import Any, overload
@@ -551,12 +552,27 @@ def move_from_rest(start_deg: np.ndarray | float, target_deg: np.ndarray | float
     """Where an axis at rest on ``start_deg`` is ``dt_s`` after being told to go to
     ``target_deg``: :class:`AxisMotor`'s kinematics (start delay, then constant rate),
     broadcast over any shapes."""
+    return moves_from_rest(start_deg, target_deg, rate_deg_s, start_delay_s)(dt_s)
+
+
+def moves_from_rest(start_deg: np.ndarray | float, target_deg: np.ndarray | float,
+                    rate_deg_s: float, start_delay_s: float
+                    ) -> Callable[[np.ndarray | float], np.ndarray]:
+    """:func:`move_from_rest` as a function of ``dt_s`` alone: what depends only on the
+    start and the targets (distance, direction, start delay) is worked out once, for a
+    caller that asks about one set of moves over several stretches of time (the aim
+    policy's error blocks)."""
     dist = np.asarray(target_deg, dtype=float) - start_deg
     span = np.abs(dist)
-    # np.minimum(np.maximum(...)) is np.clip's result at a fraction of its call cost.
-    travelled = np.minimum(np.maximum(
-        (dt_s - np.where(span > 1e-9, start_delay_s, 0.0)) * rate_deg_s, 0.0), span)
-    return start_deg + np.sign(dist) * travelled
+    wait_s = np.where(span > 1e-9, start_delay_s, 0.0)
+    sign = np.sign(dist)
+
+    def at(dt_s: np.ndarray | float) -> np.ndarray:
+        # np.minimum(np.maximum(...)) is np.clip's result at a fraction of its call cost.
+        travelled = np.minimum(np.maximum((dt_s - wait_s) * rate_deg_s, 0.0), span)
+        return start_deg + sign * travelled
+
+    return at
 
 
 def drive_axis(axis: AxisMotor, cmd_t_s: ArrayLike, cmd_deg: ArrayLike, t_eval_s: ArrayLike,

@@ -186,7 +186,13 @@ class AxisWatch:
         expect = self.expect
         if expect is None or self.ref_t_s is None:
             return None
-        ref_deg, target_deg = self.ref_pos_deg, expect.target_deg
+        ref_deg = self.ref_pos_deg
+        if readback_deg == ref_deg and expect.rests_on(readback_deg):
+            # Most cycles of a healthy pass: on target, as the cycle before (no motion
+            # seen, at the target: the branch below, without working that out).
+            self._moved(t_s, readback_deg, seen=False)
+            return None
+        target_deg = expect.target_deg
         step_deg = resolution_deg - 1e-9
         moved = abs(readback_deg - ref_deg)
         if moved >= step_deg or abs(readback_deg - target_deg) < step_deg:

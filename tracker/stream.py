@@ -290,6 +290,9 @@ class TrackCore:
         self._quiet_span: tuple[float, float, float, int, int | None] | None = None
         self._park_sent_s: float | None = None
         self._last_wire_az: float | None = None
+        # (wire azimuth, belief) -> its mechanical azimuth, of the last reading (_observe)
+        self._mech_key: tuple[float, float | None] | None = None
+        self._mech_az = 0.0
         self._wire_still_since_s = -math.inf
         self._az_command_t_s = -math.inf        # when the azimuth was last told a new target
         self._resend_due = False
@@ -347,7 +350,12 @@ class TrackCore:
         expected_az = motor.az.position(t_s) if motor is not None else None
         belief = expected_az if expected_az is not None else (
             self.antenna[0] if self.antenna else None)
-        m_az = self._frame.nearest_mech_of_wire(wire_az_deg, belief)
+        # At rest the reading and the belief stay the same cycle after cycle: so does this.
+        if (wire_az_deg, belief) == self._mech_key:
+            m_az = self._mech_az
+        else:
+            m_az = self._frame.nearest_mech_of_wire(wire_az_deg, belief)
+            self._mech_key, self._mech_az = (wire_az_deg, belief), m_az
         early = False
         if self._last_wire_az is None or abs(wire_az_deg - self._last_wire_az) >= 0.5:
             self._wire_still_since_s = t_s
