@@ -98,7 +98,8 @@ def use(name: str | None) -> str | None:
 
 # Functions the loops call: compiled (in place of the Python ones, which only the loops use)
 # before the first loop is.
-_HELPERS = ("_sin_el_newton", "_bracket_step", "_rates", "_sub_arc_trig", "_look_and_f")
+_HELPERS = ("_el_rate_at", "_sin_el_newton", "_bracket_step", "_rates", "_sub_arc_trig",
+            "_look_and_f")
 
 
 def _jit(name: str):
@@ -790,20 +791,25 @@ def el_rate(frames: geo.StationFrames, r_ecef, v_ecef, sel, st):
 
 def _el_rate_loop(x, y, z, vx, vy, vz, sel, st, ecef, up, el, rate
                   ):  # pragma: no cover - compiled by numba (el_rate's twin)
-    deg = 180.0 / math.pi
     for j in range(len(sel)):
-        i, m = sel[j], st[j]
-        dx, dy, dz = x[i] - ecef[m, 0], y[i] - ecef[m, 1], z[i] - ecef[m, 2]
-        u0, u1, u2 = up[m, 0], up[m, 1], up[m, 2]
-        ru = dx * u0 + dy * u1 + dz * u2
-        dist2 = dx * dx + dy * dy + dz * dz
-        inv = 1.0 / math.sqrt(dist2)
-        sin_el = min(max(ru * inv, -1.0), 1.0)
-        el[j] = math.asin(sin_el) * deg
-        vu = vx[i] * u0 + vy[i] * u1 + vz[i] * u2
-        rv = dx * vx[i] + dy * vy[i] + dz * vz[i]
-        d_sin = (vu - ru * rv / dist2) * inv
-        rate[j] = d_sin / math.sqrt(max(1.0 - sin_el * sin_el, 1e-12)) * deg
+        el[j], rate[j] = _el_rate_at(x, y, z, vx, vy, vz, sel[j], ecef, up, st[j])
+
+
+def _el_rate_at(x, y, z, vx, vy, vz, i, ecef, up, m
+                ):  # pragma: no cover - compiled by numba (a helper of the loops)
+    """Elevation and its rate (deg, deg/s) of sample ``i`` from station ``m``."""
+    deg = 180.0 / math.pi
+    dx, dy, dz = x[i] - ecef[m, 0], y[i] - ecef[m, 1], z[i] - ecef[m, 2]
+    u0, u1, u2 = up[m, 0], up[m, 1], up[m, 2]
+    ru = dx * u0 + dy * u1 + dz * u2
+    dist2 = dx * dx + dy * dy + dz * dz
+    inv = 1.0 / math.sqrt(dist2)
+    sin_el = min(max(ru * inv, -1.0), 1.0)
+    vu = vx[i] * u0 + vy[i] * u1 + vz[i] * u2
+    rv = dx * vx[i] + dy * vy[i] + dz * vz[i]
+    d_sin = (vu - ru * rv / dist2) * inv
+    return (math.asin(sin_el) * deg,
+            d_sin / math.sqrt(max(1.0 - sin_el * sin_el, 1e-12)) * deg)
 
 
 def sample_flags(el, rate, thr, sel, ok, s_loc, j, st) -> tuple:
@@ -902,23 +908,12 @@ def _look_and_f(x, y, z, vx, vy, vz, sel, st, ecef, up, thr, ok, el, rate, f
                 ):  # pragma: no cover - compiled by numba (pass 1 of _station_brackets_loop)
     """Look angles (as _el_rate_loop) and f (as _sample_flags_loop) of every sample; an
     invalid one gets f = -1e3 and rate 0."""
-    deg = 180.0 / math.pi
     for i in range(len(sel)):
-        k, s = sel[i], st[i]
+        k = sel[i]
         if not ok[k]:
             f[i], rate[i] = -1e3, 0.0
             continue
-        dx, dy, dz = x[k] - ecef[s, 0], y[k] - ecef[s, 1], z[k] - ecef[s, 2]
-        u0, u1, u2 = up[s, 0], up[s, 1], up[s, 2]
-        ru = dx * u0 + dy * u1 + dz * u2
-        dist2 = dx * dx + dy * dy + dz * dz
-        inv = 1.0 / math.sqrt(dist2)
-        sin_el = min(max(ru * inv, -1.0), 1.0)
-        el[i] = math.asin(sin_el) * deg
-        vu = vx[k] * u0 + vy[k] * u1 + vz[k] * u2
-        rv = dx * vx[k] + dy * vy[k] + dz * vz[k]
-        d_sin = (vu - ru * rv / dist2) * inv
-        rate[i] = d_sin / math.sqrt(max(1.0 - sin_el * sin_el, 1e-12)) * deg
+        el[i], rate[i] = _el_rate_at(x, y, z, vx, vy, vz, k, ecef, up, st[i])
         f[i] = el[i] - thr[i]
 
 
