@@ -256,3 +256,14 @@ def test_after_a_fast_stretch_it_cannot_keep_the_rest_of_the_pass_is_planned_aga
     first, second = plans
     assert first.end_s < T0 + 150.0 < T0 + 156.0 < second.sample_t_s[0]
     assert second.end_s == pytest.approx(rig.core.los_s, abs=0.5)
+
+
+def test_a_target_out_of_the_axes_reach_gets_no_schedule_and_no_error():
+    # The target sinks to el -10 (at once, or by and by): where no elevation the axis can take
+    # is within reach, no schedule of the class exists (the loop's aim policy goes on).
+    ts = np.arange(T0, T0 + 60.0 + 1e-9, 0.25)
+    for el in (np.full_like(ts, -10.0), np.maximum(5.0 - 0.25 * (ts - T0), -10.0)):
+        path = MountPath.from_arrays(ts, np.full_like(ts, 100.0), el, SPEC)
+        motor = MotorModel(SPEC, 100.0, 0.0, T0)
+        assert fewest_starts(path, motor.az, motor.el, T0, T0 + 60.0, 2.0) is None
+        assert plan_schedule(path, motor.az, motor.el, T0, T0 + 60.0, 2.0) is None

@@ -198,11 +198,14 @@ class _AxisGraph:
         self.e_src, self.e_cost = src_a[order], cost_a[order]
         self.e_off = np.searchsorted(self.e_samp, np.arange(n + 1))
         # Each state's first edge, per sample (reduceat's groups).
-        new = np.concatenate(([True], (self.e_dst[1:] != self.e_dst[:-1])
+        new = np.concatenate((np.ones(min(len(self.e_dst), 1), dtype=bool),
+                              (self.e_dst[1:] != self.e_dst[:-1])
                               | (self.e_samp[1:] != self.e_samp[:-1])))
         self.e_first = np.flatnonzero(new) - self.e_off[self.e_samp[new]]
         self.f_off = np.searchsorted(self.e_samp[new], np.arange(n + 1))
         self.size = size
+        # A sample with no state in reach: no schedule of the class can pass it.
+        self.blocked = bool((size[1:] == 0).any())
         self._trig: tuple[np.ndarray, np.ndarray] | None = None
 
     def positions(self, s: int) -> np.ndarray:
@@ -292,6 +295,8 @@ def fewest_starts(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor, t0_s:
         costs.append(np.where(np.abs(graphs[k].positions(0) - here) > 1e-9, 1.0, 0.0
                               ).astype(np.float32))
     ga, ge = graphs
+    if ga.blocked or ge.blocked:
+        return None
     # Between samples the target moves on: an antenna at rest within band - (half its travel
     # to the neighbouring samples) at a sample stays within the band until the next one.
     step = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", target[1:], target[:-1]),
