@@ -70,6 +70,15 @@ if HANDLERS_PACKAGE not in serial.protocol_handler_packages:
 
 _REAL_TIME = SystemClock()
 
+try:
+    import termios
+
+    # A tty that goes away while pyserial sets it up (a pty whose other end closes, a USB
+    # adapter unplugged) fails in termios, whose error is not an OSError.
+    _TTY_ERRORS: tuple[type[Exception], ...] = (termios.error,)
+except ImportError:     # Windows
+    _TTY_ERRORS = ()
+
 
 def is_emulated(url: str) -> bool:
     """True for an ``emu://`` URL (an in-process emulator)."""
@@ -91,7 +100,7 @@ def open_port(url: str, baudrate: int = 9600, timeout_s: float = 1.0,
     try:
         port = serial.serial_for_url(url, baudrate=baudrate, timeout=timeout_s,
                                      write_timeout=write_timeout_s, rtscts=rtscts, **kwargs)
-    except (serial.SerialException, OSError, ValueError, OverflowError) as e:
+    except (serial.SerialException, OSError, ValueError, OverflowError, *_TTY_ERRORS) as e:
         raise RotatorIOError(f"cannot open port {url!r}: {e}. Check the device path or URL "
                              f"(e.g. /dev/ttyUSB0, COM3, socket://127.0.0.1:4533, "
                              f"emu://gs232b)") from e

@@ -30,6 +30,20 @@ def test_open_failure_says_what_to_check():
         open_port("/dev/does-not-exist-tracker")
 
 
+def test_a_tty_lost_while_it_is_set_up_is_an_open_failure(monkeypatch):
+    # pyserial flushes a tty it has just opened; if the device went away in between (an
+    # emulator's pty closing, a USB adapter pulled), termios raises its own error, which
+    # must read as a port that cannot be opened, not a traceback.
+    termios = pytest.importorskip("termios")
+
+    def gone(*_args, **_kwargs):
+        raise termios.error(5, "Input/output error")
+
+    monkeypatch.setattr("tracker.transport.serial.serial_for_url", gone)
+    with pytest.raises(RotatorIOError, match=r"cannot open port.*Input/output error"):
+        open_port("/dev/ttyUSB9")
+
+
 def test_closing_a_network_port_does_not_linger(monkeypatch):
     # pyserial's socket:// close() sleeps 0.3 s "for quick reconnects"; every reconnect and
     # every TCP test paid it. Closing must still shut the socket and free the server.
