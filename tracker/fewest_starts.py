@@ -1,8 +1,8 @@
 """The whole-pass command schedule with the fewest motor starts (a dynamic programme, numpy).
 
-:func:`tracker.schedule.plan_schedule` splits the deadband between the axes and plans each
-greedily. Here both axes are planned together, exactly, over a class of schedules the motor
-model (:class:`tracker.mount.AxisMotor`) carries out as planned:
+Both axes are planned together, exactly, over a class of schedules the motor model
+(:class:`tracker.mount.AxisMotor`) carries out as planned (:func:`tracker.schedule.plan_schedule`
+turns the result into the commands the live loop sends and checks them):
 
 * every command goes out on a cycle instant, to an axis at rest, with a target on the axis's
   grid (multiples of its resolution, about a degree apart: whole degrees on a GS-232); after
