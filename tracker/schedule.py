@@ -17,7 +17,7 @@ its clairvoyant references (benchmarks/streaming.py).
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
@@ -71,30 +71,36 @@ def plan_schedule(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor, t0_s:
     a little further off there), and where it is not kept, planned again (twice at most)
     within a band narrowed by the excess."""
     within = band_deg
+    # Every tenth of a cycle; every fifth of those is a half-cycle sample, where
+    # :meth:`PassSchedule.expected` interpolates.
+    fine = np.arange(t0_s, min(end_s, path.end_s) + 1e-9, cycle_s / 10.0)
+    kept = fine >= (t0_s if from_s is None else from_s) - 1e-9
     for _attempt in range(3):
         found = fewest_starts(path, az_axis, el_axis, t0_s, end_s, within, cycle_s, from_s,
                               free_start)
         if found is None:
             return None
-        fine = np.arange(t0_s, min(end_s, path.end_s) + 1e-9, cycle_s / 10.0)
-        got = _followed(found, path, az_axis, el_axis, t0_s, end_s, cycle_s, free_start, fine)
+        got = _followed(found, az_axis, el_axis, t0_s, free_start, fine)
         if got is None:
             return None     # the model disagrees with the programme's own motion
-        sch, az_pos, el_pos = got
-        kept = fine >= (t0_s if from_s is None else from_s) - 1e-9
+        commands, starts, az_pos, el_pos = got
         peak = float(np.max(path.error_deg(fine[kept], az_pos[kept], el_pos[kept]))) \
             if kept.any() else 0.0
         if peak <= band_deg + 1e-6:
-            return replace(sch, peak_error_deg=max(peak, sch.peak_error_deg))
+            half = fine[::5]
+            return PassSchedule(*commands, starts, peak, float(half[-1]), half, az_pos[::5],
+                                el_pos[::5])
         within -= peak - band_deg + 0.01
     return None
 
 
-def _followed(found: FewestStarts, path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor,
-              t0_s: float, end_s: float, cycle_s: float, free_start: bool, fine: np.ndarray
-              ) -> tuple[PassSchedule, np.ndarray, np.ndarray] | None:
-    """``found`` as the loop sends it, driven through the motor model, and its az / el over
-    ``fine``; None when the model's starts differ from the programme's."""
+def _followed(found: FewestStarts, az_axis: AxisMotor, el_axis: AxisMotor, t0_s: float,
+              free_start: bool, ts: np.ndarray
+              ) -> tuple[tuple[tuple[float, ...], ...], int, np.ndarray, np.ndarray] | None:
+    """``found`` as the loop sends it (times, az, el: each command names both axes, the one
+    not meant to move keeps its previous target), its motor starts and az / el over ``ts``,
+    driven through the motor model; None when the model's starts differ from the
+    programme's."""
     moved = 0       # pre-position moves counted in ``found.starts``
     if free_start:
         moved = sum(abs(x - float(a.position(t0_s))) > 1e-9
@@ -103,7 +109,6 @@ def _followed(found: FewestStarts, path: MountPath, az_axis: AxisMotor, el_axis:
                                       a.resolution_deg, x, t0_s)
                             for a, x in ((az_axis, found.start_az_deg),
                                          (el_axis, found.start_el_deg)))
-    # Each command names both axes: the one not meant to move keeps its previous target.
     az_t, el_t = float(az_axis.target_deg), float(el_axis.target_deg)
     t_out, az_out, el_out = [], [], []
     for t, a, e in found.commands:
@@ -112,13 +117,9 @@ def _followed(found: FewestStarts, path: MountPath, az_axis: AxisMotor, el_axis:
         t_out.append(t)
         az_out.append(az_t)
         el_out.append(el_t)
-    ts = np.arange(t0_s, min(end_s, path.end_s) + 1e-9, cycle_s / 2.0)
     az_pos, starts_az = drive_axis(copy.copy(az_axis), t_out, az_out, ts)
     el_pos, starts_el = drive_axis(copy.copy(el_axis), t_out, el_out, ts)
-    starts = starts_az + starts_el
-    if starts + moved != found.starts:
+    if starts_az + starts_el + moved != found.starts:
         return None
-    az_fine = drive_axis(copy.copy(az_axis), t_out, az_out, fine)[0]
-    el_fine = drive_axis(copy.copy(el_axis), t_out, el_out, fine)[0]
-    return (PassSchedule(tuple(t_out), tuple(az_out), tuple(el_out), starts, 0.0,
-                         float(ts[-1]), ts, az_pos, el_pos), az_fine, el_fine)
+    return ((tuple(t_out), tuple(az_out), tuple(el_out)), starts_az + starts_el, az_pos,
+            el_pos)
