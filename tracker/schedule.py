@@ -83,20 +83,21 @@ def plan_schedule(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor, t0_s:
         got = _followed(found, az_axis, el_axis, t0_s, free_start, fine)
         if got is None:
             return None     # the model disagrees with the programme's own motion
-        commands, starts, az_pos, el_pos = got
+        (t_out, az_out, el_out), starts, az_pos, el_pos = got
         peak = float(np.max(path.error_deg(fine[kept], az_pos[kept], el_pos[kept]))) \
             if kept.any() else 0.0
         if peak <= band_deg + 1e-6:
             half = fine[::5]
-            return PassSchedule(*commands, starts, peak, float(half[-1]), half, az_pos[::5],
-                                el_pos[::5])
+            return PassSchedule(t_out, az_out, el_out, starts, peak, float(half[-1]), half,
+                                az_pos[::5], el_pos[::5])
         within -= peak - band_deg + 0.01
     return None
 
 
 def _followed(found: FewestStarts, az_axis: AxisMotor, el_axis: AxisMotor, t0_s: float,
               free_start: bool, ts: np.ndarray
-              ) -> tuple[tuple[tuple[float, ...], ...], int, np.ndarray, np.ndarray] | None:
+              ) -> tuple[tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]], int,
+                         np.ndarray, np.ndarray] | None:
     """``found`` as the loop sends it (times, az, el: each command names both axes, the one
     not meant to move keeps its previous target), its motor starts and az / el over ``ts``,
     driven through the motor model; None when the model's starts differ from the
