@@ -296,14 +296,12 @@ def evals(table) -> int:
 
 
 def choose_kernels(name: str) -> str:
-    """Select the finder's kernels ("best": numba when installed); returns the choice."""
-    import importlib.util
-
-    from tracker.batch import kernels
+    """Select the finder's kernels ("best": numba when it runs here); returns the choice."""
+    from tracker import compiled
 
     if name == "best":
-        name = "numba" if importlib.util.find_spec("numba") else "numpy"
-    kernels.use(None if name == "auto" else name)
+        name = compiled.best()
+    compiled.use(None if name == "auto" else name)
     return name
 
 

@@ -1,7 +1,7 @@
 """Decision cost of the live loop per cycle, and its command transcript on a pass sample.
 
 Run: ``python benchmarks/decision_cost.py [--passes 40] [--days 1] [--max-sats 30]
-[--save FILE | --check FILE]``
+[--save FILE | --check FILE] [--kernels best|numba|numpy]``
 
 Flies an evenly spread sample of the pass suite (benchmarks/passsuite.py) with the stream
 policy of benchmarks/streaming.py (G-5500 at 50 Hz, deadband 3 deg, 0.5 s cycle) and prints
@@ -32,6 +32,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from passsuite import pass_suite, sample_suite
 from streaming import CycleMeter, fly_stream
 
+from tracker import compiled
 from tracker.mount import preset
 
 TOL_DEG = 1e-9
@@ -69,7 +70,11 @@ def main(argv=None) -> int:
     ap.add_argument("--deadband", type=float, default=3.0)
     ap.add_argument("--save", type=Path, help="write the command transcript here")
     ap.add_argument("--check", type=Path, help="compare with a transcript saved before")
+    ap.add_argument("--kernels", choices=("best", "numba", "numpy"), default="best",
+                    help="the whole-pass programme's implementation (best: numba when it runs "
+                         "here)")
     args = ap.parse_args(argv)
+    compiled.use(compiled.best() if args.kernels == "best" else args.kernels)
     spec = preset("G-5500", 50)
     suite = pass_suite(days=args.days, max_sats=args.max_sats or None)
     sample = sample_suite(suite, args.passes)
@@ -81,7 +86,8 @@ def main(argv=None) -> int:
         transcript[pass_key(sp)] = [[t, az, el] for t, az, el in cmds]
     cpu_s = time.process_time() - c0
     print(f"{len(sample)} of {len(suite)} passes ({args.days:g} d, {args.max_sats or 'all'} "
-          f"sats/group), {spec.name}, deadband {args.deadband:g} deg: {meter.cycles} cycles")
+          f"sats/group), {spec.name}, deadband {args.deadband:g} deg: {meter.cycles} cycles; "
+          f"kernels: {compiled.backend()}")
     print(f"decision cost per cycle (observe+decide+commanded+status, CPU): "
           f"{meter.us_per_cycle:.1f} us")
     print(f"whole-pass schedule, planned once a pass (not counted above): "

@@ -1,9 +1,11 @@
 """Streaming benchmark: the live loop's pointing judged at equal accuracy, on a simulated G-5500.
 
 Run: ``python benchmarks/streaming.py [--sample 100] [--deadband 2 3 4 5] [--days 1]
-[--max-sats 30] [--no-peers] [--no-joint] [--workers N]`` (the whole 1-day suite:
-``--sample 0``; the 7-day suite: ``--days 7 --max-sats 0 --sample N``; ``--sample`` flies N
-passes spread evenly; ``--workers`` shares the passes among N processes, the same results)
+[--max-sats 30] [--no-peers] [--no-joint] [--workers N] [--kernels best|numba|numpy]``
+(the whole 1-day suite: ``--sample 0``; the 7-day suite: ``--days 7 --max-sats 0 --sample N``;
+``--sample`` flies N passes spread evenly; ``--workers`` shares the passes among N processes,
+the same results; ``--kernels``: the whole-pass programme compiled by numba where it runs,
+the same schedules)
 
 Every policy flies the passes of the pass suite (benchmarks/passsuite.py) against the same
 simulated rotator (THE motor model, tracker.mount, G-5500 at 50 Hz rates), starting parked:
@@ -60,6 +62,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from passsuite import pass_suite, sample_suite
 
 import tracker.stream as stream_mod
+from tracker import compiled
 from tracker.aim import gpredict_aim
 from tracker.fewest_starts import fewest_starts
 from tracker.geometry import MountPath, pointing_error_deg
@@ -392,9 +395,11 @@ def _by_elevation(suite, ours: np.ndarray, bounds: list, joint: list) -> list[tu
 _WORKER_SUITE: list = []
 
 
-def _set_worker_suite(suite: list) -> None:
+def _set_worker_suite(suite: list, kernels: str | None = None) -> None:
     global _WORKER_SUITE
     _WORKER_SUITE = suite
+    if kernels is not None:
+        compiled.use(kernels)
 
 
 def _on_pass(task: tuple):
@@ -418,7 +423,7 @@ class PassMap:
                 _set_worker_suite(suite)
             self.pool = ProcessPoolExecutor(
                 workers, mp_context=ctx, initializer=None if fork else _set_worker_suite,
-                initargs=() if fork else (suite,))
+                initargs=() if fork else (suite, compiled.backend()))
             self.chunk = max(1, len(suite) // (8 * workers))
 
     def map(self, fn, args: list[tuple]) -> list:
@@ -701,7 +706,11 @@ def main(argv=None) -> int:
                          "those that need a keyhole, an ahead path or an unwind")
     ap.add_argument("--workers", type=int, default=1,
                     help="fly the passes in this many processes (the same results as 1)")
+    ap.add_argument("--kernels", choices=("best", "numba", "numpy"), default="best",
+                    help="the whole-pass programme's implementation (the same schedules; "
+                         "best: numba when it runs here)")
     args = ap.parse_args(argv)
+    compiled.use(compiled.best() if args.kernels == "best" else args.kernels)
     spec = preset(args.rotator, args.mains_hz)
     t0 = time.perf_counter()
     suite = pass_suite(days=args.days, max_sats=args.max_sats or None,
@@ -714,6 +723,7 @@ def main(argv=None) -> int:
         suite = hard_passes(suite, spec)
         print(f"hard: {len(suite)} of {n_all} passes that every exact path loses (planned in "
               f"{time.process_time() - c0:.0f} s CPU)")
+    print(f"kernels: {compiled.backend()}")
     print(f"rotator {spec.name}: az {spec.az_rate_deg_s:.2f} deg/s, el "
           f"{spec.el_rate_deg_s:.2f} deg/s, start delay {spec.start_delay_s:g} s, span "
           f"{spec.az_span_deg:g}, el max {spec.el_max_deg:g}")

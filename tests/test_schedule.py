@@ -12,6 +12,7 @@ from _stream_fakes import T0, arc_pass
 from test_stream import Rig, track_errors
 
 import tracker.stream as stream_mod
+from tracker import compiled
 from tracker.fewest_starts import fewest_starts
 from tracker.geometry import MountPath
 from tracker.mount import MotorModel, drive_axis, preset
@@ -91,6 +92,31 @@ def test_a_free_start_may_begin_anywhere_for_one_start_per_axis():
     assert fewest_starts(path, off.az, off.el, t1, t1 + 60.0, 2.5) is None
     late = fewest_starts(path, off.az, off.el, t1, t1 + 60.0, 2.5, from_s=t1 + 2.5)
     assert late is not None
+
+
+@pytest.mark.parametrize("max_el_deg", [25.0, 60.0, 88.0])
+def test_the_compiled_programme_finds_the_same_schedule_as_numpy(max_el_deg):
+    """The programme's two implementations (numpy, and loops numba compiles) take the same
+    steps: the same schedule, command for command, from a free start and from ``from_s``, and
+    the same None where no schedule of the class keeps the band."""
+    pytest.importorskip("numba")
+    track = arc_pass(duration_s=420, max_el_deg=max_el_deg, pad_s=30)
+    path = MountPath.from_track(track, SPEC)
+    park = MotorModel(SPEC, 0.0, 0.0, T0)
+    there = _rest_on_path(path, T0)
+    cases = [(park, 2.0, None, True), (park, 4.0, None, True), (there, 3.0, T0 + 4.0, False),
+             (park, 3.0, None, False)]
+    for motor, band_deg, from_s, free_start in cases:
+        got = {}
+        for name in ("numpy", "numba"):
+            previous = compiled.use(name)
+            try:
+                got[name] = fewest_starts(path, motor.az, motor.el, T0, T0 + 420.0, band_deg,
+                                          from_s=from_s, free_start=free_start)
+            finally:
+                compiled.use(previous)
+        assert got["numba"] == got["numpy"], (band_deg, from_s, free_start)
+        assert (got["numpy"] is None) == (motor is park and not free_start)
 
 
 def test_plan_schedule_needs_both_axes_at_rest():

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tracker import compiled
 from tracker.geometry import MountPath, az_extent_deg
 from tracker.mount import AxisMotor
 
@@ -204,6 +205,10 @@ class _AxisGraph:
         self.e_first = np.flatnonzero(new) - self.e_off[self.e_samp[new]]
         self.f_off = np.searchsorted(self.e_samp[new], np.arange(n + 1))
         self.size = size
+        # Each state's edges, as one range of the edge arrays (states of sample 0 have none).
+        self.edge_at = np.concatenate((np.zeros(int(size[0]), np.int64),
+                                       np.repeat(self.e_off[1:-1], size[1:])
+                                       + self.e_first, [len(self.e_src)])).astype(np.int64)
         # A sample with no state in reach: no schedule of the class can pass it.
         self.blocked = bool((size[1:] == 0).any())
         self._trig: tuple[np.ndarray, np.ndarray] | None = None
@@ -211,14 +216,13 @@ class _AxisGraph:
     def positions(self, s: int) -> np.ndarray:
         return self.x[self.off[s]:self.off[s + 1]]
 
-    def trig(self, s: int, offset_deg: float) -> tuple[np.ndarray, np.ndarray]:
-        """(sin, cos) of every state's position plus ``offset_deg`` at sample ``s`` (computed
-        for the whole span on the first call)."""
+    def trig(self, offset_deg: float) -> tuple[np.ndarray, np.ndarray]:
+        """(sin, cos) of every state's position plus ``offset_deg`` (the same offset on
+        every call)."""
         if self._trig is None:
             r = np.radians(self.x + offset_deg)
             self._trig = (np.sin(r), np.cos(r))
-        a, b = self.off[s], self.off[s + 1]
-        return self._trig[0][a:b], self._trig[1][a:b]
+        return self._trig
 
     def edges(self, s: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Into sample s: (source, starts, index of each state's first edge)."""
@@ -246,8 +250,8 @@ def _feasible(ga: _AxisGraph, ge: _AxisGraph, s: int, stop_bearing_deg: float,
               target: np.ndarray, min_dot: float) -> np.ndarray:
     """(n_az, n_el) at sample ``s``: each pair's boresight within the band of ``target`` (a
     unit vector)."""
-    sin_b, cos_b = ga.trig(s, stop_bearing_deg)
-    sin_e, cos_e = ge.trig(s, 0.0)
+    sin_b, cos_b = (t[ga.off[s]:ga.off[s + 1]] for t in ga.trig(stop_bearing_deg))
+    sin_e, cos_e = (t[ge.off[s]:ge.off[s + 1]] for t in ge.trig(0.0))
     along = sin_b * target[0] + cos_b * target[1]
     return np.multiply.outer(along, cos_e) >= min_dot - sin_e * target[2]
 
@@ -304,10 +308,24 @@ def fewest_starts(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor, t0_s:
     travel = np.maximum(np.concatenate((step, [0.0])), np.concatenate(([0.0], step)))
     min_dot = np.cos(np.radians(np.maximum(band_deg - 0.5 * travel, 0.0)))
     checked = ts >= (t0_s if from_s is None else from_s) - 1e-9
-    stop = path.stop_bearing_deg
-    v = costs[0][:, None] + costs[1][None, :]
+    v0 = costs[0][:, None] + costs[1][None, :]
     if checked[0]:
-        v[~_feasible(ga, ge, 0, stop, target[0], float(min_dot[0]))] = _INF
+        v0[~_feasible(ga, ge, 0, path.stop_bearing_deg, target[0], float(min_dot[0]))] = _INF
+    run = _programme_compiled if compiled.backend() == "numba" else _programme
+    found = run(ga, ge, v0, path.stop_bearing_deg, target, min_dot, checked)
+    return None if found is None else _schedule(*found, ga, ge, ts)
+
+
+_Found = tuple[np.ndarray, np.ndarray, int]
+
+
+def _programme(ga: _AxisGraph, ge: _AxisGraph, v0: np.ndarray, stop_bearing_deg: float,
+               target: np.ndarray, min_dot: np.ndarray, checked: np.ndarray) -> _Found | None:
+    """The programme in numpy: the least-cost state pair of each sample on one least-cost
+    path (az states, el states, its starts), or None when no pair keeps the band at some
+    sample. Its twin :func:`_programme_compiled` takes the same steps."""
+    n = len(target)
+    v = v0
     values = [v]
     for s in range(1, n):
         # One more row and column of no finite cost: the virtual source of both axes.
@@ -318,13 +336,142 @@ def fewest_starts(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor, t0_s:
         src, cost, first = ge.edges(s)
         v = np.minimum.reduceat(mid[:, src] + cost, first, axis=1)
         if checked[s]:
-            v[~_feasible(ga, ge, s, stop, target[s], float(min_dot[s]))] = _INF
+            v[~_feasible(ga, ge, s, stop_bearing_deg, target[s], float(min_dot[s]))] = _INF
         values.append(v)
         if s % 32 == 0 and not np.isfinite(v).any():
             return None
     if not np.isfinite(v).any():
         return None
-    return _backtrack(values, ga, ge, ts)
+    # Back from the first least-cost pair of the last sample, through the first of each
+    # pair's least-cost predecessors (in edge order).
+    a, e = (int(i) for i in np.unravel_index(int(np.argmin(v)), v.shape))
+    total = int(v[a, e])
+    ka, ke = np.zeros(n, np.int64), np.zeros(n, np.int64)
+    ka[-1], ke[-1] = a, e
+    for s in range(n - 1, 0, -1):
+        want, before = float(values[s][a, e]), values[s - 1]
+        pair = next(((pa, pe) for pa, ca in ga.into(s, a) if pa < before.shape[0]
+                     for pe, ce in ge.into(s, e)
+                     if pe < before.shape[1] and float(before[pa, pe]) + ca + ce == want), None)
+        assert pair is not None, "a least-cost state has a predecessor of that cost"
+        a, e = ka[s - 1], ke[s - 1] = pair
+    return ka, ke, total
+
+
+# Costs of the compiled programme: int16, with this for "no finite cost" (a start or two
+# added to it still fits, and min() keeps it: no branch in the inner loops).
+_NONE16 = 16_000
+
+
+def _programme_compiled(ga: _AxisGraph, ge: _AxisGraph, v0: np.ndarray,
+                        stop_bearing_deg: float, target: np.ndarray, min_dot: np.ndarray,
+                        checked: np.ndarray) -> _Found | None:
+    """:func:`_programme` as compiled loops (:data:`_loops`), with the same result."""
+    n = len(target)
+    v_off = np.concatenate(([0], np.cumsum(ga.size.astype(np.int64) * ge.size)))
+    values = np.empty(int(v_off[-1]), np.int16)
+    values[:v_off[1]] = np.where(np.isfinite(v0), v0, _NONE16).ravel()
+    mid = np.empty(int((ga.size[1:] * ge.size[:-1]).max()), np.int16)
+    sin_b, cos_b = ga.trig(stop_bearing_deg)
+    sin_e, cos_e = ge.trig(0.0)
+    edges = (ga.off, ga.edge_at, ga.e_src, ga.e_cost.astype(np.int16),
+             ge.off, ge.edge_at, ge.e_src, ge.e_cost.astype(np.int16))
+    reached = _loops("_forward_loop")(*edges, sin_b, cos_b, sin_e, cos_e, target, min_dot,
+                                      checked, v_off, values, mid)
+    if reached < n:
+        return None
+    last = values[v_off[-2]:]
+    best = int(np.argmin(last))
+    if last[best] == _NONE16:
+        return None
+    ka, ke = np.zeros(n, np.int64), np.zeros(n, np.int64)
+    ka[-1], ke[-1] = divmod(best, int(ge.size[-1]))
+    _loops("_path_loop")(*edges, v_off, values, ka, ke)
+    return ka, ke, int(last[best])
+
+
+def _forward_loop(a_off, a_edge, a_src, a_cost, e_off, e_edge, e_src, e_cost, sin_b, cos_b,
+                  sin_e, cos_e, target, min_dot, checked, v_off, values, mid
+                  ):  # pragma: no cover - compiled by numba (its twin: _programme)
+    """Fills ``values`` (each sample's az x el costs, flat) from sample 0's; returns the first
+    sample with no finite cost (len(target) when there is none)."""
+    n = len(target)
+    for s in range(1, n):
+        pe = e_off[s] - e_off[s - 1]
+        _az_step(a_off[s], a_off[s + 1] - a_off[s], a_off[s] - a_off[s - 1], pe, a_edge, a_src,
+                 a_cost, values, v_off[s - 1], mid)
+        if not _el_step(a_off[s], a_off[s + 1] - a_off[s], e_off[s], e_off[s + 1] - e_off[s],
+                        pe, e_edge, e_src, e_cost, sin_b, cos_b, sin_e, cos_e, target[s],
+                        min_dot[s], checked[s], mid, values, v_off[s]):
+            return s
+    return n
+
+
+def _az_step(a0, na, pa, pe, a_edge, a_src, a_cost, values, before, mid
+             ):  # pragma: no cover - compiled by numba (in _forward_loop)
+    """mid[i, j]: the least cost of az state i with el state j of the sample before (at or
+    above :data:`_NONE16`: none)."""
+    for i in range(na):
+        row = i * pe
+        mid[row:row + pe] = _NONE16
+        for k in range(a_edge[a0 + i], a_edge[a0 + i + 1]):
+            src = a_src[k]
+            if src >= pa:  # the virtual source
+                continue
+            c, base = a_cost[k], before + src * pe
+            for j in range(pe):
+                x = values[base + j] + c
+                if x < mid[row + j]:
+                    mid[row + j] = x
+
+
+def _el_step(a0, na, e0, ne, pe, e_edge, e_src, e_cost, sin_b, cos_b, sin_e, cos_e, target,
+             min_dot, checked, mid, values, now
+             ) -> bool:  # pragma: no cover - compiled by numba (in _forward_loop)
+    """The sample's costs from ``mid``, and the band (as :func:`_feasible`); whether any is
+    finite."""
+    none = _NONE16
+    alive = False
+    for i in range(na):
+        along = sin_b[a0 + i] * target[0] + cos_b[a0 + i] * target[1]
+        row = i * pe
+        for j in range(ne):
+            best = none
+            for k in range(e_edge[e0 + j], e_edge[e0 + j + 1]):
+                src = e_src[k]
+                if src < pe:
+                    best = min(best, mid[row + src] + e_cost[k])
+            if checked and not (along * cos_e[e0 + j] >= min_dot - sin_e[e0 + j] * target[2]):
+                best = none
+            values[now + i * ne + j] = best
+            alive = alive or best < none
+    return alive
+
+
+def _path_loop(a_off, a_edge, a_src, a_cost, e_off, e_edge, e_src, e_cost, v_off, values, ka,
+               ke):  # pragma: no cover - compiled by numba (its twin: _programme's last loop)
+    """Back from the pair in ``ka[-1], ke[-1]``: the first least-cost predecessor pair of each
+    sample's, in edge order, into ``ka``, ``ke``."""
+    for s in range(len(ka) - 1, 0, -1):
+        a, e = ka[s], ke[s]
+        pa, pe, ne = a_off[s] - a_off[s - 1], e_off[s] - e_off[s - 1], e_off[s + 1] - e_off[s]
+        want = values[v_off[s] + a * ne + e]
+        for k1 in range(a_edge[a_off[s] + a], a_edge[a_off[s] + a + 1]):
+            if a_src[k1] >= pa:
+                continue
+            for k2 in range(e_edge[e_off[s] + e], e_edge[e_off[s] + e + 1]):
+                if e_src[k2] >= pe:
+                    continue
+                x = values[v_off[s - 1] + a_src[k1] * pe + e_src[k2]]
+                if x < _NONE16 and x + a_cost[k1] + e_cost[k2] == want:
+                    ka[s - 1], ke[s - 1] = a_src[k1], e_src[k2]
+                    break
+            else:
+                continue
+            break
+
+
+_loops = compiled.Loops(globals(), helpers=("_az_step", "_el_step"))
 
 
 def _boxes(path: MountPath, ts: np.ndarray, target: np.ndarray, band_deg: float
@@ -351,39 +498,23 @@ def _boxes(path: MountPath, ts: np.ndarray, target: np.ndarray, band_deg: float
             (np.minimum(centre_el, path_el) - w_el, np.maximum(centre_el, path_el) + w_el))
 
 
-def _backtrack(values: list[np.ndarray], ga: _AxisGraph, ge: _AxisGraph, ts: np.ndarray
-               ) -> FewestStarts:
-    """The commands of one least-cost path through the programme's ``values``."""
-    last = values[-1]
-    a, e = (int(i) for i in np.unravel_index(int(np.argmin(last)), last.shape))
-    total = int(last[a, e])
-    n = len(values)
+def _schedule(ka: np.ndarray, ke: np.ndarray, total: int, ga: _AxisGraph, ge: _AxisGraph,
+              ts: np.ndarray) -> FewestStarts:
+    """The commands of the path through the states ``ka`` (az) and ``ke`` (el), one per
+    sample: each move's command goes out the sample before the axis is first seen moving,
+    with the target it stops on (a move still running at the end goes on to the next grid
+    point beyond its last position: the schedule says nothing after it)."""
+    n = len(ts)
     moves: dict[int, list[float | None]] = {}
-    # The stop ahead of each axis, going back; a move still running at the end goes on to
-    # the next grid point beyond its last position (the schedule says nothing after it).
-    ends: list[float | None] = [ga.beyond(n - 1, a) if ga.moving(n - 1, a) else None,
-                                ge.beyond(n - 1, e) if ge.moving(n - 1, e) else None]
-    for s in range(n - 1, 0, -1):
-        want, before = float(values[s][a, e]), values[s - 1]
-        found = None
-        for pa, ca in ga.into(s, a):
-            if pa >= before.shape[0]:
-                continue
-            for pe, ce in ge.into(s, e):
-                if pe < before.shape[1] and float(before[pa, pe]) + ca + ce == want:
-                    found = (pa, pe)
-                    break
-            if found:
-                break
-        assert found is not None, "a least-cost state has a predecessor of that cost"
-        for k_axis, (g, k, pk) in enumerate(((ga, a, found[0]), (ge, e, found[1]))):
-            moving_now, moving_before = g.moving(s, k), g.moving(s - 1, pk)
-            if not moving_now and (moving_before or abs(
-                    g.positions(s)[k] - g.positions(s - 1)[pk]) > 1e-9):
-                ends[k_axis] = float(g.positions(s)[k])          # the move that stops here
-            if moving_now and not moving_before:
-                moves.setdefault(s - 1, [None, None])[k_axis] = ends[k_axis]
-                ends[k_axis] = None
-        a, e = found
+    for k_axis, (g, k) in enumerate(((ga, ka), (ge, ke))):
+        state = g.off[:-1] + k
+        moving, x = g.chain[state] >= 0, g.x[state]
+        begins = np.flatnonzero(moving[1:] & ~moving[:-1]) + 1
+        stops = np.flatnonzero(~moving[1:] & moving[:-1]) + 1
+        ends = np.append(x[stops], g.beyond(n - 1, int(k[-1])) if moving[-1] else np.nan)
+        for s, end in zip(begins.tolist(), ends[np.searchsorted(stops, begins)].tolist(),
+                          strict=True):
+            moves.setdefault(s - 1, [None, None])[k_axis] = end
     out = tuple((float(ts[i]), m[0], m[1]) for i, m in sorted(moves.items()))
-    return FewestStarts(out, total, float(ga.positions(0)[a]), float(ge.positions(0)[e]))
+    return FewestStarts(out, total, float(ga.positions(0)[ka[0]]),
+                        float(ge.positions(0)[ke[0]]))

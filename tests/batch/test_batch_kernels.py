@@ -14,6 +14,7 @@ from _paths import REPO, TESTS
 from sgp4.api import Satrec
 from test_batch_finder import DELFT, QUITO, START, read_sets
 
+from tracker import compiled
 from tracker.batch import find_passes_batch, kernels
 from tracker.station import HorizonMask, Station
 
@@ -26,11 +27,11 @@ def amateur():
 
 def with_impl(name: str, fn):
     """``fn()`` with the kernels' implementation ``name``."""
-    previous = kernels.use(name)
+    previous = compiled.use(name)
     try:
         return fn()
     finally:
-        kernels.use(previous)
+        compiled.use(previous)
 
 
 @pytest.fixture
@@ -40,7 +41,7 @@ def numba_kernels():
 
 def test_an_unknown_implementation_is_refused():
     with pytest.raises(ValueError, match="unknown kernel implementation 'fortran'"):
-        kernels.use("fortran")
+        compiled.use("fortran")
 
 
 def backend_after(work: float, **env) -> list[str]:
@@ -93,17 +94,17 @@ def test_threads_that_start_together_compile_each_kernel_once(amateur, numba_ker
     from concurrent.futures import ThreadPoolExecutor
 
     satrecs, names = amateur
-    monkeypatch.setattr(kernels, "_compiled", {})  # as in a fresh process (disk cache kept)
-    previous = kernels.use("numba")
+    monkeypatch.setattr(kernels._jit, "compiled", {})  # as in a fresh process (disk cache kept)
+    previous = compiled.use("numba")
     try:
         with ThreadPoolExecutor(4) as pool:
             runs = list(pool.map(lambda i: find_passes_batch(
                 satrecs[i::4], names[i::4], [DELFT], START, START + timedelta(hours=12)),
                 range(4)))
     finally:
-        kernels.use(previous)
+        compiled.use(previous)
     assert all(len(t) > 20 for t in runs)
-    assert {"_solve_cubic_loop", "_correct_loop", "_fine_screen_loop"} <= set(kernels._compiled)
+    assert {"_solve_cubic_loop", "_correct_loop", "_fine_screen_loop"} <= set(kernels._jit.compiled)
 
 
 MASKED = Station("Masked", 52.0, 4.37, 10.0, 1.0,

@@ -2,10 +2,8 @@
 arithmetic: numpy (the reference, always there) and a compiled loop (numba, the optional
 ``fast`` extra) that passes over the data once without temporaries.
 
-numba is imported here only, on the first call of a kernel (never by importing this module),
-and only for jobs big enough to pay for loading it (:func:`backend`); each loop is compiled
-once and cached on disk (``cache=True``). ``TRACKER_NUMBA=0`` in the environment, or
-:func:`use`, selects the numpy implementations.
+numba is loaded only for jobs big enough to pay for it (:func:`backend`); how it is loaded
+and selected (``TRACKER_NUMBA=0``, :func:`tracker.compiled.use`) is :mod:`tracker.compiled`'s.
 
 The two implementations agree to rounding: the screen (:func:`fine_screen`) runs in float32
 with numpy and in float64 compiled (the cone it tests has degrees of margin, so both keep
@@ -15,25 +13,18 @@ bisection steps, per bracket, in both.
 
 from __future__ import annotations
 
-import functools
 import math
-import os
-import sys
-import threading
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
+from tracker import compiled
 from tracker.batch import geometry as geo
 from tracker.sun import EARTH_RADIUS_KM
 
 EARTH_ROTATION_RAD_S = geo.EARTH_ROTATION_RAD_S
 
-_backend: str | None = None  # chosen by use(); None: automatic (see backend())
 _worth_compiling = False  # a job big enough to pay numba's fixed cost was announced
-_compiled: dict[str, Any] = {}
-_compile_lock = threading.Lock()
 
 # Loading numba and the cached kernels costs about 0.7 s CPU once per process (compiling them
 # the first time, about 5 s); the kernels save about 20 us per satellite-station-day at one
@@ -54,30 +45,10 @@ def announce_work(sat_station_days: float) -> None:
         _worth_compiling = True
 
 
-@functools.cache
-def _numba_usable() -> bool:
-    """numba imports: installed, and built for the numpy installed beside it (numba refuses
-    a numpy newer than it knows). Otherwise the numpy kernels run: same passes, slower."""
-    try:
-        import numba  # noqa: F401
-    except Exception:  # ImportError, or an install broken in any other way
-        return False
-    return True
-
-
-def _numba_enabled() -> bool:
-    return os.environ.get("TRACKER_NUMBA", "1") != "0" and _numba_usable()
-
-
 def backend() -> str:
-    """The implementation the kernels run: the one chosen by :func:`use`, else "numba" when
-    it is installed (and not switched off by ``TRACKER_NUMBA=0``) and either already loaded
-    or worth loading for the work announced (:func:`announce_work`), else "numpy"."""
-    if _backend is not None:
-        return _backend
-    if (_worth_compiling or "numba" in sys.modules) and _numba_enabled():
-        return "numba"
-    return "numpy"
+    """The implementation the kernels run (:func:`tracker.compiled.backend`; loading numba
+    is worth it once a big enough job was announced by :func:`announce_work`)."""
+    return compiled.backend(_worth_compiling)
 
 
 def runtime_mb() -> float:
@@ -86,39 +57,11 @@ def runtime_mb() -> float:
     return COMPILED_RUNTIME_MB if backend() == "numba" else 0.0
 
 
-def use(name: str | None) -> str | None:
-    """Select the kernels' implementation ("numba", "numpy", or None: the automatic choice
-    of :func:`backend`); returns the previous choice."""
-    global _backend
-    if name not in (None, "numba", "numpy"):
-        raise ValueError(f"unknown kernel implementation {name!r}; known: numba, numpy")
-    previous, _backend = _backend, name
-    return previous
-
-
-# Functions the loops call: compiled (in place of the Python ones, which only the loops use)
-# before the first loop is.
-_HELPERS = ("_el_rate_at", "_sin_el_newton", "_bracket_step", "_rates", "_sub_arc_trig",
-            "_look_and_f")
-
-
-def _jit(name: str):
-    """The compiled form of the loop function ``name`` of this module (compiled on first use,
-    once even when threads ask at the same time; error_model "numpy": a division by zero
-    gives inf or nan, as in numpy)."""
-    fn = _compiled.get(name)
-    if fn is None:
-        with _compile_lock:
-            fn = _compiled.get(name)
-            if fn is None:
-                import numba
-
-                options = dict(cache=True, error_model="numpy")
-                for helper in _HELPERS:
-                    if not hasattr(globals()[helper], "py_func"):  # not compiled yet
-                        globals()[helper] = numba.njit(**options)(globals()[helper])
-                fn = _compiled[name] = numba.njit(**options)(globals()[name])
-    return fn
+# The compiled loops; the functions they call are compiled (in place of the Python ones,
+# which only the loops use) before the first loop is.
+_jit = compiled.Loops(globals(), helpers=(
+    "_el_rate_at", "_sin_el_newton", "_bracket_step", "_rates", "_sub_arc_trig",
+    "_look_and_f"))
 
 
 # --- fine screening -------------------------------------------------------------------------
