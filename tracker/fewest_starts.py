@@ -278,42 +278,69 @@ def fewest_starts(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor, t0_s:
     ``t0_s``) on. With ``free_start`` each axis may instead begin at rest on any grid point
     searched at ``t0_s``, for one start (a pre-position move made before). None when no
     schedule of the class keeps the band (or the span is longer than :data:`MAX_SAMPLES`)."""
-    ts = np.arange(t0_s, min(end_s, path.end_s) + 1e-9, 0.5 * cycle_s)
-    n = len(ts)
-    if n < 2 or n > MAX_SAMPLES or az_axis.moving(t0_s) or el_axis.moving(t0_s):
-        return None
-    target = path.target_enu(ts)
-    boxes = _boxes(path, ts, target, band_deg)
-    graphs, costs = [], []
-    for k, axis in enumerate((az_axis, el_axis)):
-        ax = _Axis.of(axis)
-        here = float(axis.position(t0_s))
-        starts = np.array([here])
-        if free_start:
-            lo, hi = max(boxes[k][0][0], ax.lo_deg), min(boxes[k][1][0], ax.hi_deg)
-            g = ax.grid_deg
-            whole = g * np.arange(math.ceil(lo / g - 1e-9), math.floor(hi / g + 1e-9) + 1.0)
-            starts = np.concatenate((starts, whole[np.abs(whole - here) > 1e-9]))
-        graphs.append(_AxisGraph(ax, ts, boxes[k], starts, here))
-        # Start positions sort with ``here`` among them: each away from it cost a start.
-        costs.append(np.where(np.abs(graphs[k].positions(0) - here) > 1e-9, 1.0, 0.0
-                              ).astype(np.float32))
-    ga, ge = graphs
-    if ga.blocked or ge.blocked:
-        return None
-    # Between samples the target moves on: an antenna at rest within band - (half its travel
-    # to the neighbouring samples) at a sample stays within the band until the next one.
-    step = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", target[1:], target[:-1]),
-                                        -1.0, 1.0)))
-    travel = np.maximum(np.concatenate((step, [0.0])), np.concatenate(([0.0], step)))
-    min_dot = np.cos(np.radians(np.maximum(band_deg - 0.5 * travel, 0.0)))
-    checked = ts >= (t0_s if from_s is None else from_s) - 1e-9
-    v0 = costs[0][:, None] + costs[1][None, :]
-    if checked[0]:
-        v0[~_feasible(ga, ge, 0, path.stop_bearing_deg, target[0], float(min_dot[0]))] = _INF
-    run = _programme_compiled if compiled.backend() == "numba" else _programme
-    found = run(ga, ge, v0, path.stop_bearing_deg, target, min_dot, checked)
-    return None if found is None else _schedule(*found, ga, ge, ts)
+    return StartsProgramme(path, az_axis, el_axis, t0_s, end_s, band_deg, cycle_s,
+                           free_start).solve(band_deg, from_s)
+
+
+class StartsProgramme:
+    """The programme of :func:`fewest_starts` over one span, for any band up to
+    ``reach_deg``: the axes' graphs (the costly part) are built once, for the positions
+    within ``reach_deg`` of the target, and :meth:`solve` runs the programme for a band."""
+
+    def __init__(self, path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor, t0_s: float,
+                 end_s: float, reach_deg: float, cycle_s: float = 0.5,
+                 free_start: bool = False):
+        self.path, self.t0_s, self.reach_deg = path, t0_s, reach_deg
+        self.ts = ts = np.arange(t0_s, min(end_s, path.end_s) + 1e-9, 0.5 * cycle_s)
+        self.graphs: tuple[_AxisGraph, _AxisGraph] | None = None
+        if (len(ts) < 2 or len(ts) > MAX_SAMPLES or az_axis.moving(t0_s)
+                or el_axis.moving(t0_s)):
+            return
+        self.target = target = path.target_enu(ts)
+        boxes = _boxes(path, ts, target, reach_deg)
+        graphs, costs = [], []
+        for k, axis in enumerate((az_axis, el_axis)):
+            ax = _Axis.of(axis)
+            here = float(axis.position(t0_s))
+            starts = np.array([here])
+            if free_start:
+                lo, hi = max(boxes[k][0][0], ax.lo_deg), min(boxes[k][1][0], ax.hi_deg)
+                g = ax.grid_deg
+                whole = g * np.arange(math.ceil(lo / g - 1e-9), math.floor(hi / g + 1e-9) + 1)
+                starts = np.concatenate((starts, whole[np.abs(whole - here) > 1e-9]))
+            graphs.append(_AxisGraph(ax, ts, boxes[k], starts, here))
+            # Start positions sort with ``here`` among them: each away from it cost a start.
+            costs.append(np.where(np.abs(graphs[k].positions(0) - here) > 1e-9, 1.0, 0.0
+                                  ).astype(np.float32))
+        if graphs[0].blocked or graphs[1].blocked:
+            return
+        self.graphs = graphs[0], graphs[1]
+        self.v0 = costs[0][:, None] + costs[1][None, :]
+        # Between samples the target moves on: an antenna at rest within band - (half its
+        # travel to the neighbouring samples) at a sample stays within the band until the
+        # next one.
+        step = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", target[1:], target[:-1]),
+                                            -1.0, 1.0)))
+        self.travel = np.maximum(np.concatenate((step, [0.0])), np.concatenate(([0.0], step)))
+
+    def solve(self, band_deg: float, from_s: float | None = None) -> FewestStarts | None:
+        """The schedule keeping ``band_deg`` (at most the reach) from ``from_s`` (default the
+        span's start) on, as :func:`fewest_starts`."""
+        if self.graphs is None:
+            return None
+        if band_deg > self.reach_deg + 1e-9:
+            raise ValueError(f"a band of {band_deg} deg is beyond the {self.reach_deg} deg "
+                             f"searched")
+        ga, ge = self.graphs
+        min_dot = np.cos(np.radians(np.maximum(band_deg - 0.5 * self.travel, 0.0)))
+        checked = self.ts >= (self.t0_s if from_s is None else from_s) - 1e-9
+        v0 = self.v0.copy()
+        stop, target = self.path.stop_bearing_deg, self.target
+        if checked[0]:
+            v0[~_feasible(ga, ge, 0, stop, target[0], float(min_dot[0]))] = _INF
+        run = _programme_compiled if compiled.backend() == "numba" else _programme
+        found = run(ga, ge, v0, stop, target, min_dot, checked)
+        return None if found is None else _schedule(*found, ga, ge, self.ts)
 
 
 _Found = tuple[np.ndarray, np.ndarray, int]

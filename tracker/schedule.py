@@ -22,7 +22,7 @@ from functools import cached_property
 
 import numpy as np
 
-from tracker.fewest_starts import FewestStarts, fewest_starts
+from tracker.fewest_starts import FewestStarts, StartsProgramme
 from tracker.geometry import MountPath
 from tracker.mount import AxisMotor, drive_axis
 from tracker.skytrack import interp1
@@ -75,9 +75,11 @@ def plan_schedule(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor, t0_s:
     # :meth:`PassSchedule.expected` interpolates.
     fine = np.arange(t0_s, min(end_s, path.end_s) + 1e-9, cycle_s / 10.0)
     kept = fine >= (t0_s if from_s is None else from_s) - 1e-9
+    # The graphs searched for the band serve the narrower ones too.
+    programme = StartsProgramme(path, az_axis, el_axis, t0_s, end_s, band_deg, cycle_s,
+                                free_start)
     for _attempt in range(3):
-        found = fewest_starts(path, az_axis, el_axis, t0_s, end_s, within, cycle_s, from_s,
-                              free_start)
+        found = programme.solve(within, from_s)
         if found is None:
             return None
         got = _followed(found, az_axis, el_axis, t0_s, free_start, fine)
