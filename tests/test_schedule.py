@@ -119,6 +119,22 @@ def test_the_compiled_programme_finds_the_same_schedule_as_numpy(max_el_deg):
         assert (got["numpy"] is None) == (motor is park and not free_start)
 
 
+def test_the_schedule_samples_fall_on_the_loops_cycles_to_the_end():
+    # At epoch seconds a 0.05 s np.arange step rounds to 0.24 us and the grid drifts: the
+    # last sample fell 0.16 ms before the loop's last cycle, which then found the schedule
+    # over and sent the aim policy's command at LOS, a start for nothing.
+    track = arc_pass(duration_s=600, max_el_deg=35.0, pad_s=30)
+    path = MountPath.from_track(track, SPEC)
+    t0 = T0 + 0.46
+    assert t0 > 1e9
+    motor = _rest_on_path(path, t0)
+    sch = plan_schedule(path, motor.az, motor.el, t0, t0 + 580.0, 2.8)
+    assert sch is not None
+    cycles = t0 + 0.25 * np.arange(len(sch.sample_t_s))
+    assert np.max(np.abs(sch.sample_t_s - cycles)) < 1e-6
+    assert sch.end_s == pytest.approx(t0 + 580.0, abs=1e-6)
+
+
 def test_plan_schedule_needs_both_axes_at_rest():
     track = arc_pass(duration_s=300, pad_s=30)
     path = MountPath.from_track(track, SPEC)

@@ -73,7 +73,10 @@ def plan_schedule(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor, t0_s:
     within = band_deg
     # Every tenth of a cycle; every fifth of those is a half-cycle sample, where
     # :meth:`PassSchedule.expected` interpolates.
-    fine = np.arange(t0_s, min(end_s, path.end_s) + 1e-9, cycle_s / 10.0)
+    # Steps counted from t0_s, not from the epoch: np.arange steps by the difference of its
+    # first two values, which at epoch seconds is 0.05 s rounded to 0.24 us, and the grid
+    # would drift off the loop's cycles by 0.2 ms over a pass.
+    fine = t0_s + np.arange(0.0, min(end_s, path.end_s) - t0_s + 1e-9, cycle_s / 10.0)
     kept = fine >= (t0_s if from_s is None else from_s) - 1e-9
     # The graphs searched for the band serve the narrower ones too.
     programme = StartsProgramme(path, az_axis, el_axis, t0_s, end_s, band_deg, cycle_s,
