@@ -484,7 +484,7 @@ def _hms(t_s: float) -> str:
 # Pre-position and park -----------------------------------------------------------------------
 
 
-def _safe_moves(spec: RotatorSpec, station: Station, start: tuple[float, float],
+def safe_moves(spec: RotatorSpec, station: Station, start: tuple[float, float],
                 end: tuple[float, float], t0_s: float) -> tuple[list[Move], float]:
     """Mask-safe moves from ``start`` to ``end`` (mechanical az, el) beginning at ``t0_s``.
 
@@ -559,14 +559,14 @@ def _assemble(ctx: _Ctx, chosen: _Result, results: list[_Result], reason: str,
               park: bool) -> MountPlan:
     spec, station, t = ctx.spec, ctx.station, ctx.t
     start = (float(chosen.cmd_az[0]), float(chosen.cmd_el[0]))
-    moves, dur = _safe_moves(spec, station, ctx.current, start, 0.0)
+    moves, dur = safe_moves(spec, station, ctx.current, start, 0.0)
     arrive_by = t[ctx.ia] - ctx.lead_s - PREPOSITION_MARGIN_S
     t_pre = min(arrive_by, t[0]) - dur
     pre_moves = tuple(Move(m.t_s + t_pre, m.az_deg, m.el_deg) for m in moves)
     park_moves: tuple[Move, ...] = ()
     if park:
         end = (float(chosen.cmd_az[-1]), float(chosen.cmd_el[-1]))
-        pm, _ = _safe_moves(spec, station, end, park_position(spec, station),
+        pm, _ = safe_moves(spec, station, end, park_position(spec, station),
                             t[ctx.ib] + ctx.lead_s + PREPOSITION_MARGIN_S)
         park_moves = tuple(pm)
     ordered = sorted(results, key=lambda r: r.score.rank_key(spec.resolution_deg))

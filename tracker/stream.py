@@ -49,6 +49,7 @@ from tracker.geometry import (
     raise_to_mask,
 )
 from tracker.mount import MotorModel, RotatorSpec
+from tracker.planner import safe_moves
 from tracker.schedule import PassSchedule, plan_schedule
 from tracker.skytrack import SkyTrack, angle_between_deg, interp1_rows
 from tracker.stall import AxisWatch, moving_axis, stall_error
@@ -694,6 +695,17 @@ class TrackCore:
         self._schedule = self._plan_schedule(t_s + k * cycle, self._lookahead_s,
                                              free_start=True)
         self._schedule_i = 0
+        if self._schedule is not None and self.motor is not None:
+            # The whole pre-position goes to the schedule's start, by the mask-safe sequence
+            # the planner gives any move: a sequence aimed at the plan's start would turn an
+            # axis there first and then on to the schedule's, a start for nothing.
+            sch = self._schedule
+            az, el = self.motor.position(t_s)
+            start = (float(sch.az_pos_deg[0]), float(sch.el_pos_deg[0]))
+            moves, _dur_s = safe_moves(self.spec, self.station, (az, el or 0.0), start,
+                                       self.pre_moves[0][0])
+            self.pre_moves = self._moves(moves, (self.pre_moves[0][0], *start))
+            self._move_i, self._resume = 0, None
 
     def _plan_schedule(self, t_s: float, lookahead_s: float, free_start: bool = False
                        ) -> PassSchedule | None:
