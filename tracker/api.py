@@ -112,6 +112,7 @@ from tracker.passes import Pass, find_passes
 from tracker.planner import MountPlan, Move, error_cause, park_position, plan_pass
 from tracker.pointing_file import ScheduleError, ScheduleTarget, parse_schedule
 from tracker.protocols import Capabilities, RotatorDriver, open_driver
+from tracker.schedule import PassSchedule, plan_schedule
 from tracker.service.elements import ElementKeeper
 from tracker.service.plan import (
     PlannedPass,
@@ -167,8 +168,9 @@ __all__ = [  # noqa: RUF022 (grouped by topic, the order the docs follow)
     "Pass", "find_passes",
     # rotators
     "PRESETS", "MotorModel", "MountFrame", "RotatorSpec", "preset",
-    # planning
-    "MountPlan", "Move", "error_cause", "park_position", "plan_pass",
+    # planning; the whole-pass command schedule with the fewest motor starts
+    "MountPlan", "Move", "error_cause", "park_position", "plan_pass", "PassSchedule",
+    "plan_schedule",
     # step tables
     "MountPath", "StepProgram", "StepTable", "TableProfile", "TableRunner", "UploadReport",
     "compile_pass", "compile_program", "read_plan_file", "table_profile",
