@@ -82,136 +82,246 @@ def _rest_key(sample: np.ndarray, x_deg: np.ndarray) -> np.ndarray:
         np.int64)
 
 
+class _Rests:
+    """One axis's rests over the span, in state order (by sample, then position): the start
+    positions at sample 0; afterwards every grid point in the box, and where the axis is now
+    (it may rest off the grid) while that is in the box."""
+
+    def __init__(self, grid_deg: float, lo: np.ndarray, hi: np.ndarray, starts_deg: np.ndarray,
+                 here_deg: float):
+        n, g = len(lo), grid_deg
+        q0, q1 = np.ceil(lo[1:] / g - 1e-9).astype(int), np.floor(hi[1:] / g + 1e-9).astype(int)
+        count = np.maximum(q1 - q0 + 1, 0)
+        first = np.cumsum(count) - count
+        samp = np.repeat(np.arange(1, n), count)
+        x = g * (np.repeat(q0, count) + np.arange(count.sum()) - np.repeat(first, count))
+        on = (here_deg >= lo[1:]) & (here_deg <= hi[1:]) & (np.abs(here_deg / g - np.round(
+            here_deg / g)) > 1e-9)
+        self.here_on: np.ndarray | None = None
+        self.here_q, self.collide = 0, False
+        if on.any():
+            # Off the grid, the axis's position sorts after the grid points at or below it.
+            self.here_q = _last_at_or_below(g, here_deg)
+            at = first[on] + np.clip(self.here_q - q0[on] + 1, 0, count[on])
+            samp = np.insert(samp, at, np.flatnonzero(on) + 1)
+            x = np.insert(x, at, here_deg)
+            self.here_on = np.concatenate(([False], on))
+            # Off the grid but within the keys' rounding (to a thousandth of a degree) of a
+            # grid point, the position has that point's key: lookups then go by key.
+            near = np.array([here_deg, g * round(here_deg / g)])
+            self.collide = bool(np.diff(_rest_key(np.zeros(2, np.int64), near))[0] == 0)
+        self.samp = np.concatenate((np.zeros(len(starts_deg), np.int64), samp))
+        self.x = np.concatenate((np.sort(starts_deg, kind="stable"), x))
+        self.key = _rest_key(self.samp, self.x)
+        self.count = np.bincount(self.samp, minlength=n)
+        self.base = np.cumsum(self.count) - self.count
+        self.local = np.arange(len(self.samp)) - self.base[self.samp]
+        self.grid_deg = g
+        self._q0 = np.concatenate(([0], q0))
+        self._n_grid = np.concatenate(([0], count)).astype(np.uint64)
+
+    def grid_at(self, s: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """As :func:`_lookup` of the rest on grid point ``q`` (whole grid steps) at samples
+        ``s`` (after the first): the first rest of that key, and whether there is one (where
+        there is none the index is meaningless). Grid points are far more than a key's
+        rounding apart, so each has a key of its own unless the axis rests that close to
+        it."""
+        if self.collide:
+            return _lookup(self.key, _rest_key(s, self.grid_deg * q))
+        j = q - self._q0[s]
+        found = j.view(np.uint64) < self._n_grid[s]  # 0 <= j < the sample's grid points
+        at = self.base[s] + j
+        if self.here_on is not None:
+            at += self.here_on[s] & (q > self.here_q)
+        return at, found
+
+
+def _last_at_or_below(grid_deg: float, x_deg: float) -> int:
+    """The greatest q with grid_deg * q <= x_deg, as the grid's positions are computed."""
+    q = math.floor(x_deg / grid_deg)
+    while grid_deg * (q + 1) <= x_deg:
+        q += 1
+    while grid_deg * q > x_deg:
+        q -= 1
+    return q
+
+
+class _Block:
+    """The moving states some steps after their command (a block a step), in chain order:
+    sample, chain, position; ``before``: each one's index in the block of the step before.
+    ``shift``: per sample, where the block's states there begin in the block, plus the
+    moving states there of this block and of the blocks of earlier steps (those come last in
+    the sample: chain order puts an earlier command first), so a state's index in its sample
+    is its index in the block + size - shift. ``stop_from``, ``stop_to``: the stops at the
+    next sample (index in this block, rest stopped on). ``at``, ``local``: each state's
+    index overall and in its sample."""
+
+    def __init__(self, s: np.ndarray, chain: np.ndarray, x: np.ndarray, before: np.ndarray,
+                 shift: np.ndarray):
+        self.s, self.chain, self.x, self.before, self.shift = s, chain, x, before, shift
+        self.stop_from = self.stop_to = self.at = self.local = np.zeros(0, np.int64)
+
+
+def _follow(ax: _Axis, ts: np.ndarray, lo: np.ndarray, hi: np.ndarray, b_samp: np.ndarray,
+            b_p0: np.ndarray, b_dir: np.ndarray, rests: _Rests
+            ) -> tuple[list[_Block], np.ndarray]:
+    """The moves from each birth, followed while in the box: their blocks, one a step, and
+    the moving states at each sample."""
+    n, g = len(ts), ax.grid_deg
+    chain, s, p0, dr = np.arange(len(b_samp)), b_samp, b_p0, b_dir
+    f_before: np.ndarray = np.zeros(0)
+    placed = np.zeros(n, np.int64)
+    travel = np.zeros(n)  # per sample, of a move commanded k samples before
+    blocks: list[_Block] = []
+    k = 1
+    while len(chain):
+        s = s + 1
+        ok = int(np.searchsorted(s, n))  # chains in order of their commands: s ascending
+        if not ok:
+            break
+        if ok < len(s):
+            chain, p0, dr, s = chain[:ok], p0[:ok], dr[:ok], s[:ok]
+        travel[k:] = ax.travel(ts[k:] - ts[:n - k])
+        x = p0 + dr * travel[s]
+        # The last grid point passed (up) or the first not yet passed (down, negated).
+        f = np.floor(dr * (x / g) + 1e-9)
+        if blocks:
+            blocks[-1].stop_from, blocks[-1].stop_to = _stops(rests, s, f, f_before[:ok], dr)
+        keep = np.flatnonzero((x >= lo[s]) & (x <= hi[s]))
+        chain, p0, dr, s, x, f = (a[keep] for a in (chain, p0, dr, s, x, f))
+        count = np.bincount(s, minlength=n)
+        placed += count
+        blocks.append(_Block(s, chain, x, keep, np.cumsum(count) - count + placed))
+        f_before = f
+        k += 1
+    return blocks, placed
+
+
+def _stops(rests: _Rests, s: np.ndarray, f_next: np.ndarray, f_now: np.ndarray,
+           dr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Stops at samples ``s`` of moves at the sample before (``f_now``, ``f_next`` of
+    :func:`_follow`): on grid points strictly past the position then, not past the one now
+    (up: f_now + 1 to f_next; down: -f_next to -f_now - 1). Each stop's (move, rest)."""
+    passed = f_next - f_now
+    sel = np.flatnonzero(passed > 0)
+    q = np.where(dr[sel] > 0, f_now[sel] + 1.0, -f_next[sel]).astype(np.int64)
+    s = s[sel]
+    moves, to = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+    while len(sel):
+        at, found = rests.grid_at(s, q)
+        moves.append(sel[found])
+        to.append(at[found])
+        more = np.flatnonzero(passed[sel] > len(moves) - 1)
+        sel, s, q = sel[more], s[more], q[more] + 1
+    return np.concatenate(moves), np.concatenate(to)
+
+
 class _AxisGraph:
     """One axis over the whole span: per sample its states (at rest on a position, or moving
     since a command: ``chain`` >= 0), each state's position, and the edges into each sample's
     states from the sample before (a rest kept, a move started (one start), a move going on,
     a move stopping on a grid point it passed). States are numbered per sample, rests first;
     a state with no edge into it gets one from a virtual source numbered past the sample's
-    states (the programme gives it no finite cost)."""
+    states (the programme gives it no finite cost). Edges are in order of their sample, then
+    their state; a state's edges: a rest kept, then stops in order of the moving state."""
 
     def __init__(self, ax: _Axis, ts: np.ndarray, box: tuple[np.ndarray, np.ndarray],
                  starts_deg: np.ndarray, here_deg: float):
         n = len(ts)
         lo = np.maximum(box[0], ax.lo_deg - 1e-9)
         hi = np.minimum(box[1], ax.hi_deg + 1e-9)
-        # Rests: the start positions at sample 0; afterwards every grid point in the box,
-        # and where the axis is now (it may rest off the grid) while that is in the box.
-        g = ax.grid_deg
-        q0, q1 = np.ceil(lo[1:] / g - 1e-9).astype(int), np.floor(hi[1:] / g + 1e-9).astype(int)
-        count = np.maximum(q1 - q0 + 1, 0)
-        r_samp = np.concatenate(([0] * len(starts_deg), np.repeat(np.arange(1, n), count)))
-        r_x = np.concatenate((starts_deg, g * (np.repeat(q0, count) + np.arange(count.sum())
-                                               - np.repeat(np.cumsum(count) - count, count))))
-        on = (here_deg >= lo[1:]) & (here_deg <= hi[1:]) & (np.abs(here_deg / g - np.round(
-            here_deg / g)) > 1e-9)
-        r_samp = np.concatenate((r_samp, np.flatnonzero(on) + 1))
-        r_x = np.concatenate((r_x, np.full(int(on.sum()), here_deg)))
-        order = np.lexsort((r_x, r_samp))
-        r_samp, r_x = r_samp[order], r_x[order]
-        r_key = _rest_key(r_samp, r_x)
-        # Moves: from each rest on a cycle instant, either way, followed while in the box.
-        birth = (r_samp % 2 == 0) & (r_samp < n - 1)
-        b_samp = np.repeat(r_samp[birth], 2)
-        b_p0 = np.repeat(r_x[birth], 2)
+        rests = _Rests(ax.grid_deg, lo, hi, starts_deg, here_deg)
+        # Moves: from each rest on a cycle instant, either way.
+        birth = (rests.samp % 2 == 0) & (rests.samp < n - 1)
+        b_samp = np.repeat(rests.samp[birth], 2)
         b_dir = np.tile([1.0, -1.0], int(birth.sum()))
-        c_samp, c_id, c_x, c_next = [], [], [], []
-        alive = np.arange(len(b_samp))
-        k = 1
-        while len(alive):
-            s = b_samp[alive] + k
-            ok = s < n
-            alive, s = alive[ok], s[ok]
-            x = b_p0[alive] + b_dir[alive] * ax.travel(ts[s] - ts[b_samp[alive]])
-            inside = (x >= lo[s]) & (x <= hi[s])
-            alive, s, x = alive[inside], s[inside], x[inside]
-            nxt = np.minimum(s + 1, n - 1)
-            c_samp.append(s)
-            c_id.append(alive)
-            c_x.append(x)
-            c_next.append(b_p0[alive] + b_dir[alive] * ax.travel(ts[nxt] - ts[b_samp[alive]]))
-            k += 1
-        m_samp = np.concatenate(c_samp) if c_samp else np.zeros(0, int)
-        m_id = np.concatenate(c_id) if c_id else np.zeros(0, int)
-        m_x = np.concatenate(c_x) if c_x else np.zeros(0)
-        m_next = np.concatenate(c_next) if c_next else np.zeros(0)
-        order = np.lexsort((m_id, m_samp))
-        m_samp, m_id, m_x, m_next = m_samp[order], m_id[order], m_x[order], m_next[order]
-        m_key = m_samp.astype(np.int64) * (1 << 32) + m_id
-        # Per sample: rests then moves.
-        n_rest = np.bincount(r_samp, minlength=n)
-        n_move = np.bincount(m_samp, minlength=n)
-        self.off = np.concatenate(([0], np.cumsum(n_rest + n_move)))
-        r_local = np.arange(len(r_samp)) - np.repeat(np.cumsum(n_rest) - n_rest, n_rest)
-        m_local = (np.arange(len(m_samp)) - np.repeat(np.cumsum(n_move) - n_move, n_move)
-                   + n_rest[m_samp])
-        self.x = np.empty(self.off[-1])
-        self.chain = np.full(self.off[-1], -1)
-        self.x[self.off[r_samp] + r_local] = r_x
-        self.x[self.off[m_samp] + m_local] = m_x
-        self.chain[self.off[m_samp] + m_local] = m_id
-        self.b_samp, self.b_dir, self.grid_deg = b_samp, b_dir, g
-        # Edges (into sample s + 1, indices local): dst, src, starts.
-        dst, src, cost, samp = [], [], [], []
-
-        def add(d_samp, d_local, s_local, starts):
-            samp.append(d_samp)
-            dst.append(d_local)
-            src.append(s_local)
-            cost.append(np.full(len(d_samp), starts, dtype=np.float32))
-
-        later = r_samp > 0
-        at, found = _lookup(r_key, _rest_key(r_samp[later] - 1, r_x[later]))
-        add(r_samp[later][found], r_local[later][found], r_local[at[found]], 0)
-        born = b_samp[m_id] == m_samp - 1
-        at, found = _lookup(r_key, _rest_key(m_samp[born] - 1, b_p0[m_id[born]]))
-        add(m_samp[born][found], m_local[born][found], r_local[at[found]], 1)
-        on = ~born
-        at, found = _lookup(m_key, m_key[on] - (1 << 32))
-        add(m_samp[on][found], m_local[on][found], m_local[at[found]], 0)
-        # Stops: grid points strictly past the position now, not past the next one.
-        go = m_samp < n - 1
-        up = b_dir[m_id[go]] > 0
-        xg, ng = m_x[go] / g, m_next[go] / g
-        first = np.where(up, np.floor(xg + 1e-9) + 1.0, np.ceil(ng - 1e-9))
-        last = np.where(up, np.floor(ng + 1e-9), np.ceil(xg - 1e-9) - 1.0)
-        cnt = np.maximum(last - first + 1.0, 0.0).astype(int)
-        q = g * (np.repeat(first, cnt) + (np.arange(cnt.sum())
-                                          - np.repeat(np.cumsum(cnt) - cnt, cnt)))
-        s_from = np.repeat(m_samp[go], cnt)
-        at, found = _lookup(r_key, _rest_key(s_from + 1, q))
-        add(s_from[found] + 1, r_local[at[found]], np.repeat(m_local[go], cnt)[found], 0)
-        samp_a, dst_a = np.concatenate(samp), np.concatenate(dst)
-        src_a, cost_a = np.concatenate(src), np.concatenate(cost)
-        # States nobody reaches: one edge from the virtual source.
-        size = n_rest + n_move
-        g_dst = self.off[samp_a] + dst_a
-        reached = np.zeros(self.off[-1], dtype=bool)
-        reached[g_dst] = True
-        lone = np.flatnonzero(~reached[self.off[1]:]) + self.off[1]
-        lone_samp = np.searchsorted(self.off, lone, side="right") - 1
-        samp_a = np.concatenate((samp_a, lone_samp))
-        dst_a = np.concatenate((dst_a, lone - self.off[lone_samp]))
-        src_a = np.concatenate((src_a, size[lone_samp - 1]))
-        cost_a = np.concatenate((cost_a, np.zeros(len(lone), np.float32)))
-        order = np.lexsort((dst_a, samp_a))
-        self.e_samp, self.e_dst = samp_a[order], dst_a[order]
-        self.e_src, self.e_cost = src_a[order], cost_a[order]
-        self.e_off = np.searchsorted(self.e_samp, np.arange(n + 1))
-        # Each state's first edge, per sample (reduceat's groups).
-        new = np.concatenate((np.ones(min(len(self.e_dst), 1), dtype=bool),
-                              (self.e_dst[1:] != self.e_dst[:-1])
-                              | (self.e_samp[1:] != self.e_samp[:-1])))
-        self.e_first = np.flatnonzero(new) - self.e_off[self.e_samp[new]]
-        self.f_off = np.searchsorted(self.e_samp[new], np.arange(n + 1))
-        self.size = size
-        # Each state's edges, as one range of the edge arrays (states of sample 0 have none).
-        self.edge_at = np.concatenate((np.zeros(int(size[0]), np.int64),
-                                       np.repeat(self.e_off[1:-1], size[1:])
-                                       + self.e_first, [len(self.e_src)])).astype(np.int64)
+        blocks, n_move = _follow(ax, ts, lo, hi, b_samp, np.repeat(rests.x[birth], 2), b_dir,
+                                 rests)
+        self.size = size = rests.count + n_move
+        self.off = off = np.concatenate(([0], np.cumsum(size)))
+        self.b_samp, self.b_dir, self.grid_deg = b_samp, b_dir, ax.grid_deg
+        rest_at = np.arange(len(rests.samp)) + (off[:-1] - rests.base)[rests.samp]
+        self._states(rests, rest_at, blocks)
+        stop_first = self._rest_edges(rests, rest_at, blocks)
+        self._move_edges(rests, blocks, birth)
+        self._stop_edges(rests, blocks, stop_first)
+        self.e_off = self.edge_at[off]
+        self.e_samp = np.repeat(np.arange(n), np.diff(self.e_off))
+        # Each state's first edge, per sample (states of sample 0 have none).
+        self.e_first = self.edge_at[off[1]:-1] - np.repeat(self.e_off[1:-1], size[1:])
+        self.f_off = np.concatenate(([0], off[1:] - off[1]))
         # A sample with no state in reach: no schedule of the class can pass it.
         self.blocked = bool((size[1:] == 0).any())
         self._trig: tuple[np.ndarray, np.ndarray] | None = None
+
+    def _states(self, rests: _Rests, rest_at: np.ndarray, blocks: list[_Block]) -> None:
+        """Each state's position and chain (the rests' overall indices ``rest_at``); each
+        moving state's index, overall and in its sample, into its block."""
+        self.x = np.empty(self.off[-1])
+        self.chain = np.full(self.off[-1], -1)
+        self.x[rest_at] = rests.x
+        for b in blocks:
+            index = np.arange(len(b.s))
+            b.at = (self.off[1:] - b.shift)[b.s] + index
+            b.local = (self.size - b.shift)[b.s] + index
+            self.x[b.at] = b.x
+            self.chain[b.at] = b.chain
+
+    def _rest_edges(self, rests: _Rests, rest_at: np.ndarray, blocks: list[_Block]
+                    ) -> np.ndarray:
+        """Each state's first edge (``edge_at``: a moving state has one, a rest its kept one
+        and its stops, or else one from the virtual source), the edge arrays, and the rests'
+        kept and virtual edges in them. Returns where each rest's stops would begin, less the
+        stops into the rests before it."""
+        n_rest = len(rests.samp)
+        later = np.arange(rests.count[0], n_rest)
+        at, found = _lookup(rests.key, rests.key[later] - (1 << 32))  # the sample before
+        kept = np.zeros(n_rest, np.int64)
+        kept[later[found]] = 1
+        stops = np.bincount(np.concatenate([b.stop_to for b in blocks]
+                                           + [np.zeros(0, np.int64)]), minlength=n_rest)
+        lone = np.zeros(n_rest, bool)
+        lone[later] = kept[later] + stops[later] == 0
+        n_edges = np.ones(int(self.off[-1]), np.int64)
+        n_edges[rest_at] = kept + stops + lone
+        self.edge_at = np.concatenate(([0], np.cumsum(n_edges)))
+        n_total = int(self.edge_at[-1])
+        self.e_src, self.e_dst = np.empty(n_total, np.int64), np.empty(n_total, np.int64)
+        self.e_cost = np.zeros(n_total, np.float32)
+        first = self.edge_at[rest_at]
+        e = first[later[found]]
+        self.e_src[e], self.e_dst[e] = rests.local[at[found]], rests.local[later[found]]
+        e = first[lone]
+        self.e_src[e] = self.size[rests.samp[lone] - 1]
+        self.e_dst[e] = rests.local[lone]
+        return first + kept - (np.cumsum(stops) - stops)
+
+    def _move_edges(self, rests: _Rests, blocks: list[_Block], birth: np.ndarray) -> None:
+        """The one edge into each moving state: its move started from its rest (one start),
+        or it goes on from the step before."""
+        # The rest a move starts from, as the first rest of its key; two chains a birth.
+        born = rests.local[np.searchsorted(rests.key, rests.key[birth])]
+        before: _Block | None = None
+        for b in blocks:
+            e = self.edge_at[b.at]
+            self.e_src[e] = born[b.chain >> 1] if before is None else before.local[b.before]
+            self.e_dst[e] = b.local
+            if before is None:
+                self.e_cost[e] = 1.0
+            before = b
+
+    def _stop_edges(self, rests: _Rests, blocks: list[_Block], stop_first: np.ndarray
+                    ) -> None:
+        """The stops' edges (``stop_first`` of :meth:`_rest_edges`): into a rest after its
+        kept one, in order of the moving state."""
+        stride = max(int(self.size.max()), 1)  # above any index in a sample
+        wide = np.int32 if len(rests.samp) * stride < 2**31 else np.int64  # int32 sorts faster
+        key = np.sort(np.concatenate([(b.stop_to * stride + b.local[b.stop_from]).astype(wide)
+                                      for b in blocks] + [np.zeros(0, wide)]))
+        to, src = np.divmod(key, stride)
+        e = stop_first[to] + np.arange(len(key))
+        self.e_src[e] = src
+        self.e_dst[e] = rests.local[to]
 
     def positions(self, s: int) -> np.ndarray:
         return self.x[self.off[s]:self.off[s + 1]]
