@@ -183,7 +183,7 @@ def _follow(ax: _Axis, ts: np.ndarray, lo: np.ndarray, hi: np.ndarray, b_samp: n
             chain, p0, dr, s = chain[:ok], p0[:ok], dr[:ok], s[:ok]
         travel[k:] = ax.travel(ts[k:] - ts[:n - k])
         x = p0 + dr * travel[s]
-        # The last grid point passed (up) or the first not yet passed (down, negated).
+        # The last grid point reached, in grid steps along the move (dr * q).
         f = np.floor(dr * (x / g) + 1e-9)
         if blocks:
             blocks[-1].stop_from, blocks[-1].stop_to = _stops(rests, s, f, f_before[:ok], dr)
@@ -200,19 +200,19 @@ def _follow(ax: _Axis, ts: np.ndarray, lo: np.ndarray, hi: np.ndarray, b_samp: n
 def _stops(rests: _Rests, s: np.ndarray, f_next: np.ndarray, f_now: np.ndarray,
            dr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Stops at samples ``s`` of moves at the sample before (``f_now``, ``f_next`` of
-    :func:`_follow`): on grid points strictly past the position then, not past the one now
-    (up: f_now + 1 to f_next; down: -f_next to -f_now - 1). Each stop's (move, rest)."""
+    :func:`_follow`, direction ``dr``): on grid points strictly past the position then, not
+    past the one now (f_now < dr * q <= f_next). Each stop's (move, rest)."""
     passed = f_next - f_now
     sel = np.flatnonzero(passed > 0)
-    q = np.where(dr[sel] > 0, f_now[sel] + 1.0, -f_next[sel]).astype(np.int64)
+    along, step = f_now[sel] + 1.0, dr[sel]
     s = s[sel]
     moves, to = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
     while len(sel):
-        at, found = rests.grid_at(s, q)
+        at, found = rests.grid_at(s, (step * along).astype(np.int64))
         moves.append(sel[found])
         to.append(at[found])
         more = np.flatnonzero(passed[sel] > len(moves) - 1)
-        sel, s, q = sel[more], s[more], q[more] + 1
+        sel, s, along, step = sel[more], s[more], along[more] + 1.0, step[more]
     return np.concatenate(moves), np.concatenate(to)
 
 
@@ -247,6 +247,9 @@ class _AxisGraph:
         self._stop_edges(rests, blocks, stop_first)
         self.e_off = self.edge_at[off]
         self.e_samp = np.repeat(np.arange(n), np.diff(self.e_off))
+        # Each edge's state, as its index in the sample.
+        self.e_dst = np.repeat(np.arange(off[-1]) - np.repeat(off[:-1], size),
+                               np.diff(self.edge_at))
         # Each state's first edge, per sample (states of sample 0 have none).
         self.e_first = self.edge_at[off[1]:-1] - np.repeat(self.e_off[1:-1], size[1:])
         self.f_off = np.concatenate(([0], off[1:] - off[1]))
@@ -270,9 +273,10 @@ class _AxisGraph:
     def _rest_edges(self, rests: _Rests, rest_at: np.ndarray, blocks: list[_Block]
                     ) -> np.ndarray:
         """Each state's first edge (``edge_at``: a moving state has one, a rest its kept one
-        and its stops, or else one from the virtual source), the edge arrays, and the rests'
-        kept and virtual edges in them. Returns where each rest's stops would begin, less the
-        stops into the rests before it."""
+        and its stops, or else one from the virtual source), the edges' source and cost
+        arrays, and the rests' kept and virtual edges in them. Returns, per rest, where its
+        stops begin less the stops into the rests before it (a stop's edge is that plus its
+        index among all the stops in order of the rest)."""
         n_rest = len(rests.samp)
         later = np.arange(rests.count[0], n_rest)
         at, found = _lookup(rests.key, rests.key[later] - (1 << 32))  # the sample before
@@ -282,18 +286,18 @@ class _AxisGraph:
                                            + [np.zeros(0, np.int64)]), minlength=n_rest)
         lone = np.zeros(n_rest, bool)
         lone[later] = kept[later] + stops[later] == 0
-        n_edges = np.ones(int(self.off[-1]), np.int64)
-        n_edges[rest_at] = kept + stops + lone
-        self.edge_at = np.concatenate(([0], np.cumsum(n_edges)))
+        self.edge_at = np.ones(int(self.off[-1]) + 1, np.int64)  # a state's edges, summed
+        self.edge_at[0] = 0
+        self.edge_at[rest_at + 1] = kept + stops + lone
+        np.cumsum(self.edge_at, out=self.edge_at)
         n_total = int(self.edge_at[-1])
-        self.e_src, self.e_dst = np.empty(n_total, np.int64), np.empty(n_total, np.int64)
+        self.e_src = np.empty(n_total, np.int64)
         self.e_cost = np.zeros(n_total, np.float32)
         first = self.edge_at[rest_at]
         e = first[later[found]]
-        self.e_src[e], self.e_dst[e] = rests.local[at[found]], rests.local[later[found]]
+        self.e_src[e] = rests.local[at[found]]
         e = first[lone]
         self.e_src[e] = self.size[rests.samp[lone] - 1]
-        self.e_dst[e] = rests.local[lone]
         return first + kept - (np.cumsum(stops) - stops)
 
     def _move_edges(self, rests: _Rests, blocks: list[_Block], birth: np.ndarray) -> None:
@@ -305,7 +309,6 @@ class _AxisGraph:
         for b in blocks:
             e = self.edge_at[b.at]
             self.e_src[e] = born[b.chain >> 1] if before is None else before.local[b.before]
-            self.e_dst[e] = b.local
             if before is None:
                 self.e_cost[e] = 1.0
             before = b
@@ -321,7 +324,6 @@ class _AxisGraph:
         to, src = np.divmod(key, stride)
         e = stop_first[to] + np.arange(len(key))
         self.e_src[e] = src
-        self.e_dst[e] = rests.local[to]
 
     def positions(self, s: int) -> np.ndarray:
         return self.x[self.off[s]:self.off[s + 1]]
