@@ -9,7 +9,7 @@ from itertools import pairwise
 
 import numpy as np
 import pytest
-from _stream_fakes import T0, arc_pass
+from _stream_fakes import T0, arc_pass, simple_plan
 from test_stream import Rig, track_errors
 
 import tracker.stream as stream_mod
@@ -342,3 +342,31 @@ def test_a_pre_position_of_several_moves_turns_each_axis_once_to_the_schedules_s
     assert pre[-1][0] != plan.preposition[0]          # the schedule starts elsewhere
     azs = [here[0]] + [az for az, _el in pre]
     assert sum(a != b for a, b in pairwise(azs)) == 1     # one azimuth move
+
+
+def test_a_schedule_cut_before_a_fast_stretch_hands_over_a_lookahead_before_its_end():
+    # It keeps the band only up to its end: handed over at the end, the aim policy's first
+    # move came a cycle late, its start delay still to run (a keyhole pass at 5 deg lost
+    # 0.25 s so). The aim policy decides from a lookahead before the end.
+    t = np.arange(T0 - 30.0, T0 + 330.0 + 0.5, 1.0)
+    f = (t - T0) / 300.0
+    jump = np.clip((t - (T0 + 150.0)) / 6.0, 0.0, 1.0)
+    az = 100.0 + 40.0 * f + 60.0 * jump
+    el = 20.0 * np.sin(np.pi * np.clip(f, -0.05, 1.05)) + np.where(f < 0, -1.0, 0.0)
+    track = SkyTrack.from_azel(t, az, el, name="JUMP")
+    core = TrackCore(simple_plan(track, SPEC), track, SPEC, Station(), PLANNED)
+    now = core.preposition_t_s - 5.0
+    truth = MotorModel(SPEC, 90.0, 0.0, now)
+    first = None
+    while now < T0 + 150.0:
+        core.observe(now, truth.az.position(now), truth.el.position(now))
+        cmd = core.decide(now)
+        if cmd is not None:
+            core.commanded(now, cmd)
+            truth.command(cmd.az_m_deg, cmd.el_deg, now)
+        first = first or core._schedule
+        if first is not None and now > first.end_s - core._lookahead_s:
+            break
+        now += 0.5
+    assert first is not None and first.end_s < core.los_s - 60.0     # cut before the jump
+    assert now <= first.end_s and core._schedule is None

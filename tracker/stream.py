@@ -665,7 +665,11 @@ class TrackCore:
         res = self.spec.resolution_deg
         az, el = self.motor.position(t_s)
         want_az, want_el = sch.expected(t_s)
-        if t_s > sch.end_s or abs(az - want_az) > 1.5 * res or abs(el - want_el) > 1.5 * res:
+        # A schedule cut before a fast stretch keeps the band only up to its end: the aim
+        # policy takes over a lookahead before it, in time to move before the target leaves.
+        end_s = sch.end_s if sch.end_s >= self.los_s - self.settings.cycle_s else \
+            sch.end_s - lookahead_s
+        if t_s > end_s or abs(az - want_az) > 1.5 * res or abs(el - want_el) > 1.5 * res:
             self._schedule = None
             return _AIM
         # A move goes out on the cycle nearest its planned instant (a real clock's cycles
