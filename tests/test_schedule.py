@@ -107,18 +107,21 @@ def test_the_compiled_programme_finds_the_same_schedule_as_numpy(max_el_deg):
     path = MountPath.from_track(track, SPEC)
     park = MotorModel(SPEC, 0.0, 0.0, T0)
     there = _rest_on_path(path, T0)
-    cases = [(park, 2.0, None, True), (park, 4.0, None, True), (there, 3.0, T0 + 4.0, False),
-             (park, 3.0, None, False)]
-    for motor, band_deg, from_s, free_start in cases:
+    # The compiled loops store samples alternately az-major and el-major: spans of an even
+    # and an odd number of steps end on either.
+    cases = [(park, 2.0, None, True, 420.0), (park, 4.0, None, True, 420.0),
+             (park, 2.0, None, True, 419.75), (there, 3.0, T0 + 4.0, False, 420.0),
+             (there, 3.0, T0 + 4.0, False, 419.75), (park, 3.0, None, False, 420.0)]
+    for motor, band_deg, from_s, free_start, span_s in cases:
         got = {}
         for name in ("numpy", "numba"):
             previous = compiled.use(name)
             try:
-                got[name] = fewest_starts(path, motor.az, motor.el, T0, T0 + 420.0, band_deg,
+                got[name] = fewest_starts(path, motor.az, motor.el, T0, T0 + span_s, band_deg,
                                           from_s=from_s, free_start=free_start)
             finally:
                 compiled.use(previous)
-        assert got["numba"] == got["numpy"], (band_deg, from_s, free_start)
+        assert got["numba"] == got["numpy"], (band_deg, from_s, free_start, span_s)
         assert (got["numpy"] is None) == (motor is park and not free_start)
 
 

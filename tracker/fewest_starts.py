@@ -497,111 +497,150 @@ def _programme(ga: _AxisGraph, ge: _AxisGraph, v0: np.ndarray, stop_bearing_deg:
     return ka, ke, total
 
 
-# Costs of the compiled programme: int16, with this for "no finite cost" (a start or two
-# added to it still fits, and min() keeps it: no branch in the inner loops).
+# Costs of the compiled programme: stored as int16 (half the memory of float32), worked on as
+# float32 (numba widens int16 sums to int64, which vectorises poorly), with this for "no
+# finite cost" (a start or two added to it still fits, and min() keeps it: no branch in the
+# inner loops).
 _NONE16 = 16_000
 
 
 def _programme_compiled(ga: _AxisGraph, ge: _AxisGraph, v0: np.ndarray,
                         stop_bearing_deg: float, target: np.ndarray, min_dot: np.ndarray,
                         checked: np.ndarray) -> _Found | None:
-    """:func:`_programme` as compiled loops (:data:`_loops`), with the same result."""
+    """:func:`_programme` as compiled loops (:data:`_loops`), with the same result. Sample
+    s's costs are stored az-major (``[az][el]``) when s is even, el-major when it is odd
+    (:func:`_forward_loop`)."""
     n = len(target)
     v_off = np.concatenate(([0], np.cumsum(ga.size.astype(np.int64) * ge.size)))
     values = np.empty(int(v_off[-1]), np.int16)
     values[:v_off[1]] = np.where(np.isfinite(v0), v0, _NONE16).ravel()
-    mid = np.empty(int((ga.size[1:] * ge.size[:-1]).max()), np.int16)
+    work = int(max((ga.size[1:] * ge.size[:-1]).max(), (ga.size[:-1] * ge.size[1:]).max(),
+                   (ga.size * ge.size).max()))
     sin_b, cos_b = ga.trig(stop_bearing_deg)
     sin_e, cos_e = ge.trig(0.0)
-    edges = (ga.off, ga.edge_at, ga.e_src, ga.e_cost.astype(np.int16),
-             ge.off, ge.edge_at, ge.e_src, ge.e_cost.astype(np.int16))
+    edges = (ga.off, ga.edge_at, ga.e_src, ga.e_cost, ge.off, ge.edge_at, ge.e_src, ge.e_cost)
     reached = _loops("_forward_loop")(*edges, sin_b, cos_b, sin_e, cos_e, target, min_dot,
-                                      checked, v_off, values, mid)
+                                      checked, v_off, values, np.empty(work, np.float32),
+                                      np.empty(work, np.float32))
     if reached < n:
         return None
     last = values[v_off[-2]:]
-    best = int(np.argmin(last))
-    if last[best] == _NONE16:
+    last = (last.reshape(ge.size[-1], ga.size[-1]).T if (n - 1) % 2
+            else last.reshape(ga.size[-1], ge.size[-1]))
+    # The first least-cost pair in az-major order, as _programme takes it.
+    a, e = np.unravel_index(int(np.argmin(last)), last.shape)
+    if last[a, e] == _NONE16:
         return None
     ka, ke = np.zeros(n, np.int64), np.zeros(n, np.int64)
-    ka[-1], ke[-1] = divmod(best, int(ge.size[-1]))
+    ka[-1], ke[-1] = a, e
     _loops("_path_loop")(*edges, v_off, values, ka, ke)
-    return ka, ke, int(last[best])
+    return ka, ke, int(last[a, e])
 
 
 def _forward_loop(a_off, a_edge, a_src, a_cost, e_off, e_edge, e_src, e_cost, sin_b, cos_b,
-                  sin_e, cos_e, target, min_dot, checked, v_off, values, mid
+                  sin_e, cos_e, target, min_dot, checked, v_off, values, work, work_t
                   ):  # pragma: no cover - compiled by numba (its twin: _programme)
-    """Fills ``values`` (each sample's az x el costs, flat) from sample 0's; returns the first
-    sample with no finite cost (len(target) when there is none)."""
+    """Fills ``values`` from sample 0's; returns the first sample with no finite cost
+    (len(target) when there is none). A step's two axes may go in either order (a pair's
+    cost is the least over both axes' edges into it, whichever is taken first), so each step
+    takes first the axis its sample before is stored major in and stores its sample
+    the other way: every relaxation runs along contiguous rows, and a step needs one
+    transpose."""
     n = len(target)
+    none = np.float32(_NONE16)
     for s in range(1, n):
-        pe = e_off[s] - e_off[s - 1]
-        _az_step(a_off[s], a_off[s + 1] - a_off[s], a_off[s] - a_off[s - 1], pe, a_edge, a_src,
-                 a_cost, values, v_off[s - 1], mid)
-        if not _el_step(a_off[s], a_off[s + 1] - a_off[s], e_off[s], e_off[s + 1] - e_off[s],
-                        pe, e_edge, e_src, e_cost, sin_b, cos_b, sin_e, cos_e, target[s],
-                        min_dot[s], checked[s], mid, values, v_off[s]):
+        pa, pe = a_off[s] - a_off[s - 1], e_off[s] - e_off[s - 1]
+        na, ne = a_off[s + 1] - a_off[s], e_off[s + 1] - e_off[s]
+        before = values[v_off[s - 1]:v_off[s]]
+        if s % 2:  # [az][el] before: az first, stored [el][az]
+            _relax(work, na, pe, before, pa, a_edge, a_src, a_cost, a_off[s])
+            _transpose(work, na, pe, work_t)
+            _relax(work, ne, na, work_t, pe, e_edge, e_src, e_cost, e_off[s])
+        else:
+            _relax(work, ne, pa, before, pe, e_edge, e_src, e_cost, e_off[s])
+            _transpose(work, ne, pa, work_t)
+            _relax(work, na, ne, work_t, pa, a_edge, a_src, a_cost, a_off[s])
+        if checked[s]:
+            _band(work, s % 2 == 1, na, ne, sin_b[a_off[s]:], cos_b[a_off[s]:],
+                  sin_e[e_off[s]:], cos_e[e_off[s]:], target[s], min_dot[s])
+        finite = 0
+        out = values[v_off[s]:v_off[s + 1]]
+        for k in range(na * ne):
+            out[k] = np.int16(work[k])
+            finite += work[k] < none
+        if finite == 0:
             return s
     return n
 
 
-def _az_step(a0, na, pa, pe, a_edge, a_src, a_cost, values, before, mid
-             ):  # pragma: no cover - compiled by numba (in _forward_loop)
-    """mid[i, j]: the least cost of az state i with el state j of the sample before (at or
-    above :data:`_NONE16`: none)."""
-    for i in range(na):
-        row = i * pe
-        mid[row:row + pe] = _NONE16
-        for k in range(a_edge[a0 + i], a_edge[a0 + i + 1]):
-            src = a_src[k]
-            if src >= pa:  # the virtual source
-                continue
-            c, base = a_cost[k], before + src * pe
-            for j in range(pe):
-                x = values[base + j] + c
-                if x < mid[row + j]:
-                    mid[row + j] = x
+def _relax(out, n_rows, width, src, n_src, edge_at, e_src, e_cost, first
+           ):  # pragma: no cover - compiled by numba (in _forward_loop)
+    """Row r of ``out`` (rows ``width`` long): the least over the edges into state r (of the
+    axis's states from ``first``) of its source's row of ``src`` plus the edge's starts (a
+    source at or past ``n_src``, the virtual one, has none)."""
+    none = np.float32(_NONE16)
+    for r in range(n_rows):
+        row = out[r * width:(r + 1) * width]
+        row[:] = none
+        for k in range(edge_at[first + r], edge_at[first + r + 1]):
+            if e_src[k] < n_src:
+                _min_into(row, src[e_src[k] * width:(e_src[k] + 1) * width],
+                          np.float32(e_cost[k]))
 
 
-def _el_step(a0, na, e0, ne, pe, e_edge, e_src, e_cost, sin_b, cos_b, sin_e, cos_e, target,
-             min_dot, checked, mid, values, now
-             ) -> bool:  # pragma: no cover - compiled by numba (in _forward_loop)
-    """The sample's costs from ``mid``, and the band (as :func:`_feasible`); whether any is
-    finite."""
-    none = _NONE16
-    alive = False
-    for i in range(na):
-        along = sin_b[a0 + i] * target[0] + cos_b[a0 + i] * target[1]
-        row = i * pe
+def _min_into(row, src, cost
+              ):  # pragma: no cover - compiled by numba (in _relax)
+    for j in range(len(row)):
+        x = np.float32(src[j]) + cost
+        row[j] = x if x < row[j] else row[j]
+
+
+def _transpose(src, rows, cols, out
+               ):  # pragma: no cover - compiled by numba (in _forward_loop)
+    for i in range(rows):
+        for j in range(cols):
+            out[j * rows + i] = src[i * cols + j]
+
+
+def _band(work, el_major, na, ne, sin_b, cos_b, sin_e, cos_e, target, min_dot
+          ):  # pragma: no cover - compiled by numba (in _forward_loop)
+    """No finite cost where a pair's boresight is out of the band (as :func:`_feasible`),
+    along ``work``'s rows."""
+    none = np.float32(_NONE16)
+    if el_major:
         for j in range(ne):
-            best = none
-            for k in range(e_edge[e0 + j], e_edge[e0 + j + 1]):
-                src = e_src[k]
-                if src < pe:
-                    best = min(best, mid[row + src] + e_cost[k])
-            if checked and not (along * cos_e[e0 + j] >= min_dot - sin_e[e0 + j] * target[2]):
-                best = none
-            values[now + i * ne + j] = best
-            alive = alive or best < none
-    return alive
+            lim, c = min_dot - sin_e[j] * target[2], cos_e[j]
+            row = work[j * na:(j + 1) * na]
+            for i in range(na):
+                row[i] = row[i] if (sin_b[i] * target[0] + cos_b[i] * target[1]) * c >= lim \
+                    else none
+    else:
+        for i in range(na):
+            along = sin_b[i] * target[0] + cos_b[i] * target[1]
+            row = work[i * ne:(i + 1) * ne]
+            for j in range(ne):
+                row[j] = row[j] if along * cos_e[j] >= min_dot - sin_e[j] * target[2] \
+                    else none
 
 
 def _path_loop(a_off, a_edge, a_src, a_cost, e_off, e_edge, e_src, e_cost, v_off, values, ka,
                ke):  # pragma: no cover - compiled by numba (its twin: _programme's last loop)
     """Back from the pair in ``ka[-1], ke[-1]``: the first least-cost predecessor pair of each
-    sample's, in edge order, into ``ka``, ``ke``."""
+    sample's, in edge order, into ``ka``, ``ke`` (the samples stored as
+    :func:`_forward_loop` stores them)."""
     for s in range(len(ka) - 1, 0, -1):
         a, e = ka[s], ke[s]
-        pa, pe, ne = a_off[s] - a_off[s - 1], e_off[s] - e_off[s - 1], e_off[s + 1] - e_off[s]
-        want = values[v_off[s] + a * ne + e]
+        pa, pe = a_off[s] - a_off[s - 1], e_off[s] - e_off[s - 1]
+        na, ne = a_off[s + 1] - a_off[s], e_off[s + 1] - e_off[s]
+        want = values[v_off[s] + (e * na + a if s % 2 else a * ne + e)]
         for k1 in range(a_edge[a_off[s] + a], a_edge[a_off[s] + a + 1]):
             if a_src[k1] >= pa:
                 continue
             for k2 in range(e_edge[e_off[s] + e], e_edge[e_off[s] + e + 1]):
                 if e_src[k2] >= pe:
                     continue
-                x = values[v_off[s - 1] + a_src[k1] * pe + e_src[k2]]
+                p = a_src[k1] * pe + e_src[k2] if s % 2 else e_src[k2] * pa + a_src[k1]
+                x = values[v_off[s - 1] + p]
                 if x < _NONE16 and x + a_cost[k1] + e_cost[k2] == want:
                     ka[s - 1], ke[s - 1] = a_src[k1], e_src[k2]
                     break
@@ -610,7 +649,7 @@ def _path_loop(a_off, a_edge, a_src, a_cost, e_off, e_edge, e_src, e_cost, v_off
             break
 
 
-_loops = compiled.Loops(globals(), helpers=("_az_step", "_el_step"))
+_loops = compiled.Loops(globals(), helpers=("_min_into", "_relax", "_transpose", "_band"))
 
 
 def _boxes(path: MountPath, ts: np.ndarray, target: np.ndarray, band_deg: float
