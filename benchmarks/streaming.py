@@ -1,11 +1,12 @@
 """Streaming benchmark: the live loop's pointing judged at equal accuracy, on a simulated G-5500.
 
 Run: ``python benchmarks/streaming.py [--sample 100] [--deadband 2 3 4 5] [--days 1]
-[--max-sats 30] [--no-peers] [--no-joint] [--workers N] [--kernels best|numba|numpy]``
+[--max-sats 30] [--no-peers] [--no-joint] [--bound-every N] [--workers N]
+[--kernels best|numba|numpy]``
 (the whole 1-day suite: ``--sample 0``; the 7-day suite: ``--days 7 --max-sats 0 --sample N``;
 ``--sample`` flies N passes spread evenly; ``--workers`` shares the passes among N processes,
 the same results; ``--kernels``: the whole-pass programme compiled by numba where it runs,
-the same schedules)
+the same schedules; ``--bound-every N``: the bound on every N-th pass only, for the big suites)
 
 Every policy flies the passes of the pass suite (benchmarks/passsuite.py) against the same
 simulated rotator (THE motor model, tracker.mount, G-5500 at 50 Hz rates), starting parked:
@@ -488,8 +489,12 @@ def _fly_peer_pass(sp, spec, name: str, threshold_deg: float, t_start: float
     return row, time.process_time() - c0
 
 
-def _pass_bound(sp, spec, deadband_deg: float) -> tuple[int | None, float]:
-    """:func:`start_bound` of one pass (from park) at one deadband, and its CPU time."""
+def _pass_bound(sp, spec, deadband_deg: float, wanted: bool = True
+                ) -> tuple[int | None, float]:
+    """:func:`start_bound` of one pass (from park) at one deadband, and its CPU time (None
+    and 0 when not ``wanted``)."""
+    if not wanted:
+        return None, 0.0
     c0 = time.process_time()
     return start_bound(sp.track, spec, sp.station, deadband_deg), time.process_time() - c0
 
@@ -499,43 +504,48 @@ def _pass_joint(sp, spec, deadband_deg: float, joint: bool) -> int | None:
     return joint_starts(sp.track, spec, sp.station, deadband_deg) if joint else None
 
 
-def _below_bound(r: dict, joint: list, bounds: list, deadband_deg: float) -> dict:
+def _below_bound(r: dict, joint: list, bounds: list, deadband_deg: float,
+                 computed: np.ndarray) -> dict:
     """Per policy: (passes it kept within the deadband, passes among them where it made fewer
-    starts than the bound or the bound called it impossible). Any of the latter would prove
-    the bound wrong."""
+    starts than the bound or the bound called it impossible), over the passes whose bound
+    was ``computed``. Any of the latter would prove the bound wrong."""
+    # Not computed: -inf, below no count of starts.
     b = np.array([np.inf if x is None else x for x in bounds], dtype=float)
-    within = r["per_pass_max"] <= deadband_deg + 1e-9
+    b[~computed] = -np.inf
+    within = (r["per_pass_max"] <= deadband_deg + 1e-9) & computed
     out = {"stream": (int(within.sum()), int(np.sum(within & (r["per_pass_starts"] < b))))}
     if "schedule" in r:
         a = r["schedule"]
-        w = a["per_pass_max"] <= deadband_deg + 1e-9
+        w = (a["per_pass_max"] <= deadband_deg + 1e-9) & computed
         out["stream+schedule"] = (int(w.sum()), int(np.sum(w & (a["per_pass_starts"] < b))))
     j = np.array([np.nan if x is None else x for x in joint], dtype=float)
-    has = np.isfinite(j)
+    has = np.isfinite(j) & computed
     out["joint schedule"] = (int(has.sum()), int(np.sum(has & (j < b))))
     for name, (_th, pr) in r["peers"].items():
-        w = pr["per_pass_max"] <= deadband_deg + 1e-9
+        w = (pr["per_pass_max"] <= deadband_deg + 1e-9) & computed
         out[name] = (int(w.sum()), int(np.sum(w & (pr["per_pass_starts"] < b))))
     return out
 
 
 def compare(suite, spec, deadbands: list[float], peers: bool = True, joint: bool = True,
-            schedule: bool = False, workers: int = 1) -> dict:
+            schedule: bool = False, workers: int = 1, bound_every: int = 1) -> dict:
     """Fly every pass of ``suite`` with the stream policy at each deadband; per deadband the
     clairvoyant bound and (``joint``) the joint schedule's starts, and (``peers``) each peer policy
     tuned to the stream policy's p99 error. Returns a result per deadband plus the lossy
     stream passes (policy, target, station, max el, lost s, planner-predicted lost s,
     whether :func:`start_bound` finds any schedule able to keep within the lost-track limit).
-    ``workers`` processes share the passes (the same results as one)."""
+    ``workers`` processes share the passes (the same results as one). The bound is computed
+    on every ``bound_every``-th pass (its figures and checks are over those)."""
     passes = PassMap(suite, workers)
     try:
-        return _compare(suite, spec, deadbands, peers, joint, schedule, passes)
+        return _compare(suite, spec, deadbands, peers, joint, schedule, passes,
+                        max(1, bound_every))
     finally:
         passes.close()
 
 
 def _compare(suite, spec, deadbands: list[float], peers: bool, joint: bool, schedule: bool,
-             passes: PassMap) -> dict:
+             passes: PassMap, bound_every: int) -> dict:
     """:func:`compare` with the passes flown through ``passes``."""
     rows: dict[float, list] = {d: [] for d in deadbands}
     cpu = dict.fromkeys(deadbands, 0.0)
@@ -557,14 +567,16 @@ def _compare(suite, spec, deadbands: list[float], peers: bool, joint: bool, sche
     tuners = {name: PeerTuner(name, passes, spec, t_starts, followable)
               for name in (PEERS if peers else ())}
     out: dict = {"deadbands": {}, "lossy": lossy, "followable": followable, "cpu": cpu,
-                 "planner_followable": int(np.sum(planner_followable))}
+                 "planner_followable": int(np.sum(planner_followable)),
+                 "bound_every": bound_every}
+    computed = np.arange(len(suite)) % bound_every == 0
     for d in deadbands:
         r = summarise(rows[d], followable, d)
         r["cpu_s"] = cpu[d]
-        timed = passes.map(_pass_bound, [(spec, d)] * len(suite))
+        timed = passes.map(_pass_bound, [(spec, d, bool(c)) for c in computed])
         bounds = [b for b, _cpu in timed]
-        r["bound_cpu_pp"] = sum(c for _b, c in timed) / max(len(suite), 1)
-        feasible = np.array([b is not None for b in bounds])
+        r["bound_cpu_pp"] = sum(c for _b, c in timed) / max(int(computed.sum()), 1)
+        feasible = np.array([b is not None for b in bounds]) & computed
         r["bound_pp"] = float(np.mean([b for b in bounds if b is not None])) if any(
             feasible) else float("nan")
         r["stream_feasible_pp"] = float(np.mean(r["per_pass_starts"][feasible])) if any(
@@ -584,7 +596,7 @@ def _compare(suite, spec, deadbands: list[float], peers: bool, joint: bool, sche
                 if any(feasible) else float("nan")
             r["schedule"] = a
         r["peers"] = {name: tu.tuned(r["p99"], d) for name, tu in tuners.items()}
-        r["below_bound"] = _below_bound(r, refs, bounds, d)
+        r["below_bound"] = _below_bound(r, refs, bounds, d, computed)
         out["deadbands"][d] = r
     out["peer_cpu"] = {name: tu.cpu_s for name, tu in tuners.items()}
     return out
@@ -609,8 +621,10 @@ def print_results(res: dict, n_passes: int) -> None:
               f"{r['stream_feasible_pp'] / r['bound_pp']:>8.2f}{r['joint_pp']:>7.1f}"
               f"{r['stream_joint_pp'] / r['joint_pp']:>8.2f}{r['cpu_s']:>7.1f}"
               f"{r['bound_cpu_pp']:>17.2f}")
+    every = res["bound_every"]
     print("bound: the clairvoyant lower bound on starts per pass from park for a great-circle "
-          "error within D (tracker.startbound; passes where it is feasible); joint: a "
+          "error within D (tracker.startbound; passes where it is feasible"
+          + (f", on one pass in {every}" if every > 1 else "") + "); joint: a "
           "whole-pass schedule knowing the future that keeps the great-circle error within D "
           "(tracker.schedule; a schedule that exists, not a bound); x: our starts on the same "
           "passes over it")
@@ -704,6 +718,9 @@ def main(argv=None) -> int:
     ap.add_argument("--hard", action="store_true",
                     help="fly only the passes every exact path (normal, overlap, flip) loses: "
                          "those that need a keyhole, an ahead path or an unwind")
+    ap.add_argument("--bound-every", type=int, default=1, metavar="N",
+                    help="compute the clairvoyant bound on every N-th pass only (its "
+                         "figures and checks are over those)")
     ap.add_argument("--workers", type=int, default=1,
                     help="fly the passes in this many processes (the same results as 1)")
     ap.add_argument("--kernels", choices=("best", "numba", "numpy"), default="best",
@@ -733,7 +750,8 @@ def main(argv=None) -> int:
           f"{time.perf_counter() - t0:.1f} s")
     c0, w0 = cpu_s_with_children(), time.perf_counter()
     res = compare(suite, spec, args.deadband, peers=not args.no_peers,
-                  joint=not args.no_joint, schedule=args.aim_only, workers=args.workers)
+                  joint=not args.no_joint, schedule=args.aim_only, workers=args.workers,
+                  bound_every=args.bound_every)
     print_results(res, len(suite))
     print(f"took {time.perf_counter() - w0:.0f} s wall, {cpu_s_with_children() - c0:.0f} s CPU "
           f"(summed over {max(args.workers, 1)} worker{'s' if args.workers > 1 else ''})")

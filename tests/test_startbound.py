@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from _stream_fakes import T0, arc_pass
 
+from tracker import compiled
 from tracker.geometry import MountPath, pointing_error_deg
 from tracker.mount import AxisMotor, MotorModel, drive_axis, preset
 from tracker.schedule import plan_schedule
@@ -133,7 +134,46 @@ def test_never_above_the_whole_pass_schedule():
     assert bound is not None and 0.6 * (n_az + n_el) <= bound <= n_az + n_el
 
 
+def test_the_compiled_bound_is_the_numpy_bound():
+    """The programme's two implementations (numpy, and loops numba compiles) give the same
+    bound, and the same None, on one branch and on every branch."""
+    pytest.importorskip("numba")
+    track = arc_pass(duration_s=300, max_el_deg=70.0, pad_s=30)
+    path = MountPath.from_track(track, SPEC)
+    ts = np.arange(T0, T0 + 300.0 + 1e-9, 0.25)
+    bearing, el = track.direction_at(ts)
+    p_az, p_el = path.mount_at(ts)
+    slow = np.arange(0.0, 20.0, 0.25)
+    over_ts, over_bearing, over_el = _overhead()
+
+    def bounds():
+        return ([start_lower_bound(SPEC, ts, bearing, el, p_az, p_el, band, park=(0.0, 0.0),
+                                   stride=stride)
+                 for band in (1.0, 2.5, 5.0) for stride in (1, 3)]
+                + [start_lower_bound(SPEC, over_ts, over_bearing, over_el,
+                                     np.full_like(over_ts, 30.0), over_el, 2.0,
+                                     park=(30.0, 84.0)),
+                   start_lower_bound_any_branch(SPEC, over_ts, over_bearing, over_el, 2.0,
+                                                park=(30.0, 84.0)),
+                   start_lower_bound_any_branch(SPEC, slow, 50.0 + 8.0 * slow,
+                                                np.full_like(slow, 5.0), 1.0,
+                                                park=(50.0, 5.0))])
+
+    got = {}
+    for name in ("numpy", "numba"):
+        previous = compiled.use(name)
+        try:
+            got[name] = bounds()
+        finally:
+            compiled.use(previous)
+    assert got["numba"] == got["numpy"]
+    assert got["numpy"][6] is None and got["numpy"][8] is None
+    assert all(isinstance(b, int) and b > 0 for b in got["numpy"][:6])
+
+
 # Every branch ------------------------------------------------------------------------------
+
+
 
 
 def _overhead(band_deg: float = 2.0):

@@ -85,6 +85,7 @@ from typing import Any
 
 import numpy as np
 
+from tracker import compiled
 from tracker.geometry import az_extent_deg
 from tracker.mount import RotatorSpec
 
@@ -392,23 +393,175 @@ def _least_starts(spec: RotatorSpec, t_s: np.ndarray, bearing_deg: np.ndarray,
                    np.asarray(bearing_deg, dtype=float)[idx], target_el, reach, zenith)
     park = park if park is not None else (spec.park_az_deg, spec.park_el_deg)
     sky = _Sky(spec, ga, ge, band_deg)
-    v = np.zeros((3, 3, 0, 0), dtype=np.float32)
-    at = (0, 0)
-    for k, i in enumerate(idx):
+    box, ok = _trimmed(boxes[0], sky.feasible(boxes[0], float(bearing_deg[idx[0]]),
+                                              float(el_deg[idx[0]])))
+    if box is None:
+        return None
+    v = np.where(ok[None, None], _initial(ga, ge, box, park), np.float32(np.inf))
+    if not np.isfinite(v).any():
+        return None
+    if compiled.backend() == "numba":
+        # The target's trigonometry as sky.feasible takes it (math, not numpy: the same bits).
+        b = [math.radians(float(bearing_deg[i])) for i in idx]
+        e = [math.radians(float(el_deg[i])) for i in idx]
+        trig = np.array([[math.cos(x) for x in b], [math.sin(x) for x in b],
+                         [math.cos(x) for x in e], [math.sin(x) for x in e]])
+        least = _loops("_bound_loop")(boxes, sky.cos_b, sky.sin_b, sky.cos_e, sky.sin_e,
+                                      sky.min_dot, trig, ga.m, ge.m, v, box[0], box[2])
+        return None if least < 0 else least
+    at = (box[0], box[2])
+    for k in range(1, len(idx)):
+        i = idx[k]
         box, ok = _trimmed(boxes[k], sky.feasible(boxes[k], float(bearing_deg[i]),
                                                   float(el_deg[i])))
         if box is None:
             return None
-        if k == 0:
-            v = _initial(ga, ge, box, park)
-        else:
-            src = np.full((3, 3, box[1] - box[0] + 2 * ga.m, box[3] - box[2] + 2 * ge.m),
-                          np.inf, dtype=np.float32)
-            _paste(src, (box[0] - ga.m, box[2] - ge.m), v, at)
-            v = _axis_step(src, ga.m)
-            v = _axis_step(v.transpose(1, 0, 3, 2), ge.m).transpose(1, 0, 3, 2)
+        src = np.full((3, 3, box[1] - box[0] + 2 * ga.m, box[3] - box[2] + 2 * ge.m),
+                      np.inf, dtype=np.float32)
+        _paste(src, (box[0] - ga.m, box[2] - ge.m), v, at)
+        v = _axis_step(src, ga.m)
+        v = _axis_step(v.transpose(1, 0, 3, 2), ge.m).transpose(1, 0, 3, 2)
         v = np.where(ok[None, None], v, np.float32(np.inf))
         at = (box[0], box[2])
         if not np.isfinite(v).any():
             return None
     return int(v.min())
+
+
+def _bound_loop(boxes, cos_b, sin_b, cos_e, sin_e, min_dot, trig, m_az, m_el, v, at_az, at_el
+                ):  # pragma: no cover - compiled by numba (its twin: _least_starts's loop)
+    """The programme from sample 1 on, from ``v`` (sample 0's costs, its box from ``at_az``,
+    ``at_el``): the least cost at the last sample, or -1 where some sample has no finite
+    cost. ``trig``: per sample cos and sin of the target's bearing, then of its elevation."""
+    inf = np.float32(np.inf)
+    for k in range(1, len(boxes)):
+        ok, r0, r1, c0, c1 = _feasible_cells(boxes[k], cos_b, sin_b, cos_e, sin_e, min_dot,
+                                             trig[:, k])
+        if r1 < 0:
+            return -1
+        n_az, n_el = r1 + 1 - r0, c1 + 1 - c0
+        a0, e0 = boxes[k, 0] + r0, boxes[k, 2] + c0
+        src = np.full((3, 3, n_az + 2 * m_az, n_el + 2 * m_el), inf, np.float32)
+        _paste_into(src, v, at_az - (a0 - m_az), at_el - (e0 - m_el))
+        mid = np.empty((3, 3, n_az, n_el + 2 * m_el), np.float32)
+        _rows_step(src, m_az, mid)
+        v = np.empty((3, 3, n_az, n_el), np.float32)
+        _columns_step(mid, m_el, v)
+        if _masked(v, ok, r0, c0) == 0:
+            return -1
+        at_az, at_el = a0, e0
+    return int(v.min())
+
+
+def _feasible_cells(box, cos_b, sin_b, cos_e, sin_e, min_dot, trig
+                    ):  # pragma: no cover - compiled by numba (in _bound_loop)
+    """As :meth:`_Sky.feasible` and :func:`_trimmed`: the box's feasible cells, and the
+    first and last row and column holding one (last row -1: none)."""
+    a0, a1, e0, e1 = box[0], box[1], box[2], box[3]
+    ok = np.zeros((a1 - a0, e1 - e0), np.bool_)
+    r0, r1, c0, c1 = a1 - a0, -1, e1 - e0, -1
+    for i in range(a1 - a0):
+        along = cos_b[a0 + i] * trig[0] + sin_b[a0 + i] * trig[1]
+        for j in range(e1 - e0):
+            if (cos_e[e0 + j] * trig[2]) * along + (sin_e[e0 + j] * trig[3]
+                                                    - min_dot[e0 + j]) >= 0.0:
+                ok[i, j] = True
+                r0, r1, c0, c1 = min(r0, i), max(r1, i), min(c0, j), max(c1, j)
+    return ok, r0, r1, c0, c1
+
+
+def _paste_into(src, v, d_az, d_el):  # pragma: no cover - compiled by numba (in _bound_loop)
+    """As :func:`_paste`: ``v`` into ``src`` where they overlap, cell (i, j) of ``v`` being
+    cell (i + d_az, j + d_el) of ``src``."""
+    for x in range(3):
+        for y in range(3):
+            for i in range(max(0, -d_az), min(v.shape[2], src.shape[2] - d_az)):
+                for j in range(max(0, -d_el), min(v.shape[3], src.shape[3] - d_el)):
+                    src[x, y, i + d_az, j + d_el] = v[x, y, i, j]
+
+
+def _masked(v, ok, r0, c0):  # pragma: no cover - compiled by numba (in _bound_loop)
+    """No finite cost where the cell is not feasible; the count of finite costs left."""
+    inf = np.float32(np.inf)
+    finite = 0
+    for x in range(3):
+        for y in range(3):
+            for i in range(v.shape[2]):
+                row, feasible = v[x, y, i], ok[r0 + i, c0:]
+                for j in range(v.shape[3]):
+                    row[j] = row[j] if feasible[j] else inf
+                    finite += row[j] < inf
+    return finite
+
+
+def _cell_step(v0, vp, vn, lo0, lop, lon, hi0, hip, hin):  # pragma: no cover - numba
+    """:func:`_axis_step` for one cell: the costs of resting, turning up and turning down
+    from the source cell's rest ``v0``, the cell m below turning up ``vp``, the cell m above
+    turning down ``vn`` and the runs' minima below (``lo``) and above (``hi``)."""
+    one, two = np.float32(1.0), np.float32(2.0)
+    full_up, full_down = min(lop, hip), min(lon, hin)
+    from_below, from_above = min(lo0, lop), min(hi0, hin)
+    anything = min(min(from_below, from_above), min(full_up, full_down))
+    return (min(min(v0, lop), min(hin, anything + one)),
+            min(min(vp, min(from_below, full_down) + one), anything + two),
+            min(min(vn, min(from_above, full_up) + one), anything + two))
+
+
+def _window_rows(rows, width):  # pragma: no cover - compiled by numba (in the steps)
+    """In place, as :func:`_window_min` along axis 0: row o becomes the least of rows
+    o .. o + width - 1 (for the first len - width + 1 rows)."""
+    w, valid = 1, rows.shape[0]
+    while w < width:
+        k = min(w, width - w)  # doubling, then the rest
+        for o in range(valid - k):
+            row, ahead = rows[o], rows[o + k]
+            for j in range(rows.shape[1]):
+                row[j] = row[j] if row[j] < ahead[j] else ahead[j]
+        valid -= k
+        w += k
+
+
+def _window_line(line, width):  # pragma: no cover - compiled by numba (in the steps)
+    """:func:`_window_rows` along a line."""
+    w, valid = 1, line.shape[0]
+    while w < width:
+        k = min(w, width - w)
+        for o in range(valid - k):
+            line[o] = line[o] if line[o] < line[o + k] else line[o + k]
+        valid -= k
+        w += k
+
+
+def _rows_step(src, m, out):  # pragma: no cover - compiled by numba (in _bound_loop)
+    """:func:`_axis_step` along axis 2 of ``src`` (the az cells; modes: axis 0)."""
+    runs = np.empty((3, src.shape[2], src.shape[3]), np.float32)
+    for y in range(3):
+        for x in range(3):
+            runs[x] = src[x, y]
+            _window_rows(runs[x], m + 1)
+        for r in range(out.shape[2]):
+            for j in range(src.shape[3]):
+                out[0, y, r, j], out[1, y, r, j], out[2, y, r, j] = _cell_step(
+                    src[0, y, r + m, j], src[1, y, r, j], src[2, y, r + 2 * m, j],
+                    runs[0, r, j], runs[1, r, j], runs[2, r, j],
+                    runs[0, r + m, j], runs[1, r + m, j], runs[2, r + m, j])
+
+
+def _columns_step(src, m, out):  # pragma: no cover - compiled by numba (in _bound_loop)
+    """:func:`_axis_step` along axis 3 of ``src`` (the el cells; modes: axis 1)."""
+    runs = np.empty((3, src.shape[3]), np.float32)
+    for x in range(3):
+        for i in range(src.shape[2]):
+            for y in range(3):
+                runs[y] = src[x, y, i]
+                _window_line(runs[y], m + 1)
+            for j in range(out.shape[3]):
+                out[x, 0, i, j], out[x, 1, i, j], out[x, 2, i, j] = _cell_step(
+                    src[x, 0, i, j + m], src[x, 1, i, j], src[x, 2, i, j + 2 * m],
+                    runs[0, j], runs[1, j], runs[2, j],
+                    runs[0, j + m], runs[1, j + m], runs[2, j + m])
+
+
+_loops = compiled.Loops(globals(), helpers=(
+    "_feasible_cells", "_paste_into", "_masked", "_cell_step", "_window_rows", "_window_line",
+    "_rows_step", "_columns_step"))
