@@ -470,98 +470,111 @@ def _feasible_cells(box, cos_b, sin_b, cos_e, sin_e, min_dot, trig
     return ok, r0, r1, c0, c1
 
 
+# The loops below index arrays from 0 within views: an index with an offset of unknown sign
+# keeps numba's negative-index check in the loop, and the loop is then not vectorised.
+
 def _paste_into(src, v, d_az, d_el):  # pragma: no cover - compiled by numba (in _bound_loop)
     """As :func:`_paste`: ``v`` into ``src`` where they overlap, cell (i, j) of ``v`` being
     cell (i + d_az, j + d_el) of ``src``."""
+    i0, j0 = max(0, -d_az), max(0, -d_el)
+    n_i = min(v.shape[2], src.shape[2] - d_az) - i0
+    n_j = min(v.shape[3], src.shape[3] - d_el) - j0
     for x in range(3):
         for y in range(3):
-            for i in range(max(0, -d_az), min(v.shape[2], src.shape[2] - d_az)):
-                for j in range(max(0, -d_el), min(v.shape[3], src.shape[3] - d_el)):
-                    src[x, y, i + d_az, j + d_el] = v[x, y, i, j]
+            to, of = src[x, y, i0 + d_az:, j0 + d_el:], v[x, y, i0:, j0:]
+            for i in range(n_i):
+                for j in range(n_j):
+                    to[i, j] = of[i, j]
 
 
 def _masked(v, ok, r0, c0):  # pragma: no cover - compiled by numba (in _bound_loop)
     """No finite cost where the cell is not feasible; the count of finite costs left."""
     inf = np.float32(np.inf)
+    feasible = ok[r0:, c0:]
     finite = 0
     for x in range(3):
         for y in range(3):
+            cells = v[x, y]
             for i in range(v.shape[2]):
-                row, feasible = v[x, y, i], ok[r0 + i, c0:]
                 for j in range(v.shape[3]):
-                    row[j] = row[j] if feasible[j] else inf
-                    finite += row[j] < inf
+                    cells[i, j] = cells[i, j] if feasible[i, j] else inf
+                    finite += cells[i, j] < inf
     return finite
 
 
-def _cell_step(v0, vp, vn, lo0, lop, lon, hi0, hip, hin):  # pragma: no cover - numba
-    """:func:`_axis_step` for one cell: the costs of resting, turning up and turning down
-    from the source cell's rest ``v0``, the cell m below turning up ``vp``, the cell m above
-    turning down ``vn`` and the runs' minima below (``lo``) and above (``hi``)."""
+def _cells_step(v0, vp, vn, lo0, lop, lon, hi0, hip, hin, out0, outp, outn, n
+                ):  # pragma: no cover - compiled by numba (in the steps)
+    """:func:`_axis_step` for ``n`` cells in a row: the costs of resting, turning up and
+    turning down (``out0``, ``outp``, ``outn``) from each source cell's rest (``v0``), the
+    cell m below turning up (``vp``), the cell m above turning down (``vn``), and the runs'
+    minima below (``lo``) and above (``hi``)."""
     one, two = np.float32(1.0), np.float32(2.0)
-    full_up, full_down = min(lop, hip), min(lon, hin)
-    from_below, from_above = min(lo0, lop), min(hi0, hin)
-    anything = min(min(from_below, from_above), min(full_up, full_down))
-    return (min(min(v0, lop), min(hin, anything + one)),
-            min(min(vp, min(from_below, full_down) + one), anything + two),
-            min(min(vn, min(from_above, full_up) + one), anything + two))
+    for j in range(n):
+        full_up, full_down = min(lop[j], hip[j]), min(lon[j], hin[j])
+        from_below, from_above = min(lo0[j], lop[j]), min(hi0[j], hin[j])
+        anything = min(min(from_below, from_above), min(full_up, full_down))
+        out0[j] = min(min(v0[j], lop[j]), min(hin[j], anything + one))
+        outp[j] = min(min(vp[j], min(from_below, full_down) + one), anything + two)
+        outn[j] = min(min(vn[j], min(from_above, full_up) + one), anything + two)
 
 
-def _window_rows(rows, width):  # pragma: no cover - compiled by numba (in the steps)
-    """In place, as :func:`_window_min` along axis 0: row o becomes the least of rows
-    o .. o + width - 1 (for the first len - width + 1 rows)."""
-    w, valid = 1, rows.shape[0]
+def _window(runs, width, stride):  # pragma: no cover - compiled by numba (in the steps)
+    """In place: each value the least of it and the width - 1 after it ``stride`` apart (by
+    doubling); where that reaches past the end the value is meaningless."""
+    w, n = 1, len(runs)
     while w < width:
-        k = min(w, width - w)  # doubling, then the rest
-        for o in range(valid - k):
-            row, ahead = rows[o], rows[o + k]
-            for j in range(rows.shape[1]):
-                row[j] = row[j] if row[j] < ahead[j] else ahead[j]
-        valid -= k
-        w += k
+        k = min(w, width - w) * stride  # doubling, then the rest
+        for t in range(n - k):
+            runs[t] = runs[t] if runs[t] < runs[t + k] else runs[t + k]
+        w += k // stride
 
 
-def _window_line(line, width):  # pragma: no cover - compiled by numba (in the steps)
-    """:func:`_window_rows` along a line."""
-    w, valid = 1, line.shape[0]
-    while w < width:
-        k = min(w, width - w)
-        for o in range(valid - k):
-            line[o] = line[o] if line[o] < line[o + k] else line[o + k]
-        valid -= k
-        w += k
-
-
-def _rows_step(src, m, out):  # pragma: no cover - compiled by numba (in _bound_loop)
-    """:func:`_axis_step` along axis 2 of ``src`` (the az cells; modes: axis 0)."""
-    runs = np.empty((3, src.shape[2], src.shape[3]), np.float32)
+def _rows_step(src4, m, out4):  # pragma: no cover - compiled by numba (in _bound_loop)
+    """:func:`_axis_step` along axis 2 of ``src4`` (the az cells; modes: axis 0). A row of
+    cells is contiguous, so each mode's runs and results are one flat stretch."""
+    n_in, width = src4.shape[2], src4.shape[3]
+    block, n_out = n_in * width, out4.shape[2] * width
+    src, out = src4.reshape(-1), out4.reshape(-1)
+    runs = np.empty(3 * block, np.float32)
     for y in range(3):
         for x in range(3):
-            runs[x] = src[x, y]
-            _window_rows(runs[x], m + 1)
-        for r in range(out.shape[2]):
-            for j in range(src.shape[3]):
-                out[0, y, r, j], out[1, y, r, j], out[2, y, r, j] = _cell_step(
-                    src[0, y, r + m, j], src[1, y, r, j], src[2, y, r + 2 * m, j],
-                    runs[0, r, j], runs[1, r, j], runs[2, r, j],
-                    runs[0, r + m, j], runs[1, r + m, j], runs[2, r + m, j])
+            run, of = runs[x * block:(x + 1) * block], src[(3 * x + y) * block:]
+            for t in range(block):
+                run[t] = of[t]
+            _window(run, m + 1, width)
+        lo, hi = runs, runs[m * width:]
+        _cells_step(src[y * block + m * width:], src[(3 + y) * block:],
+                    src[(6 + y) * block + 2 * m * width:], lo, lo[block:], lo[2 * block:], hi,
+                    hi[block:], hi[2 * block:], out[y * n_out:], out[(3 + y) * n_out:],
+                    out[(6 + y) * n_out:], n_out)
 
 
-def _columns_step(src, m, out):  # pragma: no cover - compiled by numba (in _bound_loop)
-    """:func:`_axis_step` along axis 3 of ``src`` (the el cells; modes: axis 1)."""
-    runs = np.empty((3, src.shape[3]), np.float32)
+def _columns_step(src4, m, out4):  # pragma: no cover - compiled by numba (in _bound_loop)
+    """:func:`_axis_step` along axis 3 of ``src4`` (the el cells; modes: axis 1): over each
+    mode's cells as one flat stretch (the cells near a row's end get meaningless values),
+    then each row's first cells kept."""
+    n_az, n_in, n_out = src4.shape[2], src4.shape[3], out4.shape[3]
+    block = n_az * n_in
+    src = src4.reshape(-1)
+    runs = np.empty(3 * block, np.float32)
+    flat = np.empty(3 * block, np.float32)
     for x in range(3):
-        for i in range(src.shape[2]):
-            for y in range(3):
-                runs[y] = src[x, y, i]
-                _window_line(runs[y], m + 1)
-            for j in range(out.shape[3]):
-                out[x, 0, i, j], out[x, 1, i, j], out[x, 2, i, j] = _cell_step(
-                    src[x, 0, i, j + m], src[x, 1, i, j], src[x, 2, i, j + 2 * m],
-                    runs[0, j], runs[1, j], runs[2, j],
-                    runs[0, j + m], runs[1, j + m], runs[2, j + m])
+        for y in range(3):
+            run, of = runs[y * block:(y + 1) * block], src[(3 * x + y) * block:]
+            for t in range(block):
+                run[t] = of[t]
+            _window(run, m + 1, 1)
+        lo, hi, n = runs, runs[m:], block - 2 * m
+        _cells_step(src[3 * x * block + m:], src[(3 * x + 1) * block:],
+                    src[(3 * x + 2) * block + 2 * m:], lo, lo[block:], lo[2 * block:], hi,
+                    hi[block:], hi[2 * block:], flat, flat[block:], flat[2 * block:], n)
+        for y in range(3):
+            rows, to = flat[y * block:(y + 1) * block].reshape((n_az, n_in)), out4[x, y]
+            for i in range(n_az):
+                for j in range(n_out):
+                    to[i, j] = rows[i, j]
 
 
 _loops = compiled.Loops(globals(), helpers=(
-    "_feasible_cells", "_paste_into", "_masked", "_cell_step", "_window_rows", "_window_line",
-    "_rows_step", "_columns_step"))
+    "_feasible_cells", "_paste_into", "_masked", "_cells_step", "_window", "_rows_step",
+    "_columns_step"))
