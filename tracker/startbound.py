@@ -529,24 +529,31 @@ def _window(runs, width, stride):  # pragma: no cover - compiled by numba (in th
         w += k // stride
 
 
+def _flat_step(src, first, step, block, m, stride, runs, out, out_first, out_step, n
+               ):  # pragma: no cover - compiled by numba (in the steps)
+    """:func:`_axis_step` over flat stretches of ``block`` cells, a cell's neighbours along
+    the axis ``stride`` apart: the three modes of the axis from ``first``, ``step`` apart in
+    ``src``; ``n`` results per mode into ``out`` from ``out_first``, ``out_step`` apart."""
+    for mode in range(3):
+        run, of = runs[mode * block:(mode + 1) * block], src[first + mode * step:]
+        for t in range(block):
+            run[t] = of[t]
+        _window(run, m + 1, stride)
+    lo, hi, shift = runs, runs[m * stride:], m * stride
+    _cells_step(src[first + shift:], src[first + step:], src[first + 2 * step + 2 * shift:],
+                lo, lo[block:], lo[2 * block:], hi, hi[block:], hi[2 * block:],
+                out[out_first:], out[out_first + out_step:], out[out_first + 2 * out_step:], n)
+
+
 def _rows_step(src4, m, out4):  # pragma: no cover - compiled by numba (in _bound_loop)
     """:func:`_axis_step` along axis 2 of ``src4`` (the az cells; modes: axis 0). A row of
     cells is contiguous, so each mode's runs and results are one flat stretch."""
     n_in, width = src4.shape[2], src4.shape[3]
     block, n_out = n_in * width, out4.shape[2] * width
-    src, out = src4.reshape(-1), out4.reshape(-1)
     runs = np.empty(3 * block, np.float32)
     for y in range(3):
-        for x in range(3):
-            run, of = runs[x * block:(x + 1) * block], src[(3 * x + y) * block:]
-            for t in range(block):
-                run[t] = of[t]
-            _window(run, m + 1, width)
-        lo, hi = runs, runs[m * width:]
-        _cells_step(src[y * block + m * width:], src[(3 + y) * block:],
-                    src[(6 + y) * block + 2 * m * width:], lo, lo[block:], lo[2 * block:], hi,
-                    hi[block:], hi[2 * block:], out[y * n_out:], out[(3 + y) * n_out:],
-                    out[(6 + y) * n_out:], n_out)
+        _flat_step(src4.reshape(-1), y * block, 3 * block, block, m, width, runs,
+                   out4.reshape(-1), y * n_out, 3 * n_out, n_out)
 
 
 def _columns_step(src4, m, out4):  # pragma: no cover - compiled by numba (in _bound_loop)
@@ -555,19 +562,11 @@ def _columns_step(src4, m, out4):  # pragma: no cover - compiled by numba (in _b
     then each row's first cells kept."""
     n_az, n_in, n_out = src4.shape[2], src4.shape[3], out4.shape[3]
     block = n_az * n_in
-    src = src4.reshape(-1)
     runs = np.empty(3 * block, np.float32)
     flat = np.empty(3 * block, np.float32)
     for x in range(3):
-        for y in range(3):
-            run, of = runs[y * block:(y + 1) * block], src[(3 * x + y) * block:]
-            for t in range(block):
-                run[t] = of[t]
-            _window(run, m + 1, 1)
-        lo, hi, n = runs, runs[m:], block - 2 * m
-        _cells_step(src[3 * x * block + m:], src[(3 * x + 1) * block:],
-                    src[(3 * x + 2) * block + 2 * m:], lo, lo[block:], lo[2 * block:], hi,
-                    hi[block:], hi[2 * block:], flat, flat[block:], flat[2 * block:], n)
+        _flat_step(src4.reshape(-1), 3 * x * block, block, block, m, 1, runs, flat, 0, block,
+                   block - 2 * m)
         for y in range(3):
             rows, to = flat[y * block:(y + 1) * block].reshape((n_az, n_in)), out4[x, y]
             for i in range(n_az):
@@ -576,5 +575,5 @@ def _columns_step(src4, m, out4):  # pragma: no cover - compiled by numba (in _b
 
 
 _loops = compiled.Loops(globals(), helpers=(
-    "_feasible_cells", "_paste_into", "_masked", "_cells_step", "_window", "_rows_step",
-    "_columns_step"))
+    "_feasible_cells", "_paste_into", "_masked", "_cells_step", "_window", "_flat_step",
+    "_rows_step", "_columns_step"))
