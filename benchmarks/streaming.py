@@ -509,9 +509,7 @@ def _below_bound(r: dict, joint: list, bounds: list, deadband_deg: float,
     """Per policy: (passes it kept within the deadband, passes among them where it made fewer
     starts than the bound or the bound called it impossible), over the passes whose bound
     was ``computed``. Any of the latter would prove the bound wrong."""
-    # Not computed: -inf, below no count of starts.
     b = np.array([np.inf if x is None else x for x in bounds], dtype=float)
-    b[~computed] = -np.inf
     within = (r["per_pass_max"] <= deadband_deg + 1e-9) & computed
     out = {"stream": (int(within.sum()), int(np.sum(within & (r["per_pass_starts"] < b))))}
     if "schedule" in r:

@@ -45,3 +45,19 @@ def test_compare_with_two_workers_gives_the_same_results():
     assert np.array_equal(a["per_pass_starts"], b["per_pass_starts"])
     assert one["lossy"] == two["lossy"]
     assert np.array_equal(one["followable"], two["followable"])
+
+
+def test_the_bound_on_one_pass_in_n_is_judged_on_those_passes_only():
+    suite = overhead_passes(3)
+    spec = preset("G-5500", 50)
+    res = streaming.compare(suite, spec, [4.0], peers=False, joint=False, bound_every=2)
+    r = res["deadbands"][4.0]
+    bounds = [streaming.start_bound(suite[i].track, spec, suite[i].station, 4.0)
+              for i in (0, 2)]
+    assert None not in bounds
+    assert r["bound_passes"] == 2
+    assert r["bound_pp"] == np.mean(bounds)
+    assert r["stream_feasible_pp"] == np.mean(r["per_pass_starts"][[0, 2]])
+    # The pass without a bound is neither judged against it nor taken as impossible.
+    within, below = r["below_bound"]["stream"]
+    assert (within, below) == (int(np.sum(r["per_pass_max"][[0, 2]] <= 4.0 + 1e-9)), 0)
