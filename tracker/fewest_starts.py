@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -246,13 +247,6 @@ class _AxisGraph:
         self._move_edges(rests, blocks, birth)
         self._stop_edges(rests, blocks, stop_first)
         self.e_off = self.edge_at[off]
-        self.e_samp = np.repeat(np.arange(n), np.diff(self.e_off))
-        # Each edge's state, as its index in the sample.
-        self.e_dst = np.repeat(np.arange(off[-1]) - np.repeat(off[:-1], size),
-                               np.diff(self.edge_at))
-        # Each state's first edge, per sample (states of sample 0 have none).
-        self.e_first = self.edge_at[off[1]:-1] - np.repeat(self.e_off[1:-1], size[1:])
-        self.f_off = np.concatenate(([0], off[1:] - off[1]))
         # A sample with no state in reach: no schedule of the class can pass it.
         self.blocked = bool((size[1:] == 0).any())
         self._trig: tuple[np.ndarray, np.ndarray] | None = None
@@ -324,6 +318,23 @@ class _AxisGraph:
         to, src = np.divmod(key, stride)
         e = stop_first[to] + np.arange(len(key))
         self.e_src[e] = src
+
+    # What only the numpy programme reads (the compiled one reads edge_at itself).
+
+    @cached_property
+    def e_dst(self) -> np.ndarray:
+        """Each edge's state, as its index in the sample."""
+        return np.repeat(np.arange(self.off[-1]) - np.repeat(self.off[:-1], self.size),
+                         np.diff(self.edge_at))
+
+    @cached_property
+    def e_first(self) -> np.ndarray:
+        """Each state's first edge, per sample (states of sample 0 have none)."""
+        return self.edge_at[self.off[1]:-1] - np.repeat(self.e_off[1:-1], self.size[1:])
+
+    @cached_property
+    def f_off(self) -> np.ndarray:
+        return np.concatenate(([0], self.off[1:] - self.off[1]))
 
     def positions(self, s: int) -> np.ndarray:
         return self.x[self.off[s]:self.off[s + 1]]
