@@ -588,29 +588,29 @@ def _relax(out, n_rows, width, src, n_src, edge_at, e_src, e_cost, first
            ):  # pragma: no cover - compiled by numba (in _forward_loop)
     """Row r of ``out`` (rows ``width`` long): the least over the edges into state r (of the
     axis's states from ``first``) of its source's row of ``src`` plus the edge's starts (a
-    source at or past ``n_src``, the virtual one, has none)."""
+    source at or past ``n_src``, the virtual one, has none). Offsets are unsigned: with a
+    signed one numba checks for a negative index in the loop, which then is not
+    vectorised."""
     none = np.float32(_NONE16)
+    w = np.uint64(width)
     for r in range(n_rows):
-        row = out[r * width:(r + 1) * width]
-        row[:] = none
+        row = np.uint64(r) * w
+        for j in range(np.uint64(0), w):
+            out[row + j] = none
         for k in range(edge_at[first + r], edge_at[first + r + 1]):
             if e_src[k] < n_src:
-                _min_into(row, src[e_src[k] * width:(e_src[k] + 1) * width],
-                          np.float32(e_cost[k]))
-
-
-def _min_into(row, src, cost
-              ):  # pragma: no cover - compiled by numba (in _relax)
-    for j in range(len(row)):
-        x = np.float32(src[j]) + cost
-        row[j] = x if x < row[j] else row[j]
+                at, cost = np.uint64(e_src[k]) * w, np.float32(e_cost[k])
+                for j in range(np.uint64(0), w):
+                    x = np.float32(src[at + j]) + cost
+                    out[row + j] = x if x < out[row + j] else out[row + j]
 
 
 def _transpose(src, rows, cols, out
                ):  # pragma: no cover - compiled by numba (in _forward_loop)
-    for i in range(rows):
-        for j in range(cols):
-            out[j * rows + i] = src[i * cols + j]
+    n_rows, n_cols = np.uint64(rows), np.uint64(cols)  # unsigned: as in _relax
+    for i in range(np.uint64(0), n_rows):
+        for j in range(np.uint64(0), n_cols):
+            out[j * n_rows + i] = src[i * n_cols + j]
 
 
 def _band(work, el_major, na, ne, sin_b, cos_b, sin_e, cos_e, target, min_dot
@@ -660,7 +660,7 @@ def _path_loop(a_off, a_edge, a_src, a_cost, e_off, e_edge, e_src, e_cost, v_off
             break
 
 
-_loops = compiled.Loops(globals(), helpers=("_min_into", "_relax", "_transpose", "_band"))
+_loops = compiled.Loops(globals(), helpers=("_relax", "_transpose", "_band"))
 
 
 def _boxes(path: MountPath, ts: np.ndarray, target: np.ndarray, band_deg: float
