@@ -174,8 +174,6 @@ def test_the_compiled_bound_is_the_numpy_bound():
 # Every branch ------------------------------------------------------------------------------
 
 
-
-
 def _overhead(band_deg: float = 2.0):
     """A target rising straight through the zenith at 1 deg/s (el 84 -> 90 -> 84): azimuth 30
     before, 210 after."""

@@ -68,8 +68,8 @@ Why it is a lower bound (each relaxation only adds trajectories or lowers their 
 The programme's value is the least cost over its paths, so it is at most the onsets, hence
 the starts, of every schedule that keeps the band. The transition min-plus product is
 separable per axis, and each axis's costs depend on the cell shift only through ranges
-[-m, 0], [0, m], [-m, m] and the exact shift ±m, so one step is a few running minima (numpy,
-O(states)).
+[-m, 0], [0, m], [-m, m] and the exact shift ±m, so one step is a few running minima
+(O(states): numpy, or the same arithmetic as compiled loops, :func:`_bound_loop`).
 
 What the relaxations give away, so a real schedule needs more: holds at whole degrees only
 (on short synthetic passes, allowing rest only on whole-degree cells, which also forbids the
