@@ -134,3 +134,23 @@ def test_approximate_path_is_scored_against_the_real_target():
     err = predicted_error(path, motor.az, motor.el, 20.0, np.array([20.0]))
     assert err[0] == pytest.approx(2.0, abs=0.05)
     assert np.allclose(path.mount_at(20.0), (110.0, 42.0))    # still follows the planned path
+
+
+def test_near_the_zenith_an_azimuth_swing_goes_by_the_zenith():
+    # A target 3 deg from the zenith (el 87, hardly moving: a high orbit near apogee) and the
+    # antenna 2 deg from the zenith, 143 deg round in azimuth: 4.75 deg off. The path is in the
+    # overlap (mechanical az 385), so reaching it the azimuth turns the long way, 217 deg:
+    # at el 87-88 that sweeps the antenna round the zenith, 5 deg off when opposite, and so does
+    # every point of the path. With the elevation at 90 while the azimuth turns, the error is
+    # never more than it is now.
+    t = np.arange(0.0, 601.0, 1.0)
+    path = MountPath.from_arrays(t, 385.0 + 0.0005 * t, 87.0 - 0.0002 * t, SPEC)
+    motor = MotorModel(SPEC, 168.0, 88.0, 0.0)
+    err_now = float(predicted_error(path, motor.az, motor.el, 0.0, np.array([0.0]))[0])
+    assert err_now == pytest.approx(4.75, abs=0.02)
+    aim = choose_aim(path, motor.az, motor.el, 0.0, 4.8)
+    assert aim.el_deg == 90.0
+    motor.command(aim.az_m_deg, aim.el_deg, 0.0)
+    ts = np.arange(0.0, aim.arrival_s + 5.0, 0.05)
+    err = predicted_error(path, motor.az, motor.el, 0.0, ts)
+    assert aim.peak_error_deg <= 4.8 and float(np.max(err)) <= 4.8

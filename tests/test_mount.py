@@ -15,6 +15,7 @@ from tracker.mount import (
     MotorModel,
     MountFrame,
     RotatorSpec,
+    bends_s,
     drive_axis,
     preset,
 )
@@ -267,6 +268,23 @@ def test_drive_axis_counts_one_start_per_step_from_rest():
     t = np.arange(10.0)
     _, starts = drive_axis(ax, t, 100 + t, t)  # 1 deg/s in 1 deg steps: 9 moves from rest
     assert starts == 9
+
+
+def test_bends_are_where_a_driven_axis_starts_and_stops():
+    # From rest on 100: to 110 at t=1 (starts at 1.5, 10 deg at 4 deg/s: stops at 4.0), a
+    # command to where it stands at t=6 (no move), back to 104 at t=8 (8.5 .. 10.0). The
+    # positions the motor model gives bend there and nowhere else.
+    ax = AxisMotor(0, 450, 4.0, 0.5, 1.0, 100.0, 0.0)
+    cmd_t, cmd = [1.0, 6.0, 8.0], [110.0, 110.0, 104.0]
+    bends = bends_s(ax, cmd_t, cmd)
+    assert sorted(bends.tolist()) == pytest.approx([1.5, 4.0, 8.5, 10.0])
+    t = np.arange(0.0, 12.0 + 1e-9, 0.125)
+    pos, _starts = drive_axis(copy.copy(ax), cmd_t, cmd, t)
+    slope = np.diff(pos) / np.diff(t)
+    bent = t[1:-1][np.abs(np.diff(slope)) > 1e-9]
+    np.testing.assert_allclose(bent, [1.5, 4.0, 8.5, 10.0])
+    assert ax.position(5.0) == 100.0                  # not mutated
+    assert bends_s(ax, [], []).size == 0
 
 
 def test_top_command_is_one_step_short_of_a_bearing_taking_controllers_stop():

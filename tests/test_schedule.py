@@ -16,12 +16,13 @@ import tracker.stream as stream_mod
 from tracker import compiled
 from tracker.fewest_starts import fewest_starts
 from tracker.geometry import MountPath
-from tracker.mount import MotorModel, drive_axis, preset
+from tracker.mount import MotorModel, bends_s, drive_axis, preset
 from tracker.planner import plan_pass
 from tracker.schedule import plan_schedule
 from tracker.skytrack import SkyTrack
 from tracker.startbound import start_lower_bound
 from tracker.station import HorizonMask, Station
+from tracker.targets import SatelliteTarget
 from tracker.stream import Phase, StreamSettings, TrackCore
 
 SPEC = preset("G-5500", 50)
@@ -373,3 +374,67 @@ def test_a_schedule_cut_before_a_fast_stretch_hands_over_a_lookahead_before_its_
         now += 0.5
     assert first is not None and first.end_s < core.los_s - 60.0     # cut before the jump
     assert now <= first.end_s and core._schedule is None
+
+
+def _real_pass(line1: str, line2: str, station: Station, t0_s: float, t1_s: float, D: float):
+    """A real pass from its elements (skyfield), the live loop's path and its schedule as
+    the loop plans it before the pre-position: from park, free to start anywhere, the band
+    kept from the start of tracking."""
+    track = SatelliteTarget.from_lines(line1, line2).observe(
+        station, np.arange(t0_s, t1_s + 1e-9, 1.0))
+    plan = plan_pass(track, SPEC, station, current=(SPEC.park_az_deg, SPEC.park_el_deg))
+    core = TrackCore(plan, track, SPEC, station, StreamSettings(deadband_deg=D))
+    t0 = core.track_from_s - 0.5
+    park = MotorModel(SPEC, SPEC.park_az_deg, SPEC.park_el_deg, t0)
+    band = D - stream_mod.SCHEDULE_MARGIN_DEG
+    sch = plan_schedule(core.path, park.az, park.el, t0, core.los_s, band,
+                        from_s=core.track_from_s, free_start=True)
+    return core, sch, band
+
+
+def _driven(sch, t0_s: float, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The schedule's az / el over ``ts``, from its start (a free start rests there)."""
+    start = MotorModel(SPEC, float(sch.az_pos_deg[0]), float(sch.el_pos_deg[0]), t0_s)
+    return (drive_axis(start.az, sch.t_s, sch.az_m_deg, ts)[0],
+            drive_axis(start.el, sch.t_s, sch.el_deg, ts)[0])
+
+
+def test_the_schedule_keeps_the_band_where_an_axis_stops_between_two_checks():
+    # TIANMU-1 14 from Fairbanks (max el 9.5) at D = 3.5: checked on its 0.05 s grid alone,
+    # the schedule passed, yet where an axis stopped between two checks the antenna was
+    # 0.003 deg outside the band (on the streaming benchmark's track, at D = 5, 5.002 deg off:
+    # a lost-target sample). Every instant an axis starts or stops is checked too now.
+    fairbanks = Station("Fairbanks", 65.0, -147.7, 150.0)
+    core, sch, band = _real_pass(
+        "1 58648U 23205D   26234.61442690  .00004809  00000+0  18261-3 0  9993",
+        "2 58648  97.3404 254.3037 0008978  98.5902 261.6355 15.27259369147648",
+        fairbanks, 1787637015.0, 1787637663.0, 3.5)
+    assert sch is not None
+    t0 = float(sch.sample_t_s[0])
+    start = MotorModel(SPEC, float(sch.az_pos_deg[0]), float(sch.el_pos_deg[0]), t0)
+    bends = np.sort(np.concatenate((bends_s(start.az, sch.t_s, sch.az_m_deg),
+                                    bends_s(start.el, sch.t_s, sch.el_deg))))
+    bends = bends[(bends >= core.track_from_s) & (bends <= sch.end_s)]
+    az, el = _driven(sch, t0, bends)
+    err = core.path.error_deg(bends, az, el)
+    assert len(bends) > 10 and float(np.max(err)) <= band + 1e-6
+    assert float(np.max(err)) <= sch.peak_error_deg + 1e-9
+
+
+def test_near_the_zenith_the_schedule_lets_the_azimuth_lag_far_behind_the_target():
+    # UWE-3 from Singapore (max el 85.6): near the culmination the target's azimuth runs at
+    # up to 10 deg/s, twice the motor's 5.17. At el 84 an azimuth 40 deg behind is 4 deg on
+    # the sky: the schedule keeps 5 deg through it with the azimuth lagging more than 15 deg
+    # (where the positions searched once stopped, and the pass had no schedule: the aim policy
+    # then lost the target for 10 s).
+    singapore = Station("Singapore", 1.35, 103.8, 20.0)
+    core, sch, band = _real_pass(
+        "1 39446U 13066AG  26233.84454598  .00003579  00000+0  30520-3 0  9991",
+        "2 39446  97.8761 190.3966 0050533  99.8600 260.8332 14.97397967687409",
+        singapore, 1787816381.0, 1787817241.0, 5.0)
+    assert sch is not None and sch.end_s >= core.los_s - 0.5
+    ts = np.arange(core.track_from_s, sch.end_s, 0.05)
+    az, el = _driven(sch, float(sch.sample_t_s[0]), ts)
+    assert float(np.max(core.path.error_deg(ts, az, el))) <= band + 1e-6
+    lag = np.abs(az - core.path.mount_at(ts)[0])
+    assert float(np.max(lag)) > 15.0

@@ -275,8 +275,15 @@ def choose_aim(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor | None, t
     cand_az, cand_el = _at(path, ts[:n_cand])
     q_az = _quantise(az_axis, cand_az)
     q_el = _quantise(el_axis, cand_el) if el_axis is not None else np.zeros(n_cand)
+    # Near the zenith an azimuth swing costs little error at the zenith itself, and much on
+    # the way round below it: there the antenna may go up while azimuth turns.
+    zenith_el = None
+    if el_axis is not None and el_axis.min_deg <= 90.0 <= el_axis.max_deg and float(
+            np.min(np.abs(cand_el - 90.0))) < deadband_deg:
+        zenith_el = float(_quantise(el_axis, np.array([90.0]))[0])
     c_az, c_el, c_t = _distinct_candidates(q_az, q_el, ts[:n_cand], az_axis.target_deg,
-                                           el_axis.target_deg if el_axis is not None else None)
+                                           el_axis.target_deg if el_axis is not None else None,
+                                           zenith_el)
     k = len(c_az)
 
     # The axes are independent: simulate each distinct target once per axis.
@@ -381,12 +388,14 @@ def _within_reach(path: MountPath, ts: np.ndarray, target_dir: Columns, cur_dir:
 
 
 def _distinct_candidates(q_az: np.ndarray, q_el: np.ndarray, c_ts: np.ndarray, keep_az: float,
-                         keep_el: float | None) -> tuple[list[float], list[float], list[float]]:
+                         keep_el: float | None, zenith_el: float | None = None
+                         ) -> tuple[list[float], list[float], list[float]]:
     """The candidate ``(az, el, aim time)`` rows from the quantised path points ``q_az``,
     ``q_el`` at ``c_ts``: each point, then (with an elevation axis, ``keep_el`` not None)
     each moving only azimuth, then only elevation (the other keeps its target: one relay
-    click instead of two). The first of each distinct (az, el), in that order, but not the
-    targets the axes already have (unless that is all there is)."""
+    click instead of two), then (``zenith_el`` not None) each azimuth with the elevation
+    at the zenith. The first of each distinct (az, el), in that order, but not the targets
+    the axes already have (unless that is all there is)."""
     # A candidate equal to the one before it in its group is never a first: dropping those
     # leaves a few to sort out.
     moves_az = np.empty(len(q_az), dtype=bool)
@@ -404,6 +413,9 @@ def _distinct_candidates(q_az: np.ndarray, q_el: np.ndarray, c_ts: np.ndarray, k
         pairs += [(keep_az, el[i]) for i in rows_el]
         times += [ts[i] for i in rows_az]
         times += [ts[i] for i in rows_el]
+        if zenith_el is not None:
+            pairs += [(az[i], zenith_el) for i in rows_az]
+            times += [ts[i] for i in rows_az]
     else:
         keep_el = 0.0
     # Each distinct pair in the order it first comes, with the time it first comes at (of

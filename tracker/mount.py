@@ -682,3 +682,21 @@ def _rest_at(axis: AxisMotor, position_deg: float, t_s: float) -> None:
     axis.stop(t_s)
     axis._p0 = axis._target = position_deg
     axis.stamp = next(_STAMPS)
+
+
+def bends_s(axis: AxisMotor, cmd_t_s: ArrayLike, cmd_deg: ArrayLike) -> np.ndarray:
+    """The instants at which ``axis``, at rest at the first command and driven through
+    ``cmd_deg`` at ``cmd_t_s`` one move at a time (each ending before the next command, as
+    :func:`drive_axis` takes them in closed form), starts or stops: where its position
+    bends, so where an error sampled on a grid can peak between two samples (not mutated)."""
+    cmd_t = np.asarray(cmd_t_s, dtype=float)
+    if len(cmd_t) == 0:
+        return np.zeros(0)
+    res = axis.resolution_deg
+    cmd = np.clip(np.round(np.asarray(cmd_deg, dtype=float) / res) * res, axis.min_deg,
+                  axis.max_deg)
+    prev = np.concatenate(([float(axis.position(float(cmd_t[0])))], cmd[:-1]))
+    span = np.abs(cmd - prev)
+    moves = span > 1e-9
+    start = cmd_t[moves] + axis.start_delay_s
+    return np.concatenate((start, start + span[moves] / axis.rate_deg_s))

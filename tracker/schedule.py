@@ -24,7 +24,7 @@ import numpy as np
 
 from tracker.fewest_starts import FewestStarts, StartsProgramme
 from tracker.geometry import MountPath
-from tracker.mount import AxisMotor, drive_axis
+from tracker.mount import AxisMotor, bends_s, drive_axis
 from tracker.skytrack import interp1
 
 
@@ -67,9 +67,9 @@ def plan_schedule(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor, t0_s:
     there): the schedule's ``expected(t0_s)`` is that start.
 
     The programme keeps the band at half-cycle samples; the schedule is checked between them
-    too (every tenth of a cycle: an axis that arrives between two samples may leave the target
-    a little further off there), and where it is not kept, planned again (twice at most)
-    within a band narrowed by the excess."""
+    too (every tenth of a cycle, and wherever an axis starts or stops: an axis that arrives
+    between two samples may leave the target a little further off there), and where it is
+    not kept, planned again (twice at most) within a band narrowed by the excess."""
     within = band_deg
     # Every tenth of a cycle; every fifth of those is a half-cycle sample, where
     # :meth:`PassSchedule.expected` interpolates.
@@ -88,13 +88,14 @@ def plan_schedule(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor, t0_s:
         got = _followed(found, az_axis, el_axis, t0_s, free_start, fine)
         if got is None:
             return None     # the model disagrees with the programme's own motion
-        (t_out, az_out, el_out), starts, az_pos, el_pos = got
-        peak = float(np.max(path.error_deg(fine[kept], az_pos[kept], el_pos[kept]))) \
-            if kept.any() else 0.0
+        (t_out, az_out, el_out), starts, ts, az_pos, el_pos = got
+        on = ts >= fine[kept][0] if kept.any() else np.zeros(len(ts), dtype=bool)
+        peak = float(np.max(path.error_deg(ts[on], az_pos[on], el_pos[on]))) \
+            if on.any() else 0.0
         if peak <= band_deg + 1e-6:
-            half = fine[::5]
-            return PassSchedule(t_out, az_out, el_out, starts, peak, float(half[-1]), half,
-                                az_pos[::5], el_pos[::5])
+            half = np.searchsorted(ts, fine[::5])
+            return PassSchedule(t_out, az_out, el_out, starts, peak, float(ts[half[-1]]),
+                                ts[half], az_pos[half], el_pos[half])
         within -= peak - band_deg + 0.01
     return None
 
@@ -102,10 +103,11 @@ def plan_schedule(path: MountPath, az_axis: AxisMotor, el_axis: AxisMotor, t0_s:
 def _followed(found: FewestStarts, az_axis: AxisMotor, el_axis: AxisMotor, t0_s: float,
               free_start: bool, ts: np.ndarray
               ) -> tuple[tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]], int,
-                         np.ndarray, np.ndarray] | None:
+                         np.ndarray, np.ndarray, np.ndarray] | None:
     """``found`` as the loop sends it (times, az, el: each command names both axes, the one
-    not meant to move keeps its previous target), its motor starts and az / el over ``ts``,
-    driven through the motor model; None when the model's starts differ from the
+    not meant to move keeps its previous target), its motor starts, and az / el driven
+    through the motor model over ``ts`` and every instant within it where an axis starts or
+    stops (those times, then the positions); None when the model's starts differ from the
     programme's."""
     moved = 0       # pre-position moves counted in ``found.starts``
     if free_start:
@@ -123,9 +125,11 @@ def _followed(found: FewestStarts, az_axis: AxisMotor, el_axis: AxisMotor, t0_s:
         t_out.append(t)
         az_out.append(az_t)
         el_out.append(el_t)
+    bends = np.concatenate((bends_s(az_axis, t_out, az_out), bends_s(el_axis, t_out, el_out)))
+    ts = np.union1d(ts, bends[(bends > ts[0]) & (bends < ts[-1])])
     az_pos, starts_az = drive_axis(copy.copy(az_axis), t_out, az_out, ts)
     el_pos, starts_el = drive_axis(copy.copy(el_axis), t_out, el_out, ts)
     if starts_az + starts_el + moved != found.starts:
         return None
-    return ((tuple(t_out), tuple(az_out), tuple(el_out)), starts_az + starts_el, az_pos,
+    return ((tuple(t_out), tuple(az_out), tuple(el_out)), starts_az + starts_el, ts, az_pos,
             el_pos)
