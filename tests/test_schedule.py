@@ -22,8 +22,8 @@ from tracker.schedule import plan_schedule
 from tracker.skytrack import SkyTrack
 from tracker.startbound import start_lower_bound
 from tracker.station import HorizonMask, Station
-from tracker.targets import SatelliteTarget
 from tracker.stream import Phase, StreamSettings, TrackCore
+from tracker.targets import SatelliteTarget
 
 SPEC = preset("G-5500", 50)
 PLANNED = StreamSettings(deadband_deg=3.0, planned_schedule=True)
