@@ -18,7 +18,9 @@ command it would cause:
   included.
 
 Candidates move both axes, or only one (the other keeps its target: one relay click
-instead of two). The chosen candidate keeps the peak within the deadband (or as close to the
+instead of two); where the path passes within the deadband of the zenith, also each azimuth
+with the elevation at the zenith (an azimuth swing there sweeps the antenna round the zenith
+below it). The chosen candidate keeps the peak within the deadband (or as close to the
 best achievable as ``peak_slack_deg`` when the rotator lags) with the longest hold per motor
 start, and among candidates with nearly that value, the smallest peak: the aim point that
 minimises the maximum error until the next expected command, for the fewest motor starts.
