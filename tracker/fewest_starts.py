@@ -42,8 +42,9 @@ from tracker.mount import AxisMotor
 
 # The azimuth positions searched reach at most this far either side of the target's own.
 # Near the zenith the target's azimuth can run at twice the motor's rate: there the azimuth
-# must fall behind, 40 deg at el 84 being 4 deg on the sky; a cap of 15 deg leaves such passes
-# (UWE-3 culminating at 85.6 deg, in tests/test_schedule.py) with no schedule at all.
+# must fall behind by more than 15 deg (20 deg at el 84 is 2 deg on the sky); a cap of 15
+# leaves such passes (UWE-3 culminating at 85.6 deg, in tests/test_schedule.py) with no
+# schedule at all.
 AZ_REACH_CAP_DEG = 30.0
 # No schedule is planned over more samples than this (half-cycle samples: 2 h at 0.5 s).
 MAX_SAMPLES = 14_400
