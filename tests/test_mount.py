@@ -287,6 +287,23 @@ def test_bends_are_where_a_driven_axis_starts_and_stops():
     assert bends_s(ax, [], []).size == 0
 
 
+def test_bends_include_every_bend_of_moves_that_overlap():
+    # From rest on 100 at 4 deg/s, 0.5 s start delay: to 140 at t=1 (turns from 1.5), on to
+    # 150 at t=3 while running (no stop, no delay), then back to 90 at t=5 while still running
+    # (stops at 5 on the reversal, turns from 5.5, 24 deg: arrives at 11.5). Every bend of the
+    # motor model's positions is among the instants given.
+    ax = AxisMotor(0, 450, 4.0, 0.5, 1.0, 100.0, 0.0)
+    cmd_t, cmd = [1.0, 3.0, 5.0], [140.0, 150.0, 90.0]
+    t = np.arange(0.0, 14.0 + 1e-9, 0.125)
+    pos, _starts = drive_axis(copy.copy(ax), cmd_t, cmd, t)
+    slope = np.diff(pos) / np.diff(t)
+    bent = t[1:-1][np.abs(np.diff(slope)) > 1e-9]
+    np.testing.assert_allclose(bent, [1.5, 5.0, 5.5, 11.5])
+    bends = bends_s(ax, cmd_t, cmd)
+    assert all(np.any(np.abs(bends - b) < 1e-9) for b in bent), bends
+    assert ax.position(5.0) == 100.0                  # not mutated
+
+
 def test_top_command_is_one_step_short_of_a_bearing_taking_controllers_stop():
     from tracker.mount import MountFrame
 

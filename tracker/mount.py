@@ -13,6 +13,7 @@ implementation, so predictions and the emulator's read-back agree by constructio
 
 from __future__ import annotations
 
+import copy
 import itertools
 import math
 from collections.abc import Callable
@@ -600,13 +601,7 @@ def drive_axis(axis: AxisMotor, cmd_t_s: ArrayLike, cmd_deg: ArrayLike, t_eval_s
     if n == 0:
         out[:] = p0
         return out, 0
-    res = axis.resolution_deg
-    cmd = np.clip(np.round(cmd / res) * res, axis.min_deg, axis.max_deg)
-    prev = np.concatenate(([p0], cmd[:-1]))
-    step = cmd - prev
-    moving = np.abs(step) > 1e-9
-    delay = np.where(moving, axis.start_delay_s, 0.0)
-    arrival = cmd_t + delay + np.abs(step) / axis.rate_deg_s
+    cmd, prev, moving, _start, arrival = _moves_from_rest(axis, cmd_t, cmd, p0)
     next_t = np.concatenate((cmd_t[1:], [np.inf]))
     overlap = arrival > next_t + 1e-9
     if axis.jammed:
@@ -684,19 +679,45 @@ def _rest_at(axis: AxisMotor, position_deg: float, t_s: float) -> None:
     axis.stamp = next(_STAMPS)
 
 
+def _moves_from_rest(axis: AxisMotor, cmd_t: np.ndarray, cmd_deg: np.ndarray, p0_deg: float
+                     ) -> tuple[np.ndarray, ...]:
+    """The commands as ``axis`` takes them if each starts from rest where the one before
+    ended (``p0_deg`` before the first): (quantised and clamped targets, where each move
+    starts from, which ones move, when each starts turning, when each arrives)."""
+    res = axis.resolution_deg
+    cmd = np.clip(np.round(cmd_deg / res) * res, axis.min_deg, axis.max_deg)
+    prev = np.concatenate(([p0_deg], cmd[:-1]))
+    span = np.abs(cmd - prev)
+    moving = span > 1e-9
+    start = cmd_t + np.where(moving, axis.start_delay_s, 0.0)
+    return cmd, prev, moving, start, start + span / axis.rate_deg_s
+
+
 def bends_s(axis: AxisMotor, cmd_t_s: ArrayLike, cmd_deg: ArrayLike) -> np.ndarray:
-    """The instants at which ``axis``, at rest at the first command and driven through
-    ``cmd_deg`` at ``cmd_t_s`` one move at a time (each ending before the next command, as
-    :func:`drive_axis` takes them in closed form), starts or stops: where its position
-    bends, so where an error sampled on a grid can peak between two samples (not mutated)."""
+    """The instants at which ``axis`` driven through ``cmd_deg`` at ``cmd_t_s`` (as
+    :func:`drive_axis` drives it) starts or stops turning: where its position bends, so where
+    an error sampled on a grid can peak between two samples (``axis`` not mutated).
+
+    Where a command arrives while the axis still runs, every segment's command, start and
+    arrival are given (a reversal stops the axis at its command; a retarget in the running
+    direction does not, and a superseded arrival never comes): a few that are not bends,
+    none that is missed."""
     cmd_t = np.asarray(cmd_t_s, dtype=float)
+    cmd = np.asarray(cmd_deg, dtype=float)
     if len(cmd_t) == 0:
         return np.zeros(0)
-    res = axis.resolution_deg
-    cmd = np.clip(np.round(np.asarray(cmd_deg, dtype=float) / res) * res, axis.min_deg,
-                  axis.max_deg)
-    prev = np.concatenate(([float(axis.position(float(cmd_t[0])))], cmd[:-1]))
-    span = np.abs(cmd - prev)
-    moves = span > 1e-9
-    start = cmd_t[moves] + axis.start_delay_s
-    return np.concatenate((start, start + span[moves] / axis.rate_deg_s))
+    p0 = float(axis.position(float(cmd_t[0])))
+    _cmd, _prev, moving, start, arrival = _moves_from_rest(axis, cmd_t, cmd, p0)
+    next_t = np.concatenate((cmd_t[1:], [np.inf]))
+    if not (axis.jammed or axis.moving(float(cmd_t[0])) or np.any(arrival > next_t + 1e-9)):
+        return np.concatenate((start[moving], arrival[moving]))
+    # Some move is still running when the next command comes: step a copy of the axis, as
+    # drive_axis does there, and take each segment's own instants.
+    ax = copy.copy(axis)
+    out = []
+    for tc, target in zip(cmd_t, cmd, strict=True):
+        ax.command(float(target), float(tc))
+        t0, p0, tgt, delay, _rate, jammed = ax.segment()
+        if tgt != p0 and not jammed:
+            out += [t0, t0 + delay, ax.arrival_s()]
+    return np.asarray(out)
