@@ -304,6 +304,42 @@ def test_bends_include_every_bend_of_moves_that_overlap():
     assert ax.position(5.0) == 100.0                  # not mutated
 
 
+def _bent(t, pos):
+    slope = np.diff(pos) / np.diff(t)
+    return t[1:-1][np.abs(np.diff(slope)) > 1e-9]
+
+
+def test_a_command_to_where_a_running_axis_is_stops_it_and_that_is_a_bend():
+    # To 140 at t=1 (turns from 1.5 at 4 deg/s); at t=3 it is on 106, and a command to 106
+    # stops it there.
+    ax = AxisMotor(0, 450, 4.0, 0.5, 1.0, 100.0, 0.0)
+    cmd_t, cmd = [1.0, 3.0], [140.0, 106.0]
+    t = np.arange(0.0, 8.0 + 1e-9, 0.125)
+    pos, _starts = drive_axis(copy.copy(ax), cmd_t, cmd, t)
+    np.testing.assert_allclose(_bent(t, pos), [1.5, 3.0])
+    bends = bends_s(ax, cmd_t, cmd)
+    assert all(np.any(np.abs(bends - b) < 1e-9) for b in (1.5, 3.0)), bends
+
+
+def test_before_its_first_command_a_driven_axis_makes_the_move_it_was_making():
+    # Told at t=0 to go from 100 to 110: it turns from 0.5 and arrives at 3.0, at rest when
+    # the first command of the drive (t=4) comes. Closed form and stepping agree on the
+    # samples before it, and with no command at all the axis just finishes its move.
+    ax = AxisMotor(0, 450, 4.0, 0.5, 1.0, 100.0, 0.0)
+    ax.command(110.0, 0.0)
+    t = np.arange(0.0, 8.0 + 1e-9, 0.25)
+    closed, _ = drive_axis(copy.copy(ax), [4.0], [120.0], t)
+    stepped, _ = drive_axis(copy.copy(ax), [4.0], [120.0], t, closed_form=False)
+    np.testing.assert_array_equal(closed, stepped)
+    assert closed[t == 2.0][0] == 106.0 and closed[t == 0.25][0] == 100.0
+    np.testing.assert_allclose(_bent(t, closed), [0.5, 3.0, 4.5, 7.0])
+    alone, starts = drive_axis(copy.copy(ax), [], [], t)
+    np.testing.assert_array_equal(alone, ax.position(t))
+    assert starts == 0
+    bends = bends_s(ax, [4.0], [120.0])
+    assert all(np.any(np.abs(bends - b) < 1e-9) for b in (0.5, 3.0, 4.5, 7.0)), bends
+
+
 def test_top_command_is_one_step_short_of_a_bearing_taking_controllers_stop():
     from tracker.mount import MountFrame
 

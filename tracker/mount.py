@@ -599,9 +599,9 @@ def drive_axis(axis: AxisMotor, cmd_t_s: ArrayLike, cmd_deg: ArrayLike, t_eval_s
     out = np.empty(t_eval.shape)
     p0 = float(axis.position(cmd_t[0] if n else 0.0))
     if n == 0:
-        out[:] = p0
+        out[:] = axis.position(t_eval)
         return out, 0
-    cmd, prev, moving, _start, arrival = _moves_from_rest(axis, cmd_t, cmd, p0)
+    cmd, prev, moving, _start, arrival = _closed_form_moves(axis, cmd_t, cmd, p0)
     next_t = np.concatenate((cmd_t[1:], [np.inf]))
     overlap = arrival > next_t + 1e-9
     if axis.jammed:
@@ -613,7 +613,7 @@ def drive_axis(axis: AxisMotor, cmd_t_s: ArrayLike, cmd_deg: ArrayLike, t_eval_s
     i = np.clip(idx, 0, n - 1)
     out[:] = move_from_rest(prev[i], cmd[i], t_eval - cmd_t[i], axis.rate_deg_s,
                             axis.start_delay_s)
-    out[before] = p0
+    out[before] = axis.position(t_eval[before])   # as stepping gives them
     stepped = np.zeros(n, dtype=bool)     # commands stepped below, counted there
     starts = 0
 
@@ -679,11 +679,12 @@ def _rest_at(axis: AxisMotor, position_deg: float, t_s: float) -> None:
     axis.stamp = next(_STAMPS)
 
 
-def _moves_from_rest(axis: AxisMotor, cmd_t: np.ndarray, cmd_deg: np.ndarray, p0_deg: float
-                     ) -> tuple[np.ndarray, ...]:
+def _closed_form_moves(axis: AxisMotor, cmd_t: np.ndarray, cmd_deg: np.ndarray, p0_deg: float
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The commands as ``axis`` takes them if each starts from rest where the one before
-    ended (``p0_deg`` before the first): (quantised and clamped targets, where each move
-    starts from, which ones move, when each starts turning, when each arrives)."""
+    ended (``p0_deg`` before the first), the case :func:`drive_axis` takes in closed form:
+    (quantised and clamped targets, where each move starts from, which ones move, when each
+    starts turning, when each arrives)."""
     res = axis.resolution_deg
     cmd = np.clip(np.round(cmd_deg / res) * res, axis.min_deg, axis.max_deg)
     prev = np.concatenate(([p0_deg], cmd[:-1]))
@@ -696,28 +697,36 @@ def _moves_from_rest(axis: AxisMotor, cmd_t: np.ndarray, cmd_deg: np.ndarray, p0
 def bends_s(axis: AxisMotor, cmd_t_s: ArrayLike, cmd_deg: ArrayLike) -> np.ndarray:
     """The instants at which ``axis`` driven through ``cmd_deg`` at ``cmd_t_s`` (as
     :func:`drive_axis` drives it) starts or stops turning: where its position bends, so where
-    an error sampled on a grid can peak between two samples (``axis`` not mutated).
+    an error sampled on a grid can peak between two samples (``axis`` not mutated). Unsorted,
+    and may hold an instant twice.
 
-    Where a command arrives while the axis still runs, every segment's command, start and
-    arrival are given (a reversal stops the axis at its command; a retarget in the running
-    direction does not, and a superseded arrival never comes): a few that are not bends,
-    none that is missed."""
+    The start and arrival of the move the axis was making before the first command are given
+    too. Where a move is still running at a command, every command's instant is given (a
+    reversal, or a command to where the axis is, stops it there) and the start and arrival of
+    every segment: a few that are not bends (a retarget in the running direction, an arrival
+    that never comes), none that is missed."""
     cmd_t = np.asarray(cmd_t_s, dtype=float)
     cmd = np.asarray(cmd_deg, dtype=float)
     if len(cmd_t) == 0:
         return np.zeros(0)
-    p0 = float(axis.position(float(cmd_t[0])))
-    _cmd, _prev, moving, start, arrival = _moves_from_rest(axis, cmd_t, cmd, p0)
+    here_deg = float(axis.position(float(cmd_t[0])))
+    _cmd, _prev, moving, start, arrival = _closed_form_moves(axis, cmd_t, cmd, here_deg)
     next_t = np.concatenate((cmd_t[1:], [np.inf]))
     if not (axis.jammed or axis.moving(float(cmd_t[0])) or np.any(arrival > next_t + 1e-9)):
-        return np.concatenate((start[moving], arrival[moving]))
-    # Some move is still running when the next command comes: step a copy of the axis, as
-    # drive_axis does there, and take each segment's own instants.
+        return np.concatenate((_segment_bends(axis), start[moving], arrival[moving]))
+    # Step a copy of the axis, as drive_axis does in this case.
     ax = copy.copy(axis)
-    out = []
+    out = list(_segment_bends(ax))
     for tc, target in zip(cmd_t, cmd, strict=True):
         ax.command(float(target), float(tc))
-        t0, p0, tgt, delay, _rate, jammed = ax.segment()
-        if tgt != p0 and not jammed:
-            out += [t0, t0 + delay, ax.arrival_s()]
+        out += [float(tc), *_segment_bends(ax)]
     return np.asarray(out)
+
+
+def _segment_bends(axis: AxisMotor) -> tuple[float, ...]:
+    """When ``axis``'s current segment starts turning and when it arrives (none at rest or
+    jammed)."""
+    t0_s, from_deg, to_deg, delay_s, _rate, jammed = axis.segment()
+    if to_deg == from_deg or jammed:
+        return ()
+    return t0_s + delay_s, axis.arrival_s()
