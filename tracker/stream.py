@@ -646,9 +646,10 @@ class TrackCore:
         """The whole-pass schedule's move due now, None to hold, or ``_AIM`` when the aim
         policy decides: no schedule (not wanted, none keeps the band, a motor was moving
         when it would have been planned), or the schedule was dropped because the belief
-        (the read-back's) left it, a move came late or a guard changed one. Planned once a
-        pass, on the first settled cycle with both motors at rest (just before AOS); once
-        dropped the aim policy decides the rest of the pass."""
+        (the read-back's) left it, a move came late or a guard changed one. Planned ahead,
+        before the pre-position (:meth:`_plan_ahead`); where that was too late, or after a
+        fast stretch the schedule stopped short of, on the first settled cycle with both
+        motors at rest. Once dropped the aim policy decides the rest of the pass."""
         if self._schedule is None:
             again = self._replan_from_s is not None and t_s >= self._replan_from_s and \
                 not self._fast(t_s, lookahead_s)
