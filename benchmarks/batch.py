@@ -504,8 +504,7 @@ def main() -> int:
     print(f"\n[1] raw SatrecArray SGP4 rate: {raw / 1e6:.2f} M evaluations/s wall, "
           f"{raw_cpu / 1e6:.2f} M per CPU second")
     print(f"    the same work split over 2 processes: {raw_sgp4_split(satrecs):.2f}x the wall "
-          f"rate of one "
-          f"(what this machine's free cores give right now)")
+          f"rate of one (what this machine's free cores give right now)")
 
     if not args.quick:
         rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024

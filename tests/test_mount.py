@@ -270,6 +270,12 @@ def test_drive_axis_counts_one_start_per_step_from_rest():
     assert starts == 9
 
 
+def _bent(t, pos):
+    """The sample times at which positions ``pos`` at ``t`` change slope."""
+    slope = np.diff(pos) / np.diff(t)
+    return t[1:-1][np.abs(np.diff(slope)) > 1e-9]
+
+
 def test_bends_are_where_a_driven_axis_starts_and_stops():
     # From rest on 100: to 110 at t=1 (starts at 1.5, 10 deg at 4 deg/s: stops at 4.0), a
     # command to where it stands at t=6 (no move), back to 104 at t=8 (8.5 .. 10.0). The
@@ -280,9 +286,7 @@ def test_bends_are_where_a_driven_axis_starts_and_stops():
     assert sorted(bends.tolist()) == pytest.approx([1.5, 4.0, 8.5, 10.0])
     t = np.arange(0.0, 12.0 + 1e-9, 0.125)
     pos, _starts = drive_axis(copy.copy(ax), cmd_t, cmd, t)
-    slope = np.diff(pos) / np.diff(t)
-    bent = t[1:-1][np.abs(np.diff(slope)) > 1e-9]
-    np.testing.assert_allclose(bent, [1.5, 4.0, 8.5, 10.0])
+    np.testing.assert_allclose(_bent(t, pos), [1.5, 4.0, 8.5, 10.0])
     assert ax.position(5.0) == 100.0                  # not mutated
     assert bends_s(ax, [], []).size == 0
 
@@ -296,17 +300,11 @@ def test_bends_include_every_bend_of_moves_that_overlap():
     cmd_t, cmd = [1.0, 3.0, 5.0], [140.0, 150.0, 90.0]
     t = np.arange(0.0, 14.0 + 1e-9, 0.125)
     pos, _starts = drive_axis(copy.copy(ax), cmd_t, cmd, t)
-    slope = np.diff(pos) / np.diff(t)
-    bent = t[1:-1][np.abs(np.diff(slope)) > 1e-9]
+    bent = _bent(t, pos)
     np.testing.assert_allclose(bent, [1.5, 5.0, 5.5, 11.5])
     bends = bends_s(ax, cmd_t, cmd)
     assert all(np.any(np.abs(bends - b) < 1e-9) for b in bent), bends
     assert ax.position(5.0) == 100.0                  # not mutated
-
-
-def _bent(t, pos):
-    slope = np.diff(pos) / np.diff(t)
-    return t[1:-1][np.abs(np.diff(slope)) > 1e-9]
 
 
 def test_a_command_to_where_a_running_axis_is_stops_it_and_that_is_a_bend():
